@@ -1,0 +1,18 @@
+//! The geometry and overlap layer: shapes, their implicit and support
+//! descriptions, bounding volumes, and one overlap test and one signed
+//! distance for every pair of shapes. Both drivers stand on this layer; it
+//! depends on nothing above it.
+
+pub mod gjk;
+pub mod implicit;
+pub mod newton;
+pub mod obb;
+pub mod ocsi;
+pub mod pair;
+pub(crate) mod roots;
+pub mod shape;
+
+pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent, WarmStart};
+pub use obb::Obb;
+pub use pair::{Contact, DistanceOptions, Failure, Method, Relative, Status, distance, overlap};
+pub use shape::{Cuboid, Ellipsoid, Shape, ShapeError, ShapeSpec, Sphere, Superellipsoid};

@@ -1,0 +1,443 @@
+//! De Michele's Newton–Raphson distance between two smooth convex bodies
+//! (Sec. 2.3): the 8-equation system (eqs. 9, 12, 15), the reduced
+//! 5-equation system (eqs. 23–25), the damped step (eqs. 26–29), the
+//! centre-line initial guess with semi-axis scaling (Sec. 3.2, eqs. 49–51)
+//! and steepest-descent refinement of a poor guess (Sec. 2.3.2).
+//!
+//! Frame: everything is in A's body frame; B's centre is `rel.translation`
+//! and its axes are the columns of `rel.rotation`.
+//!
+//! The sign of eq. (14) is wrong in the paper: the Newton step solves
+//! J δ = −F.
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use super::implicit::{Implicit, SmoothSurface};
+use super::pair::{Contact, Failure, Method, Relative, Status};
+
+type V3 = Vector3<f64>;
+
+/// Which system of equations Newton–Raphson solves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum NewtonSystem {
+    /// Unknowns (x_A, x_B, α, β), eqs. (9) with Jacobian (15).
+    Full8,
+    /// Unknowns (x_A, α, β) with x_B = x_A + β∇f, eqs. (23) with Jacobian (24).
+    Reduced5,
+}
+
+/// When to refine the centre-line guess by steepest descent (Sec. 2.3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum SteepestDescent {
+    /// When the guess is poor: its normals are far from the line joining
+    /// the guess points.
+    Auto,
+    /// Always.
+    Always,
+    /// Never.
+    Never,
+}
+
+/// Knobs of the Newton–Raphson distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonOptions {
+    /// Convergence when the step in the contact points is below
+    /// `tolerance` × the smaller body's smallest semi-axis.
+    pub tolerance: f64,
+    /// Iteration cap for Newton–Raphson.
+    pub max_iterations: u32,
+    /// System solved.
+    pub system: NewtonSystem,
+    /// ε_r of eqs. (27)–(29): the largest relative change of α and of the
+    /// contact points (in units of the smallest semi-axis) per step.
+    pub damping: f64,
+    /// Steepest-descent refinement policy.
+    pub steepest_descent: SteepestDescent,
+    /// Iteration cap for steepest descent.
+    pub max_descent_steps: u32,
+}
+
+impl Default for NewtonOptions {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-12,
+            max_iterations: 60,
+            system: NewtonSystem::Reduced5,
+            damping: 0.5,
+            steepest_descent: SteepestDescent::Auto,
+            max_descent_steps: 200,
+        }
+    }
+}
+
+/// A previous solution, kept in each body's own frame so that it remains a
+/// good start after the bodies have moved (EDMD) or been perturbed (MC).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WarmStart {
+    /// Contact point on A, A's body frame.
+    pub point_a: V3,
+    /// Contact point on B, B's body frame.
+    pub point_b: V3,
+    /// Lagrange multiplier α of eq. (9a).
+    pub alpha: f64,
+}
+
+/// f, ∇f, ∇∇f of B at `x` given in A's frame.
+#[inline]
+fn implicit_in_a<B: SmoothSurface>(b: &B, rel: &Relative, x: &V3) -> Implicit {
+    let r = &rel.rotation;
+    let local = r.tr_mul(&(x - rel.translation));
+    let i = b.implicit(&local);
+    Implicit {
+        value: i.value,
+        gradient: r * i.gradient,
+        hessian: r * i.hessian * r.transpose(),
+    }
+}
+
+/// The centre-line guess with the semi-axis scaling of Sec. 3.2 (eqs. 49–51):
+/// the direction to the other centre, in each body's frame, is scaled
+/// component-wise by that body's semi-axes before it is intersected with the
+/// surface.
+pub fn centre_line_guess<A: SmoothSurface, B: SmoothSurface>(a: &A, b: &B, rel: &Relative) -> (V3, V3) {
+    let t = rel.translation;
+    let xa = a.ray_to_surface(&a.semi_axes().component_mul(&t));
+    let towards_a = rel.rotation.tr_mul(&-t);
+    let xb_local = b.ray_to_surface(&b.semi_axes().component_mul(&towards_a));
+    (xa, rel.rotation * xb_local + t)
+}
+
+/// How far the guess is from the optimality conditions: 1 − the smaller of
+/// the cosines between each normal and the line to the other point (0 at the
+/// solution).
+fn misalignment(na: &V3, nb: &V3, xa: &V3, xb: &V3) -> f64 {
+    let d = xb - xa;
+    let len = d.norm();
+    if len == 0.0 {
+        return 1.0;
+    }
+    let u = d / len;
+    1.0 - (na.dot(&u) / na.norm()).min(-nb.dot(&u) / nb.norm())
+}
+
+/// Steepest descent on ‖x_A − x_B‖² with the points held on the surfaces
+/// (Sec. 2.3.2). The correction back to the surface is radial (exact and
+/// cheap for these star-shaped bodies) rather than along the normal.
+/// Returns the refined points and the steps taken.
+fn steepest_descent<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+    mut xa: V3,
+    mut xb: V3,
+    length: f64,
+    max_steps: u32,
+) -> (V3, V3, u32) {
+    let on_a = |x: &V3| a.ray_to_surface(x);
+    let on_b = |x: &V3| {
+        let local = rel.rotation.tr_mul(&(x - rel.translation));
+        rel.rotation * b.ray_to_surface(&local) + rel.translation
+    };
+    let mut step = 0.1 * length;
+    let mut taken = 0;
+    while taken < max_steps {
+        let na = a.implicit(&xa).gradient;
+        let nb = implicit_in_a(b, rel, &xb).gradient;
+        if misalignment(&na, &nb, &xa, &xb) < 1e-4 {
+            break;
+        }
+        let (na, nb) = (na.normalize(), nb.normalize());
+        let h = xa - xb;
+        let d2 = h.norm_squared();
+        // Eqs. (17)–(19): gradient of D and its parts tangent to the surfaces.
+        let ha = h - na * na.dot(&h);
+        let hb = -h - nb * nb.dot(&-h);
+        let g = (ha.norm_squared() + hb.norm_squared()).sqrt();
+        if g == 0.0 {
+            break;
+        }
+        loop {
+            let ya = on_a(&(xa - ha * (step / g)));
+            let yb = on_b(&(xb - hb * (step / g)));
+            if (ya - yb).norm_squared() < d2 {
+                xa = ya;
+                xb = yb;
+                step = (step * 1.5).min(length);
+                break;
+            }
+            step *= 0.5;
+            if step < 1e-9 * length {
+                return (xa, xb, taken);
+            }
+        }
+        taken += 1;
+    }
+    (xa, xb, taken)
+}
+
+/// The signed distance between two smooth convex bodies by Newton–Raphson.
+///
+/// Starts from `warm` if given, else from the scaled centre-line guess,
+/// refined by steepest descent where that guess is poor. Reports how the
+/// solve ended in `status`; a solution that is not the distance (a spurious
+/// extremum of eqs. 9) is reported as `Failed`, never returned as a distance.
+pub fn newton_distance<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+    opts: &NewtonOptions,
+    warm: Option<&WarmStart>,
+) -> Contact {
+    let length = a.semi_axes().min().min(b.semi_axes().min());
+    let (mut xa, mut xb) = match warm {
+        Some(w) => (w.point_a, rel.rotation * w.point_b + rel.translation),
+        None => centre_line_guess(a, b, rel),
+    };
+    let mut descent_steps = 0;
+    let refine = match opts.steepest_descent {
+        SteepestDescent::Never => false,
+        SteepestDescent::Always => warm.is_none(),
+        SteepestDescent::Auto => {
+            warm.is_none() && {
+                let na = a.implicit(&xa).gradient;
+                let nb = implicit_in_a(b, rel, &xb).gradient;
+                misalignment(&na, &nb, &xa, &xb) > 0.02
+            }
+        }
+    };
+    // Descent only makes sense for bodies apart: for overlapping ones the
+    // guess points lie inside the other body.
+    if refine && implicit_in_a(b, rel, &xa).value > 0.0 && a.implicit(&xb).value > 0.0 {
+        let (ra, rb, steps) = steepest_descent(a, b, rel, xa, xb, length, opts.max_descent_steps);
+        xa = ra;
+        xb = rb;
+        descent_steps = steps;
+    }
+    let fa = a.implicit(&xa);
+    let gb = implicit_in_a(b, rel, &xb);
+    let mut alpha = match warm {
+        Some(w) => w.alpha,
+        None => (fa.gradient.norm() / gb.gradient.norm()).sqrt(),
+    };
+    let mut beta = (xb - xa).dot(&fa.gradient) / fa.gradient.norm_squared();
+    let mut result = match opts.system {
+        NewtonSystem::Reduced5 => solve_reduced(a, b, rel, opts, length, xa, &mut alpha, &mut beta),
+        NewtonSystem::Full8 => solve_full(a, b, rel, opts, length, xa, xb, &mut alpha, &mut beta),
+    };
+    if let Status::Converged { iterations } | Status::IterationCap { iterations } = &mut result.status {
+        *iterations += descent_steps;
+    }
+    result
+}
+
+/// Newton on the reduced system (23) with Jacobian (24).
+#[allow(clippy::too_many_arguments)]
+fn solve_reduced<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+    opts: &NewtonOptions,
+    length: f64,
+    mut x: V3,
+    alpha: &mut f64,
+    beta: &mut f64,
+) -> Contact {
+    let eye = Matrix3::identity();
+    for it in 1..=opts.max_iterations {
+        let fa = a.implicit(&x);
+        let xb = x + fa.gradient * *beta;
+        let gb = implicit_in_a(b, rel, &xb);
+        let a2 = *alpha * *alpha;
+        let grow = eye + fa.hessian * *beta; // ∂x_B/∂x_A
+        let mut j = SMatrix::<f64, 5, 5>::zeros();
+        j.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(fa.hessian + gb.hessian * grow * a2));
+        j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(gb.gradient * (2.0 * *alpha)));
+        j.fixed_view_mut::<3, 1>(0, 4)
+            .copy_from(&(gb.hessian * fa.gradient * a2));
+        j.fixed_view_mut::<1, 3>(3, 0).copy_from(&fa.gradient.transpose());
+        j.fixed_view_mut::<1, 3>(4, 0)
+            .copy_from(&(grow * gb.gradient).transpose());
+        j[(4, 4)] = gb.gradient.dot(&fa.gradient);
+        let residual = fa.gradient + gb.gradient * a2;
+        let f = SVector::<f64, 5>::new(residual.x, residual.y, residual.z, fa.value, gb.value);
+        let Some(step) = j.lu().solve(&-f) else {
+            return failed(Failure::SingularJacobian, it);
+        };
+        let dx = step.fixed_rows::<3>(0).into_owned();
+        let (dalpha, dbeta) = (step[3], step[4]);
+        if !(dx.norm().is_finite() && dalpha.is_finite() && dbeta.is_finite()) {
+            return failed(Failure::NonFinite, it);
+        }
+        // Damped step (eqs. 26–29): bound the change of α relative to α and
+        // the motion of both contact points relative to the body size.
+        let grad_norm = fa.gradient.norm();
+        let xi = damping(
+            opts.damping,
+            &[
+                (dx.norm(), length),
+                (dbeta.abs() * grad_norm, length),
+                (dalpha.abs(), alpha.abs()),
+            ],
+        );
+        x += dx * xi;
+        *alpha += dalpha * xi;
+        *beta += dbeta * xi;
+        let tol = opts.tolerance * length;
+        if xi == 1.0 && dx.norm() <= tol && dbeta.abs() * grad_norm <= tol {
+            return finish(a, b, rel, x, x + a.implicit(&x).gradient * *beta, *alpha, *beta, it, length);
+        }
+    }
+    let fa = a.implicit(&x);
+    let mut c = finish(a, b, rel, x, x + fa.gradient * *beta, *alpha, *beta, opts.max_iterations, length);
+    if matches!(c.status, Status::Converged { .. }) {
+        c.status = Status::IterationCap {
+            iterations: opts.max_iterations,
+        };
+    }
+    c
+}
+
+/// Newton on the full system (9) with Jacobian (15).
+#[allow(clippy::too_many_arguments)]
+fn solve_full<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+    opts: &NewtonOptions,
+    length: f64,
+    mut xa: V3,
+    mut xb: V3,
+    alpha: &mut f64,
+    beta: &mut f64,
+) -> Contact {
+    let eye = Matrix3::identity();
+    for it in 1..=opts.max_iterations {
+        let fa = a.implicit(&xa);
+        let gb = implicit_in_a(b, rel, &xb);
+        let a2 = *alpha * *alpha;
+        let mut j = SMatrix::<f64, 8, 8>::zeros();
+        j.fixed_view_mut::<3, 3>(0, 0).copy_from(&fa.hessian);
+        j.fixed_view_mut::<3, 3>(0, 3).copy_from(&(gb.hessian * a2));
+        j.fixed_view_mut::<3, 1>(0, 6).copy_from(&(gb.gradient * (2.0 * *alpha)));
+        j.fixed_view_mut::<1, 3>(3, 0).copy_from(&fa.gradient.transpose());
+        j.fixed_view_mut::<1, 3>(4, 3).copy_from(&gb.gradient.transpose());
+        j.fixed_view_mut::<3, 3>(5, 0).copy_from(&(eye + fa.hessian * *beta));
+        j.fixed_view_mut::<3, 3>(5, 3).copy_from(&-eye);
+        j.fixed_view_mut::<3, 1>(5, 7).copy_from(&fa.gradient);
+        let r1 = fa.gradient + gb.gradient * a2;
+        let r4 = xa + fa.gradient * *beta - xb;
+        let f = SVector::<f64, 8>::from_column_slice(&[
+            r1.x, r1.y, r1.z, fa.value, gb.value, r4.x, r4.y, r4.z,
+        ]);
+        let Some(step) = j.lu().solve(&-f) else {
+            return failed(Failure::SingularJacobian, it);
+        };
+        let dxa = step.fixed_rows::<3>(0).into_owned();
+        let dxb = step.fixed_rows::<3>(3).into_owned();
+        let (dalpha, dbeta) = (step[6], step[7]);
+        if !(dxa.norm().is_finite() && dxb.norm().is_finite() && dalpha.is_finite() && dbeta.is_finite()) {
+            return failed(Failure::NonFinite, it);
+        }
+        let grad_norm = fa.gradient.norm();
+        let xi = damping(
+            opts.damping,
+            &[
+                (dxa.norm(), length),
+                (dxb.norm(), length),
+                (dbeta.abs() * grad_norm, length),
+                (dalpha.abs(), alpha.abs()),
+            ],
+        );
+        xa += dxa * xi;
+        xb += dxb * xi;
+        *alpha += dalpha * xi;
+        *beta += dbeta * xi;
+        let tol = opts.tolerance * length;
+        if xi == 1.0 && dxa.norm() <= tol && dxb.norm() <= tol {
+            return finish(a, b, rel, xa, xb, *alpha, *beta, it, length);
+        }
+    }
+    let mut c = finish(a, b, rel, xa, xb, *alpha, *beta, opts.max_iterations, length);
+    if matches!(c.status, Status::Converged { .. }) {
+        c.status = Status::IterationCap {
+            iterations: opts.max_iterations,
+        };
+    }
+    c
+}
+
+/// The damping factor ξ ∈ (0, 1]: the largest step such that no
+/// (change, scale) pair moves by more than ε_r × scale.
+fn damping(eps_r: f64, bounds: &[(f64, f64)]) -> f64 {
+    let mut xi: f64 = 1.0;
+    for &(change, scale) in bounds {
+        if change > eps_r * scale {
+            xi = xi.min(eps_r * scale / change);
+        }
+    }
+    xi
+}
+
+fn failed(why: Failure, iterations: u32) -> Contact {
+    Contact {
+        distance: f64::NAN,
+        point_a: V3::repeat(f64::NAN),
+        point_b: V3::repeat(f64::NAN),
+        normal: V3::repeat(f64::NAN),
+        status: Status::Failed { why, iterations },
+        method: Method::Newton,
+        warm_start: None,
+    }
+}
+
+/// Checks a converged point against the conditions that make it the distance
+/// and builds the contact. Eqs. (9) also hold at spurious extrema: with
+/// β < 0 (a "negative distance") each contact point must lie inside the other
+/// body; otherwise the solution is a far-side extremum, not an overlap.
+#[allow(clippy::too_many_arguments)]
+fn finish<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+    xa: V3,
+    xb: V3,
+    alpha: f64,
+    beta: f64,
+    iterations: u32,
+    length: f64,
+) -> Contact {
+    let fa = a.implicit(&xa);
+    let gb = implicit_in_a(b, rel, &xb);
+    let na = fa.gradient.normalize();
+    let nb = gb.gradient.normalize();
+    let d = xb - xa;
+    let distance = d.norm().copysign(beta);
+    let surface_tol = 1e-8;
+    let on_surfaces = fa.value.abs() < surface_tol && gb.value.abs() < surface_tol;
+    // Normals antiparallel and the displacement along them (eqs. 9a, 9d).
+    let aligned = na.dot(&nb) < -1.0 + 1e-8 && d.norm() <= 1e-8 * length + d.dot(&na).abs() * (1.0 + 1e-8);
+    if !(on_surfaces && aligned && distance.is_finite()) {
+        return failed(Failure::NotASolution, iterations);
+    }
+    if beta < 0.0 {
+        let a_in_b = implicit_in_a(b, rel, &xa).value <= 1e-12;
+        let b_in_a = a.implicit(&xb).value <= 1e-12;
+        if !(a_in_b && b_in_a) {
+            return failed(Failure::SpuriousSolution, iterations);
+        }
+    }
+    Contact {
+        distance,
+        point_a: xa,
+        point_b: xb,
+        normal: na,
+        status: Status::Converged { iterations },
+        method: Method::Newton,
+        warm_start: Some(WarmStart {
+            point_a: xa,
+            point_b: rel.rotation.tr_mul(&(xb - rel.translation)),
+            alpha,
+        }),
+    }
+}

@@ -1,0 +1,98 @@
+//! GJK/EPA glue for any pair of shapes through their support mappings, in
+//! the pair's relative frame (A at the origin; see the `pair` module docs).
+
+use nalgebra::Vector3;
+
+use super::{Contact, DistanceOptions, Method, Relative, Status};
+use crate::geometry::gjk::{GjkOutcome, epa, gjk_distance, gjk_intersect};
+use crate::geometry::shape::Shape;
+
+type V3 = Vector3<f64>;
+
+/// Support of A (at the origin) and of B (placed by `rel`), both in A's frame.
+fn supports<'s>(
+    a: &'s Shape,
+    b: &'s Shape,
+    rel: &'s Relative,
+) -> (impl Fn(&V3) -> V3 + 's, impl Fn(&V3) -> V3 + 's) {
+    let sa = move |d: &V3| a.support(d);
+    let sb = move |d: &V3| rel.b_to_a(&b.support(&rel.rotation.tr_mul(d)));
+    (sa, sb)
+}
+
+/// GJK overlap test; `None` when undecided within `max_iterations`.
+pub fn intersect(a: &Shape, b: &Shape, rel: &Relative, max_iterations: usize) -> Option<bool> {
+    let (sa, sb) = supports(a, b, rel);
+    gjk_intersect(sa, sb, rel.translation, max_iterations)
+}
+
+/// The length unit of the tolerances: the smaller body's smallest half-extent.
+fn length(a: &Shape, b: &Shape) -> f64 {
+    a.min_half_extent().min(b.min_half_extent())
+}
+
+/// Signed distance by GJK (separated) or EPA (overlapping).
+pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) -> Contact {
+    let tol = opts.gjk_tolerance * length(a, b);
+    let (sa, sb) = supports(a, b, rel);
+    let g = gjk_distance(&sa, &sb, rel.translation, tol, opts.gjk_max_iterations);
+    let iterations = g.iterations as u32;
+    match g.outcome {
+        GjkOutcome::Separated | GjkOutcome::IterationCap => {
+            let d = g.point_b - g.point_a;
+            let len = d.norm();
+            let normal = if len > 0.0 { d / len } else { rel.translation.normalize() };
+            Contact {
+                distance: g.distance,
+                point_a: g.point_a,
+                point_b: g.point_b,
+                normal,
+                status: if g.outcome == GjkOutcome::Separated {
+                    Status::Converged { iterations }
+                } else {
+                    Status::IterationCap { iterations }
+                },
+                method: Method::Gjk,
+                warm_start: None,
+            }
+        }
+        GjkOutcome::Overlapping => {
+            let touching = Contact {
+                distance: -0.0,
+                point_a: g.point_a,
+                point_b: g.point_b,
+                normal: rel.translation.try_normalize(0.0).unwrap_or(V3::x()),
+                status: Status::Converged { iterations },
+                method: Method::Gjk,
+                warm_start: None,
+            };
+            if g.simplex_len < 4 {
+                // The origin is on the simplex: within rounding of touching.
+                return touching;
+            }
+            match epa(&sa, &sb, &g.simplex, tol, opts.gjk_max_iterations) {
+                Some(p) => Contact {
+                    distance: -p.depth,
+                    point_a: p.point_a,
+                    point_b: p.point_b,
+                    normal: p.normal,
+                    status: if p.converged {
+                        Status::Converged {
+                            iterations: iterations + p.iterations as u32,
+                        }
+                    } else {
+                        Status::IterationCap {
+                            iterations: iterations + p.iterations as u32,
+                        }
+                    },
+                    method: Method::Epa,
+                    warm_start: None,
+                },
+                None => Contact {
+                    status: Status::DeepOverlap,
+                    ..touching
+                },
+            }
+        }
+    }
+}

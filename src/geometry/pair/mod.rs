@@ -1,0 +1,233 @@
+//! The pair dispatch: one overlap test and one signed distance for each of the
+//! ten unordered pairs of the four shapes, one file per pair kind.
+//!
+//! Frame convention, on every pair function: the kernel works in A's body
+//! frame, with A at the origin; B's centre is `rel.translation`
+//! (= q_A⁻¹ (r_B − r_A), with r_B − r_A already minimum-imaged by the caller)
+//! and B's body axes are the columns of `rel.rotation` (= q_A⁻¹ q_B).
+//! Points and normals in a [`Contact`] are in that frame too.
+
+mod convex;
+mod cuboid_cuboid;
+mod cuboid_smooth;
+mod cuboid_sphere;
+mod quadric_quadric;
+mod smooth_smooth;
+mod sphere_sphere;
+
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+use super::newton::{NewtonOptions, WarmStart};
+use super::shape::Shape;
+
+pub use quadric_quadric::perram_wertheim;
+
+type V3 = Vector3<f64>;
+
+/// B's placement in A's body frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Relative {
+    /// B's centre in A's body frame.
+    pub translation: V3,
+    /// B's body axes (columns) in A's body frame.
+    pub rotation: Matrix3<f64>,
+}
+
+impl Relative {
+    /// From the lab-frame separation `r_ab = r_b − r_a` and orientations.
+    pub fn new(r_ab: &V3, q_a: &UnitQuaternion<f64>, q_b: &UnitQuaternion<f64>) -> Self {
+        Self {
+            translation: q_a.inverse_transform_vector(r_ab),
+            rotation: (q_a.inverse() * q_b).to_rotation_matrix().into_inner(),
+        }
+    }
+
+    /// A's placement in B's frame (the same pair seen from B).
+    pub fn inverse(&self) -> Self {
+        let rt = self.rotation.transpose();
+        Self {
+            translation: -(rt * self.translation),
+            rotation: rt,
+        }
+    }
+
+    /// A point given in B's body frame, in A's frame.
+    #[inline]
+    pub fn b_to_a(&self, x: &V3) -> V3 {
+        self.rotation * x + self.translation
+    }
+}
+
+/// Why an iterative solve failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failure {
+    /// The Newton system was singular.
+    SingularJacobian,
+    /// A step was not finite.
+    NonFinite,
+    /// The solver stopped at a point that does not satisfy eqs. (9).
+    NotASolution,
+    /// Eqs. (9) hold but at an extremum that is not the distance.
+    SpuriousSolution,
+}
+
+/// How a distance computation ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    /// Exact (closed form) or converged to the tolerance.
+    Converged {
+        /// Iterations used (0 for closed forms).
+        iterations: u32,
+    },
+    /// Stopped at the iteration cap; the result is the last iterate.
+    IterationCap {
+        /// Iterations used.
+        iterations: u32,
+    },
+    /// The solver failed; distance and points are NaN.
+    Failed {
+        /// What went wrong.
+        why: Failure,
+        /// Iterations used.
+        iterations: u32,
+    },
+    /// The bodies overlap by more than the method defines a negative distance
+    /// for (De Michele Fig. 2); `distance` is negative, an estimate.
+    DeepOverlap,
+}
+
+/// Which method produced a result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Closed form (sphere–sphere).
+    Analytic,
+    /// OCSI distance (Tonti & Patti eq. 2).
+    Ocsi,
+    /// De Michele's Newton–Raphson.
+    Newton,
+    /// GJK.
+    Gjk,
+    /// Expanding polytope after GJK (penetration depth).
+    Epa,
+    /// 15-axis separating-axis test (cuboid penetration depth).
+    SeparatingAxes,
+}
+
+/// Signed distance of two bodies and where it is attained, in A's frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Signed distance: > 0 apart, < 0 overlapping.
+    pub distance: f64,
+    /// Point of A's surface.
+    pub point_a: V3,
+    /// Point of B's surface.
+    pub point_b: V3,
+    /// Unit normal at the contact, from A towards B.
+    pub normal: V3,
+    /// How the computation ended.
+    pub status: Status,
+    /// Which method produced it.
+    pub method: Method,
+    /// A start for the next Newton solve of the same pair.
+    pub warm_start: Option<WarmStart>,
+}
+
+impl Contact {
+    /// Whether the result can be used: converged or closed form.
+    pub fn is_converged(&self) -> bool {
+        matches!(self.status, Status::Converged { .. })
+    }
+
+    /// This contact, computed with the bodies in the order (B, A) and frame
+    /// of B, expressed for the order (A, B) in A's frame (`rel` is B in A).
+    pub(crate) fn swapped(self, rel: &Relative) -> Contact {
+        Contact {
+            distance: self.distance,
+            point_a: rel.b_to_a(&self.point_b),
+            point_b: rel.b_to_a(&self.point_a),
+            normal: -(rel.rotation * self.normal),
+            status: self.status,
+            method: self.method,
+            warm_start: self.warm_start.map(|w| WarmStart {
+                point_a: w.point_b,
+                point_b: w.point_a,
+                alpha: 1.0 / w.alpha,
+            }),
+        }
+    }
+}
+
+/// Options of the distance kernels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DistanceOptions {
+    /// Newton–Raphson knobs (smooth pairs).
+    pub newton: NewtonOptions,
+    /// GJK/EPA absolute tolerance, in units of the smaller body's smallest
+    /// half-extent.
+    pub gjk_tolerance: f64,
+    /// GJK/EPA iteration cap.
+    pub gjk_max_iterations: usize,
+}
+
+impl Default for DistanceOptions {
+    fn default() -> Self {
+        Self {
+            newton: NewtonOptions::default(),
+            gjk_tolerance: 1e-12,
+            gjk_max_iterations: 1000,
+        }
+    }
+}
+
+/// Whether bodies `a` and `b` overlap (B placed by `rel` in A's frame).
+/// Touching counts as overlap. Every test starts with the bounding spheres.
+pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
+    let reach = a.bounding_radius() + b.bounding_radius();
+    if rel.translation.norm_squared() > reach * reach {
+        return false;
+    }
+    use Shape::*;
+    match (a, b) {
+        (Sphere(p), Sphere(q)) => sphere_sphere::overlap(p, q, rel),
+        (Cuboid(c), Sphere(s)) => cuboid_sphere::overlap(c, s, rel),
+        (Sphere(s), Cuboid(c)) => cuboid_sphere::overlap(c, s, &rel.inverse()),
+        (Cuboid(p), Cuboid(q)) => cuboid_cuboid::overlap(p, q, rel),
+        (Sphere(_) | Ellipsoid(_), Sphere(_) | Ellipsoid(_)) => quadric_quadric::overlap(a, b, rel),
+        (Superellipsoid(_), Sphere(_) | Ellipsoid(_) | Superellipsoid(_))
+        | (Sphere(_) | Ellipsoid(_), Superellipsoid(_)) => smooth_smooth::overlap(a, b, rel),
+        (Cuboid(_), Ellipsoid(_) | Superellipsoid(_)) => cuboid_smooth::overlap(a, b, rel),
+        (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => cuboid_smooth::overlap(b, a, &rel.inverse()),
+    }
+}
+
+/// Signed distance between `a` and `b` (B placed by `rel` in A's frame),
+/// with the contact points and normal; `warm` is a previous result for the
+/// same pair (used by the Newton solver).
+pub fn distance(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+    opts: &DistanceOptions,
+    warm: Option<&WarmStart>,
+) -> Contact {
+    use Shape::*;
+    match (a, b) {
+        (Sphere(p), Sphere(q)) => sphere_sphere::distance(p, q, rel),
+        (Cuboid(c), Sphere(s)) => cuboid_sphere::distance(c, s, rel),
+        (Sphere(s), Cuboid(c)) => cuboid_sphere::distance(c, s, &rel.inverse()).swapped(rel),
+        (Cuboid(p), Cuboid(q)) => cuboid_cuboid::distance(p, q, rel, opts),
+        (Sphere(_) | Ellipsoid(_) | Superellipsoid(_), Sphere(_) | Ellipsoid(_) | Superellipsoid(_)) => {
+            smooth_smooth::distance(a, b, rel, opts, warm)
+        }
+        (Cuboid(_), Ellipsoid(_) | Superellipsoid(_)) => cuboid_smooth::distance(a, b, rel, opts),
+        (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => {
+            cuboid_smooth::distance(b, a, &rel.inverse(), opts).swapped(rel)
+        }
+    }
+}
+
+/// The overlap test by GJK on support points alone, for any pair: the
+/// independent second method the tests compare the pair kernels with.
+pub fn overlap_by_gjk(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
+    convex::intersect(a, b, rel, 10_000)
+}

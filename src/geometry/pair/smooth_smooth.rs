@@ -1,0 +1,98 @@
+//! Pairs of smooth bodies (sphere, ellipsoid, superellipsoid): De Michele's
+//! Newton–Raphson distance, with GJK as the certified fallback; and the
+//! overlap of pairs with a superellipsoid (GJK, then Newton where GJK cannot
+//! decide).
+
+use super::convex;
+use super::{Contact, DistanceOptions, Relative, Status};
+use crate::geometry::implicit::SmoothSurface;
+use crate::geometry::newton::{SteepestDescent, WarmStart, newton_distance};
+use crate::geometry::shape::Shape;
+
+/// Overlap for pairs with a superellipsoid.
+pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
+    match convex::intersect(a, b, rel, 200) {
+        Some(answer) => answer,
+        None => {
+            // Within rounding of touching: ask Newton; touching counts.
+            let c = distance(a, b, rel, &DistanceOptions::default(), None);
+            !(c.distance > 0.0)
+        }
+    }
+}
+
+/// Signed distance of two smooth bodies.
+pub fn distance(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+    opts: &DistanceOptions,
+    warm: Option<&WarmStart>,
+) -> Contact {
+    match a {
+        Shape::Sphere(x) => with_b(x, a, b, rel, opts, warm),
+        Shape::Ellipsoid(x) => with_b(x, a, b, rel, opts, warm),
+        Shape::Superellipsoid(x) => with_b(x, a, b, rel, opts, warm),
+        Shape::Cuboid(_) => unreachable!("smooth_smooth::distance called with a cuboid"),
+    }
+}
+
+fn with_b<A: SmoothSurface>(
+    a: &A,
+    shape_a: &Shape,
+    shape_b: &Shape,
+    rel: &Relative,
+    opts: &DistanceOptions,
+    warm: Option<&WarmStart>,
+) -> Contact {
+    match shape_b {
+        Shape::Sphere(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
+        Shape::Ellipsoid(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
+        Shape::Superellipsoid(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
+        Shape::Cuboid(_) => unreachable!("smooth_smooth::distance called with a cuboid"),
+    }
+}
+
+/// Newton from the paper's guess; if it does not converge, GJK (separated)
+/// whose witness points restart Newton, or EPA (overlapping). Never returns
+/// an unconverged number as if it were the distance: the status says.
+fn robust<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    shape_a: &Shape,
+    shape_b: &Shape,
+    rel: &Relative,
+    opts: &DistanceOptions,
+    warm: Option<&WarmStart>,
+) -> Contact {
+    if rel.translation.norm_squared() > 0.0 {
+        let c = newton_distance(a, b, rel, &opts.newton, warm);
+        if c.is_converged() {
+            return c;
+        }
+    }
+    let g = convex::distance(shape_a, shape_b, rel, opts);
+    if g.distance > 0.0 {
+        if g.is_converged() {
+            let na = a.implicit(&g.point_a).gradient.norm();
+            let local_b = rel.rotation.tr_mul(&(g.point_b - rel.translation));
+            let nb = b.implicit(&local_b).gradient.norm();
+            let start = WarmStart {
+                point_a: g.point_a,
+                point_b: local_b,
+                alpha: (na / nb).sqrt(),
+            };
+            let mut newton = opts.newton;
+            newton.steepest_descent = SteepestDescent::Never;
+            let c = newton_distance(a, b, rel, &newton, Some(&start));
+            if c.is_converged() {
+                return c;
+            }
+        }
+        return g;
+    }
+    Contact {
+        status: Status::DeepOverlap,
+        ..g
+    }
+}

@@ -1,0 +1,604 @@
+//! The four convex shapes: sphere, triaxial ellipsoid, superellipsoid, cuboid.
+//!
+//! Every shape is centred at its body origin with its semi-axes along body
+//! x, y, z (DESIGN.md, "Units and conventions"). Constructors validate their
+//! arguments, so a shape with a zero, negative or non-finite size cannot be
+//! built (HOOMD-blue once let an ellipsoid with a zero axis silently never
+//! overlap).
+
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+use statrs::function::gamma::ln_gamma;
+
+use super::roots::solve_power_sum;
+
+/// A shape that cannot be built, with the parameter at fault.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ShapeError {
+    /// A length (radius, semi-axis, half-length) that is not finite and > 0.
+    #[error("{shape}: {field} must be a finite number > 0, got {value}")]
+    NonPositiveLength {
+        /// Shape kind, as spelled in a scene.
+        shape: &'static str,
+        /// Parameter name, as spelled in a scene.
+        field: &'static str,
+        /// Offending value.
+        value: f64,
+    },
+    /// A superellipsoid exponent below 2 (the body would not be smooth and
+    /// convex) or not finite.
+    #[error("Superellipsoid: exponent {field} must be a finite number >= 2, got {value}")]
+    BadExponent {
+        /// Which exponent (`n`, `m` or `p`).
+        field: &'static str,
+        /// Offending value.
+        value: f64,
+    },
+}
+
+fn positive(shape: &'static str, field: &'static str, value: f64) -> Result<f64, ShapeError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ShapeError::NonPositiveLength {
+            shape,
+            field,
+            value,
+        })
+    }
+}
+
+/// A sphere of the given radius.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    radius: f64,
+}
+
+impl Sphere {
+    /// A sphere of radius `radius` (> 0).
+    pub fn new(radius: f64) -> Result<Self, ShapeError> {
+        Ok(Self {
+            radius: positive("Sphere", "radius", radius)?,
+        })
+    }
+    /// Radius.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+}
+
+/// A triaxial ellipsoid (x/a)² + (y/b)² + (z/c)² ≤ 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ellipsoid {
+    semi_axes: Vector3<f64>,
+}
+
+impl Ellipsoid {
+    /// An ellipsoid with semi-axes `a`, `b`, `c` along body x, y, z.
+    pub fn new(a: f64, b: f64, c: f64) -> Result<Self, ShapeError> {
+        Ok(Self {
+            semi_axes: Vector3::new(
+                positive("Ellipsoid", "a", a)?,
+                positive("Ellipsoid", "b", b)?,
+                positive("Ellipsoid", "c", c)?,
+            ),
+        })
+    }
+    /// Semi-axes (a, b, c).
+    pub fn semi_axes(&self) -> Vector3<f64> {
+        self.semi_axes
+    }
+}
+
+/// A superellipsoid |x/a|ⁿ + |y/b|ᵐ + |z/c|ᵖ ≤ 1 with exponents ≥ 2
+/// (De Michele eq. 77).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Superellipsoid {
+    semi_axes: Vector3<f64>,
+    exponents: Vector3<f64>,
+}
+
+impl Superellipsoid {
+    /// A superellipsoid with semi-axes `a, b, c` and exponents `(n, m, p)`.
+    pub fn new(a: f64, b: f64, c: f64, exponents: (f64, f64, f64)) -> Result<Self, ShapeError> {
+        let check = |field, value: f64| {
+            if value.is_finite() && value >= 2.0 {
+                Ok(value)
+            } else {
+                Err(ShapeError::BadExponent { field, value })
+            }
+        };
+        Ok(Self {
+            semi_axes: Vector3::new(
+                positive("Superellipsoid", "a", a)?,
+                positive("Superellipsoid", "b", b)?,
+                positive("Superellipsoid", "c", c)?,
+            ),
+            exponents: Vector3::new(
+                check("n", exponents.0)?,
+                check("m", exponents.1)?,
+                check("p", exponents.2)?,
+            ),
+        })
+    }
+    /// Semi-axes (a, b, c).
+    pub fn semi_axes(&self) -> Vector3<f64> {
+        self.semi_axes
+    }
+    /// Exponents (n, m, p).
+    pub fn exponents(&self) -> Vector3<f64> {
+        self.exponents
+    }
+}
+
+/// A rectangular cuboid with half-lengths `a, b, c` along body x, y, z.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cuboid {
+    half_extents: Vector3<f64>,
+}
+
+impl Cuboid {
+    /// A cuboid with half-lengths `a`, `b`, `c`.
+    pub fn new(a: f64, b: f64, c: f64) -> Result<Self, ShapeError> {
+        Ok(Self {
+            half_extents: Vector3::new(
+                positive("Cuboid", "a", a)?,
+                positive("Cuboid", "b", b)?,
+                positive("Cuboid", "c", c)?,
+            ),
+        })
+    }
+    /// Half-lengths (a, b, c).
+    pub fn half_extents(&self) -> Vector3<f64> {
+        self.half_extents
+    }
+}
+
+/// One of the four shapes. The set is closed: the pair dispatch matches on
+/// every combination, so an unhandled pair is a compile error.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ShapeSpec", into = "ShapeSpec")]
+pub enum Shape {
+    /// A sphere.
+    Sphere(Sphere),
+    /// A triaxial ellipsoid.
+    Ellipsoid(Ellipsoid),
+    /// A superellipsoid.
+    Superellipsoid(Superellipsoid),
+    /// A cuboid.
+    Cuboid(Cuboid),
+}
+
+/// The scene spelling of a shape (DESIGN.md, "Shapes"), before validation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// `Sphere(radius: r)`
+    Sphere {
+        /// Radius.
+        radius: f64,
+    },
+    /// `Ellipsoid(a: , b: , c: )`
+    Ellipsoid {
+        /// Semi-axis along body x.
+        a: f64,
+        /// Semi-axis along body y.
+        b: f64,
+        /// Semi-axis along body z.
+        c: f64,
+    },
+    /// `Superellipsoid(a: , b: , c: , exponents: (n, m, p))`
+    Superellipsoid {
+        /// Semi-axis along body x.
+        a: f64,
+        /// Semi-axis along body y.
+        b: f64,
+        /// Semi-axis along body z.
+        c: f64,
+        /// Exponents (n, m, p), each ≥ 2.
+        exponents: (f64, f64, f64),
+    },
+    /// `Cuboid(a: , b: , c: )`, half-lengths.
+    Cuboid {
+        /// Half-length along body x.
+        a: f64,
+        /// Half-length along body y.
+        b: f64,
+        /// Half-length along body z.
+        c: f64,
+    },
+}
+
+impl TryFrom<ShapeSpec> for Shape {
+    type Error = ShapeError;
+    fn try_from(spec: ShapeSpec) -> Result<Self, ShapeError> {
+        Ok(match spec {
+            ShapeSpec::Sphere { radius } => Shape::Sphere(Sphere::new(radius)?),
+            ShapeSpec::Ellipsoid { a, b, c } => Shape::Ellipsoid(Ellipsoid::new(a, b, c)?),
+            ShapeSpec::Superellipsoid { a, b, c, exponents } => {
+                Shape::Superellipsoid(Superellipsoid::new(a, b, c, exponents)?)
+            }
+            ShapeSpec::Cuboid { a, b, c } => Shape::Cuboid(Cuboid::new(a, b, c)?),
+        })
+    }
+}
+
+impl From<Shape> for ShapeSpec {
+    fn from(shape: Shape) -> Self {
+        match shape {
+            Shape::Sphere(s) => ShapeSpec::Sphere { radius: s.radius },
+            Shape::Ellipsoid(e) => {
+                let [a, b, c] = e.semi_axes.into();
+                ShapeSpec::Ellipsoid { a, b, c }
+            }
+            Shape::Superellipsoid(s) => {
+                let [a, b, c] = s.semi_axes.into();
+                let [n, m, p] = s.exponents.into();
+                ShapeSpec::Superellipsoid {
+                    a,
+                    b,
+                    c,
+                    exponents: (n, m, p),
+                }
+            }
+            Shape::Cuboid(q) => {
+                let [a, b, c] = q.half_extents.into();
+                ShapeSpec::Cuboid { a, b, c }
+            }
+        }
+    }
+}
+
+/// A shape given on the command line or in a scene could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ShapeParseError {
+    /// Not valid RON for a shape.
+    #[error("cannot read shape {text:?}: {source}")]
+    Syntax {
+        /// The text given.
+        text: String,
+        /// What the RON parser said.
+        source: ron::error::SpannedError,
+    },
+    /// Well-formed but invalid parameters.
+    #[error("invalid shape {text:?}: {source}")]
+    Invalid {
+        /// The text given.
+        text: String,
+        /// What is wrong with it.
+        source: ShapeError,
+    },
+}
+
+impl std::str::FromStr for Shape {
+    type Err = ShapeParseError;
+    /// Reads the scene spelling, e.g. `Cuboid(a: 0.5, b: 1.0, c: 1.5)`.
+    fn from_str(text: &str) -> Result<Self, ShapeParseError> {
+        let spec: ShapeSpec = ron::from_str(text).map_err(|source| ShapeParseError::Syntax {
+            text: text.to_owned(),
+            source,
+        })?;
+        Shape::try_from(spec).map_err(|source| ShapeParseError::Invalid {
+            text: text.to_owned(),
+            source,
+        })
+    }
+}
+
+impl std::fmt::Display for Shape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = ron::to_string(&ShapeSpec::from(*self)).map_err(|_| std::fmt::Error)?;
+        f.write_str(&text)
+    }
+}
+
+/// ∫ |x|^{k_x} |y|^{k_y} |z|^{k_z} dV over |x/a|ⁿ + |y/b|ᵐ + |z/c|ᵖ ≤ 1, by
+/// the Dirichlet–Liouville integral: 8 Π aᵢ^{kᵢ+1} Γ((kᵢ+1)/pᵢ)/pᵢ
+/// ÷ Γ(1 + Σ (kᵢ+1)/pᵢ).
+fn superellipsoid_moment(semi: &Vector3<f64>, exps: &Vector3<f64>, k: [f64; 3]) -> f64 {
+    let mut log_num = 0.0;
+    let mut sum = 0.0;
+    for i in 0..3 {
+        let alpha = k[i] + 1.0;
+        log_num += alpha * semi[i].ln() + ln_gamma(alpha / exps[i]) - exps[i].ln();
+        sum += alpha / exps[i];
+    }
+    8.0 * (log_num - ln_gamma(1.0 + sum)).exp()
+}
+
+impl Shape {
+    /// Short lowercase name of the shape kind (`sphere`, `ellipsoid`, ...).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Shape::Sphere(_) => "sphere",
+            Shape::Ellipsoid(_) => "ellipsoid",
+            Shape::Superellipsoid(_) => "superellipsoid",
+            Shape::Cuboid(_) => "cuboid",
+        }
+    }
+
+    /// Volume of the body.
+    pub fn volume(&self) -> f64 {
+        use std::f64::consts::PI;
+        match self {
+            Shape::Sphere(s) => 4.0 / 3.0 * PI * s.radius.powi(3),
+            Shape::Ellipsoid(e) => 4.0 / 3.0 * PI * e.semi_axes.product(),
+            Shape::Superellipsoid(s) => {
+                superellipsoid_moment(&s.semi_axes, &s.exponents, [0.0; 3])
+            }
+            Shape::Cuboid(c) => 8.0 * c.half_extents.product(),
+        }
+    }
+
+    /// Second moments ∫ x² dV, ∫ y² dV, ∫ z² dV in the body frame.
+    fn second_moments(&self) -> Vector3<f64> {
+        match self {
+            Shape::Sphere(s) => {
+                let v = self.volume();
+                Vector3::repeat(v * s.radius * s.radius / 5.0)
+            }
+            Shape::Ellipsoid(e) => {
+                let v = self.volume();
+                e.semi_axes.map(|a| v * a * a / 5.0)
+            }
+            Shape::Superellipsoid(s) => Vector3::new(
+                superellipsoid_moment(&s.semi_axes, &s.exponents, [2.0, 0.0, 0.0]),
+                superellipsoid_moment(&s.semi_axes, &s.exponents, [0.0, 2.0, 0.0]),
+                superellipsoid_moment(&s.semi_axes, &s.exponents, [0.0, 0.0, 2.0]),
+            ),
+            Shape::Cuboid(c) => {
+                let v = self.volume();
+                c.half_extents.map(|a| v * a * a / 3.0)
+            }
+        }
+    }
+
+    /// Inertia tensor of a uniform solid of mass `mass`, in the body frame
+    /// (diagonal: the body axes are principal axes for all four shapes).
+    pub fn inertia_tensor(&self, mass: f64) -> Matrix3<f64> {
+        let m2 = self.second_moments() * (mass / self.volume());
+        Matrix3::from_diagonal(&Vector3::new(m2.y + m2.z, m2.x + m2.z, m2.x + m2.y))
+    }
+
+    /// Radius of the smallest sphere about the body centre that holds the body.
+    pub fn bounding_radius(&self) -> f64 {
+        match self {
+            Shape::Sphere(s) => s.radius,
+            Shape::Ellipsoid(e) => e.semi_axes.max(),
+            Shape::Superellipsoid(s) => superellipsoid_bounding_radius(s),
+            Shape::Cuboid(c) => c.half_extents.norm(),
+        }
+    }
+
+    /// Half-extents of the tightest box about the body centre, along the body
+    /// axes, that holds the body (its oriented bounding box).
+    pub fn obb_half_extents(&self) -> Vector3<f64> {
+        match self {
+            Shape::Sphere(s) => Vector3::repeat(s.radius),
+            Shape::Ellipsoid(e) => e.semi_axes,
+            Shape::Superellipsoid(s) => s.semi_axes,
+            Shape::Cuboid(c) => c.half_extents,
+        }
+    }
+
+    /// Smallest length of the body's extent along its axes (a scale for
+    /// tolerances).
+    pub fn min_half_extent(&self) -> f64 {
+        self.obb_half_extents().min()
+    }
+
+    /// The point of the body farthest along `dir` (body frame; `dir` need
+    /// not be normalised, and must not be zero).
+    pub fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
+        match self {
+            Shape::Sphere(s) => s.support(dir),
+            Shape::Ellipsoid(e) => e.support(dir),
+            Shape::Superellipsoid(s) => s.support(dir),
+            Shape::Cuboid(c) => c.support(dir),
+        }
+    }
+
+    /// Whether the body has rotational symmetry that makes orientation
+    /// irrelevant (only the sphere).
+    pub fn is_sphere(&self) -> bool {
+        matches!(self, Shape::Sphere(_))
+    }
+}
+
+/// A convex body described by its support mapping (body frame).
+pub trait Support {
+    /// The point of the body farthest along `dir` (`dir` ≠ 0).
+    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64>;
+}
+
+impl Support for Shape {
+    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
+        Shape::support(self, dir)
+    }
+}
+
+impl Support for Sphere {
+    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
+        let n = dir.norm();
+        if n > 0.0 {
+            dir * (self.radius / n)
+        } else {
+            Vector3::new(self.radius, 0.0, 0.0)
+        }
+    }
+}
+
+impl Support for Ellipsoid {
+    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
+        // x = A² d / sqrt(dᵀ A² d), A = diag(a, b, c).
+        let a2d = self.semi_axes.component_mul(&self.semi_axes).component_mul(dir);
+        let q = dir.dot(&a2d);
+        if q > 0.0 {
+            a2d / q.sqrt()
+        } else {
+            Vector3::new(self.semi_axes.x, 0.0, 0.0)
+        }
+    }
+}
+
+impl Support for Cuboid {
+    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(
+            self.half_extents.x.copysign(dir.x),
+            self.half_extents.y.copysign(dir.y),
+            self.half_extents.z.copysign(dir.z),
+        )
+    }
+}
+
+impl Support for Superellipsoid {
+    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
+        // Maximise Σ eᵢ yᵢ over Σ |yᵢ|^{nᵢ} ≤ 1 with yᵢ = xᵢ/aᵢ, eᵢ = aᵢ dᵢ.
+        // KKT: |yᵢ| = (t |eᵢ| / nᵢ)^{1/(nᵢ-1)} with t fixed by the constraint
+        // Σ (t |eᵢ|/nᵢ)^{qᵢ} = 1, qᵢ = nᵢ/(nᵢ-1).
+        let e = self.semi_axes.component_mul(dir).abs();
+        let emax = e.max();
+        if emax <= 0.0 {
+            return Vector3::new(self.semi_axes.x, 0.0, 0.0);
+        }
+        let e = e / emax; // scale-free
+        let n = self.exponents;
+        let q = n.map(|n| n / (n - 1.0));
+        let c = Vector3::new(
+            (e.x / n.x).powf(q.x),
+            (e.y / n.y).powf(q.y),
+            (e.z / n.z).powf(q.z),
+        );
+        let t = solve_power_sum(&c, &q);
+        let mut x = Vector3::zeros();
+        for i in 0..3 {
+            let y = (t * e[i] / n[i]).powf(1.0 / (n[i] - 1.0));
+            x[i] = (self.semi_axes[i] * y).copysign(dir[i]);
+        }
+        x
+    }
+}
+
+/// max |x| over the superellipsoid surface. With uᵢ = |xᵢ/aᵢ|^{nᵢ} on the
+/// simplex Σuᵢ = 1, |x|² = Σ aᵢ² uᵢ^{2/nᵢ} is concave (nᵢ ≥ 2), so a nested
+/// ternary search finds the global maximum.
+fn superellipsoid_bounding_radius(s: &Superellipsoid) -> f64 {
+    let a = s.semi_axes;
+    let p = s.exponents.map(|n| 2.0 / n);
+    let r2 = |u0: f64, u1: f64| {
+        let u2 = (1.0 - u0 - u1).max(0.0);
+        a.x * a.x * u0.max(0.0).powf(p.x)
+            + a.y * a.y * u1.max(0.0).powf(p.y)
+            + a.z * a.z * u2.powf(p.z)
+    };
+    let inner = |u0: f64| {
+        ternary_max(0.0, (1.0 - u0).max(0.0), |u1| r2(u0, u1))
+    };
+    let best = ternary_max(0.0, 1.0, |u0| inner(u0));
+    // A hair above the maximum so that it is a true bound after rounding.
+    best.sqrt() * (1.0 + 1e-12)
+}
+
+/// Maximum of a concave function on [lo, hi] by ternary search.
+fn ternary_max(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64) -> f64 {
+    for _ in 0..100 {
+        let m1 = lo + (hi - lo) / 3.0;
+        let m2 = hi - (hi - lo) / 3.0;
+        if f(m1) < f(m2) {
+            lo = m1;
+        } else {
+            hi = m2;
+        }
+    }
+    f(0.5 * (lo + hi)).max(f(lo)).max(f(hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn invalid_sizes_are_errors() {
+        assert!(Sphere::new(0.0).is_err());
+        assert!(Ellipsoid::new(1.0, -1.0, 1.0).is_err());
+        assert!(Cuboid::new(1.0, 1.0, f64::NAN).is_err());
+        assert!(matches!(
+            Superellipsoid::new(1.0, 1.0, 1.0, (2.0, 1.5, 2.0)),
+            Err(ShapeError::BadExponent { field: "m", .. })
+        ));
+    }
+
+    #[test]
+    fn parses_scene_spelling_and_round_trips() {
+        let s: Shape = "Cuboid(a: 0.5, b: 1.0, c: 1.5)".parse().unwrap();
+        assert_eq!(s, Shape::Cuboid(Cuboid::new(0.5, 1.0, 1.5).unwrap()));
+        let q: Shape = "Superellipsoid(a: 1.0, b: 0.5, c: 0.5, exponents: (2.0, 4.0, 8.0))"
+            .parse()
+            .unwrap();
+        assert_eq!(q.to_string().parse::<Shape>().unwrap(), q);
+        let err = "Sphere(radius: -1.0)".parse::<Shape>().unwrap_err();
+        assert!(err.to_string().contains("radius"), "{err}");
+        assert!("Sphere(radius: 1.0, colour: 2)".parse::<Shape>().is_err());
+    }
+
+    #[test]
+    fn superellipsoid_with_exponent_two_is_the_ellipsoid() {
+        let q = Shape::Superellipsoid(Superellipsoid::new(1.0, 2.0, 3.0, (2.0, 2.0, 2.0)).unwrap());
+        let e = Shape::Ellipsoid(Ellipsoid::new(1.0, 2.0, 3.0).unwrap());
+        assert!((q.volume() - e.volume()).abs() < 1e-12 * e.volume());
+        assert!((q.inertia_tensor(1.0) - e.inertia_tensor(1.0)).norm() < 1e-12);
+        assert!((q.bounding_radius() - 3.0).abs() < 1e-9);
+        let d = Vector3::new(0.3, -0.7, 0.2);
+        assert!((q.support(&d) - e.support(&d)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn volumes_and_inertia_match_closed_forms() {
+        let s = Shape::Sphere(Sphere::new(2.0).unwrap());
+        assert!((s.volume() - 32.0 / 3.0 * PI).abs() < 1e-12);
+        // Solid sphere: I = 2/5 m r².
+        assert!((s.inertia_tensor(3.0)[(0, 0)] - 0.4 * 3.0 * 4.0).abs() < 1e-12);
+        let c = Shape::Cuboid(Cuboid::new(0.5, 1.0, 1.5).unwrap());
+        assert!((c.volume() - 6.0).abs() < 1e-12);
+        // Box of sides 1, 2, 3: Ixx = m (2² + 3²)/12.
+        assert!((c.inertia_tensor(1.0)[(0, 0)] - 13.0 / 12.0).abs() < 1e-12);
+        // Large exponents tend to the box.
+        let q = Shape::Superellipsoid(
+            Superellipsoid::new(0.5, 1.0, 1.5, (400.0, 400.0, 400.0)).unwrap(),
+        );
+        assert!((q.volume() / 6.0 - 1.0).abs() < 0.01);
+        assert!((q.bounding_radius() / c.bounding_radius() - 1.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn superellipsoid_support_points_lie_on_the_surface_and_maximise() {
+        let q = Superellipsoid::new(1.0, 0.6, 0.3, (2.0, 4.0, 8.0)).unwrap();
+        let mut rng = 12345u64;
+        let mut next = || {
+            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((rng >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        for _ in 0..200 {
+            let d = Vector3::new(next(), next(), next());
+            let x = q.support(&d);
+            let f: f64 = (0..3)
+                .map(|i| (x[i] / q.semi_axes[i]).abs().powf(q.exponents[i]))
+                .sum();
+            assert!((f - 1.0).abs() < 1e-10, "off surface: {f}");
+            // No other surface point sampled goes further along d.
+            for _ in 0..50 {
+                let v = Vector3::new(next(), next(), next());
+                let t = solve_power_sum(
+                    &Vector3::new(
+                        (v.x / q.semi_axes.x).abs().powf(q.exponents.x),
+                        (v.y / q.semi_axes.y).abs().powf(q.exponents.y),
+                        (v.z / q.semi_axes.z).abs().powf(q.exponents.z),
+                    ),
+                    &q.exponents,
+                );
+                assert!((v * t).dot(&d) <= x.dot(&d) + 1e-12);
+            }
+        }
+    }
+}

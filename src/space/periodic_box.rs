@@ -1,0 +1,72 @@
+//! An orthorhombic box, periodic in every direction, positions in [−L/2, L/2).
+
+use nalgebra::Vector3;
+
+/// An orthorhombic periodic box with edge lengths `lengths`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeriodicBox {
+    lengths: Vector3<f64>,
+}
+
+/// A box with a non-positive or non-finite edge.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("box edge lengths must be finite and > 0, got {0:?}")]
+pub struct BoxError(pub [f64; 3]);
+
+impl PeriodicBox {
+    /// A box with edges `lengths`.
+    pub fn new(lengths: Vector3<f64>) -> Result<Self, BoxError> {
+        if lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
+            Ok(Self { lengths })
+        } else {
+            Err(BoxError(lengths.into()))
+        }
+    }
+
+    /// Edge lengths.
+    pub fn lengths(&self) -> Vector3<f64> {
+        self.lengths
+    }
+
+    /// Volume.
+    pub fn volume(&self) -> f64 {
+        self.lengths.product()
+    }
+
+    /// The shortest periodic image of the separation `d`.
+    #[inline]
+    pub fn minimum_image(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(
+            d.x - self.lengths.x * (d.x / self.lengths.x).round(),
+            d.y - self.lengths.y * (d.y / self.lengths.y).round(),
+            d.z - self.lengths.z * (d.z / self.lengths.z).round(),
+        )
+    }
+
+    /// `r` wrapped into [−L/2, L/2).
+    #[inline]
+    pub fn wrap(&self, r: &Vector3<f64>) -> Vector3<f64> {
+        let mut w = self.minimum_image(r);
+        for i in 0..3 {
+            if w[i] >= 0.5 * self.lengths[i] {
+                w[i] -= self.lengths[i];
+            }
+        }
+        w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn minimum_image_is_shortest() {
+        let b = PeriodicBox::new(Vector3::new(10.0, 8.0, 6.0)).unwrap();
+        let d = b.minimum_image(&Vector3::new(9.0, -7.0, 3.5));
+        assert!((d - Vector3::new(-1.0, 1.0, -2.5)).norm() < 1e-12);
+        let w = b.wrap(&Vector3::new(5.0, -4.0, 13.0));
+        assert!((w - Vector3::new(-5.0, -4.0, 1.0)).norm() < 1e-12);
+        assert!(PeriodicBox::new(Vector3::new(1.0, 0.0, 1.0)).is_err());
+    }
+}
