@@ -1,1 +1,3 @@
-//! Observables.
+//! Observables computed from the geometry layer.
+
+pub mod virial;

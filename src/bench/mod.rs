@@ -1,1 +1,3 @@
-//! Benchmark suites.
+//! Benchmark suites behind `hardbody bench`.
+
+pub mod ocsi;

@@ -75,7 +75,11 @@ pub fn gjk_distance(
         let b = support_b(&-d);
         Vertex { w: a - b, a, b }
     };
-    let dir = if initial.norm_squared() > 0.0 { -initial } else { V3::x() };
+    let dir = if initial.norm_squared() > 0.0 {
+        -initial
+    } else {
+        V3::x()
+    };
     let first = support(&dir);
     let mut simplex = Simplex::new(first);
     let mut v = first.w;
@@ -120,7 +124,11 @@ pub fn gjk_intersect(
         let b = support_b(&-d);
         Vertex { w: a - b, a, b }
     };
-    let dir = if initial.norm_squared() > 0.0 { -initial } else { V3::x() };
+    let dir = if initial.norm_squared() > 0.0 {
+        -initial
+    } else {
+        V3::x()
+    };
     let first = support(&dir);
     let mut simplex = Simplex::new(first);
     let mut v = first.w;
@@ -175,7 +183,13 @@ impl Simplex {
         self.len += 1;
     }
 
-    fn finish(&self, outcome: GjkOutcome, distance: f64, lower: f64, iterations: usize) -> GjkDistance {
+    fn finish(
+        &self,
+        outcome: GjkOutcome,
+        distance: f64,
+        lower: f64,
+        iterations: usize,
+    ) -> GjkDistance {
         let mut point_a = V3::zeros();
         let mut point_b = V3::zeros();
         for i in 0..self.len {
@@ -202,10 +216,7 @@ impl Simplex {
             1 => (Vec4Idx::new(&[0]), [1.0, 0.0, 0.0, 0.0]),
             2 => closest_segment(self.verts[0].w, self.verts[1].w, [0, 1]),
             3 => closest_triangle(self.verts[0].w, self.verts[1].w, self.verts[2].w, [0, 1, 2]),
-            4 => match closest_tetrahedron(&self.verts) {
-                Some(r) => r,
-                None => return None,
-            },
+            4 => closest_tetrahedron(&self.verts)?,
             _ => unreachable!(),
         };
         let old = self.verts;
@@ -231,7 +242,10 @@ impl Vec4Idx {
     fn new(ids: &[usize]) -> Self {
         let mut idx = [0; 4];
         idx[..ids.len()].copy_from_slice(ids);
-        Self { idx, len: ids.len() }
+        Self {
+            idx,
+            len: ids.len(),
+        }
     }
 }
 
@@ -239,7 +253,11 @@ impl Vec4Idx {
 fn closest_segment(a: V3, b: V3, ids: [usize; 2]) -> (Vec4Idx, [f64; 4]) {
     let ab = b - a;
     let denom = ab.norm_squared();
-    let t = if denom > 0.0 { -a.dot(&ab) / denom } else { 0.0 };
+    let t = if denom > 0.0 {
+        -a.dot(&ab) / denom
+    } else {
+        0.0
+    };
     if t <= 0.0 {
         (Vec4Idx::new(&[ids[0]]), [1.0, 0.0, 0.0, 0.0])
     } else if t >= 1.0 {
@@ -289,11 +307,15 @@ fn closest_triangle(a: V3, b: V3, c: V3, ids: [usize; 3]) -> (Vec4Idx, [f64; 4])
     let sum = va + vb + vc;
     if sum.abs() <= f64::MIN_POSITIVE || !sum.is_finite() {
         // Degenerate (collinear) triangle: best of its edges.
-        return best_of(&[
-            closest_segment(a, b, [ids[0], ids[1]]),
-            closest_segment(a, c, [ids[0], ids[2]]),
-            closest_segment(b, c, [ids[1], ids[2]]),
-        ], &[a, b, c], &ids);
+        return best_of(
+            &[
+                closest_segment(a, b, [ids[0], ids[1]]),
+                closest_segment(a, c, [ids[0], ids[2]]),
+                closest_segment(b, c, [ids[1], ids[2]]),
+            ],
+            &[a, b, c],
+            &ids,
+        );
     }
     let v = vb / sum;
     let w = vc / sum;
@@ -321,7 +343,12 @@ fn best_of(cands: &[(Vec4Idx, [f64; 4])], pts: &[V3], ids: &[usize]) -> (Vec4Idx
 fn closest_tetrahedron(v: &[Vertex; 4]) -> Option<(Vec4Idx, [f64; 4])> {
     let p = [v[0].w, v[1].w, v[2].w, v[3].w];
     // Faces with the vertex opposite each.
-    let faces = [([0, 1, 2], 3), ([0, 2, 3], 1), ([0, 3, 1], 2), ([1, 3, 2], 0)];
+    let faces = [
+        ([0, 1, 2], 3),
+        ([0, 2, 3], 1),
+        ([0, 3, 1], 2),
+        ([1, 3, 2], 0),
+    ];
     let scale = (p[1] - p[0]).norm() * (p[2] - p[0]).norm() * (p[3] - p[0]).norm();
     let mut best: Option<((Vec4Idx, [f64; 4]), f64)> = None;
     for (f, opp) in faces {
@@ -360,16 +387,34 @@ mod tests {
     #[test]
     fn cube_cube_distances_are_exact() {
         // Face–face.
-        let g = gjk_distance(cube(0.5, V3::zeros()), cube(0.5, V3::new(3.0, 0.2, 0.1)), V3::x(), 1e-12, 100);
+        let g = gjk_distance(
+            cube(0.5, V3::zeros()),
+            cube(0.5, V3::new(3.0, 0.2, 0.1)),
+            V3::x(),
+            1e-12,
+            100,
+        );
         assert_eq!(g.outcome, GjkOutcome::Separated);
         assert!((g.distance - 2.0).abs() < 1e-12);
         // Vertex–vertex along the diagonal.
-        let g = gjk_distance(cube(0.5, V3::zeros()), cube(0.5, V3::repeat(2.0)), V3::x(), 1e-12, 100);
+        let g = gjk_distance(
+            cube(0.5, V3::zeros()),
+            cube(0.5, V3::repeat(2.0)),
+            V3::x(),
+            1e-12,
+            100,
+        );
         assert!((g.distance - 3f64.sqrt()).abs() < 1e-12, "{}", g.distance);
         assert!((g.point_a - V3::repeat(0.5)).norm() < 1e-12);
         assert!((g.point_b - V3::repeat(1.5)).norm() < 1e-12);
         // Overlap.
-        let g = gjk_distance(cube(0.5, V3::zeros()), cube(0.5, V3::new(0.9, 0.0, 0.0)), V3::x(), 1e-12, 100);
+        let g = gjk_distance(
+            cube(0.5, V3::zeros()),
+            cube(0.5, V3::new(0.9, 0.0, 0.0)),
+            V3::x(),
+            1e-12,
+            100,
+        );
         assert_eq!(g.outcome, GjkOutcome::Overlapping);
     }
 
@@ -378,14 +423,23 @@ mod tests {
         let c = V3::new(1.0, 2.0, -0.5);
         let g = gjk_distance(ball(0.5, V3::zeros()), ball(0.7, c), c, 1e-12, 200);
         assert_eq!(g.outcome, GjkOutcome::Separated);
-        assert!((g.distance - (c.norm() - 1.2)).abs() < 1e-10, "{}", g.distance);
+        assert!(
+            (g.distance - (c.norm() - 1.2)).abs() < 1e-10,
+            "{}",
+            g.distance
+        );
     }
 
     #[test]
     fn intersect_agrees_near_contact() {
         for &(x, expect) in &[(1.2 + 1e-7, false), (1.2 - 1e-7, true)] {
             let c = V3::new(x, 0.0, 0.0);
-            let r = gjk_intersect(ball(0.5, V3::zeros()), ball(0.7, c), V3::new(1.0, 0.3, 0.2), 200);
+            let r = gjk_intersect(
+                ball(0.5, V3::zeros()),
+                ball(0.7, c),
+                V3::new(1.0, 0.3, 0.2),
+                200,
+            );
             assert_eq!(r, Some(expect), "at {x}");
         }
     }
@@ -434,14 +488,18 @@ pub fn epa(
         let (a, b, c) = (verts[v[0]].w, verts[v[1]].w, verts[v[2]].w);
         let n = (b - a).cross(&(c - a));
         let len = n.norm();
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return None;
         }
         let n = n / len;
         let d = n.dot(&a);
         // The origin is inside: outward normals have d ≥ 0.
         Some(if d < 0.0 {
-            Face { v: [v[0], v[2], v[1]], n: -n, d: -d }
+            Face {
+                v: [v[0], v[2], v[1]],
+                n: -n,
+                d: -d,
+            }
         } else {
             Face { v, n, d }
         })
@@ -459,7 +517,14 @@ pub fn epa(
         let w = support(&n);
         let gap = w.w.dot(&n) - faces[best].d;
         if gap <= tolerance {
-            return Some(penetration(&verts, &faces[best].v, n, faces[best].d, true, it));
+            return Some(penetration(
+                &verts,
+                &faces[best].v,
+                n,
+                faces[best].d,
+                true,
+                it,
+            ));
         }
         // Remove faces that see w; keep the horizon edges.
         let wi = verts.len();
@@ -470,7 +535,13 @@ pub fn epa(
             let f = &faces[k];
             if f.n.dot(&(w.w - verts[f.v[0]].w)) > 0.0 {
                 for e in [(f.v[0], f.v[1]), (f.v[1], f.v[2]), (f.v[2], f.v[0])] {
-                    if let Some(p) = horizon.iter().position(|&(x, y)| x == e.1 && y == e.0) {
+                    // Edges shared by two removed faces are interior. Match
+                    // them undirected: `make` may flip a face's winding to
+                    // keep its normal outward.
+                    if let Some(p) = horizon
+                        .iter()
+                        .position(|&(x, y)| (x == e.1 && y == e.0) || (x == e.0 && y == e.1))
+                    {
                         horizon.swap_remove(p);
                     } else {
                         horizon.push(e);
@@ -501,7 +572,14 @@ pub fn epa(
 
 /// Contact data from the EPA face closest to the origin: the origin's
 /// projection onto the face, in barycentric weights, mapped to A and B.
-fn penetration(verts: &[Vertex], v: &[usize; 3], n: V3, d: f64, converged: bool, iterations: usize) -> Penetration {
+fn penetration(
+    verts: &[Vertex],
+    v: &[usize; 3],
+    n: V3,
+    d: f64,
+    converged: bool,
+    iterations: usize,
+) -> Penetration {
     let (a, b, c) = (verts[v[0]], verts[v[1]], verts[v[2]]);
     let p = n * d;
     let (v0, v1, v2) = (b.w - a.w, c.w - a.w, p - a.w);

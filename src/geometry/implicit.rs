@@ -126,7 +126,10 @@ mod tests {
             e[i] = h;
             let (p, m) = (s.implicit(&(x + e)), s.implicit(&(x - e)));
             let g = (p.value - m.value) / (2.0 * h);
-            assert!((g - at.gradient[i]).abs() < 1e-6 * (1.0 + g.abs()), "grad {i}");
+            assert!(
+                (g - at.gradient[i]).abs() < 1e-6 * (1.0 + g.abs()),
+                "grad {i}"
+            );
             let hcol = (p.gradient - m.gradient) / (2.0 * h);
             assert!((hcol - at.hessian.column(i)).norm() < 1e-5 * (1.0 + hcol.norm()));
         }
@@ -137,7 +140,10 @@ mod tests {
         let x = Vector3::new(0.31, -0.42, 0.27);
         check_derivatives(&Sphere::new(0.7).unwrap(), x);
         check_derivatives(&Ellipsoid::new(1.0, 0.5, 0.3).unwrap(), x);
-        check_derivatives(&Superellipsoid::new(1.0, 0.5, 0.3, (2.0, 4.5, 8.0)).unwrap(), x);
+        check_derivatives(
+            &Superellipsoid::new(1.0, 0.5, 0.3, (2.0, 4.5, 8.0)).unwrap(),
+            x,
+        );
     }
 
     #[test]

@@ -9,7 +9,7 @@ pub mod newton;
 pub mod obb;
 pub mod ocsi;
 pub mod pair;
-pub(crate) mod roots;
+pub mod roots;
 pub mod shape;
 
 pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent, WarmStart};

@@ -99,7 +99,11 @@ fn implicit_in_a<B: SmoothSurface>(b: &B, rel: &Relative, x: &V3) -> Implicit {
 /// the direction to the other centre, in each body's frame, is scaled
 /// component-wise by that body's semi-axes before it is intersected with the
 /// surface.
-pub fn centre_line_guess<A: SmoothSurface, B: SmoothSurface>(a: &A, b: &B, rel: &Relative) -> (V3, V3) {
+pub fn centre_line_guess<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+) -> (V3, V3) {
     let t = rel.translation;
     let xa = a.ray_to_surface(&a.semi_axes().component_mul(&t));
     let towards_a = rel.rotation.tr_mul(&-t);
@@ -224,7 +228,9 @@ pub fn newton_distance<A: SmoothSurface, B: SmoothSurface>(
         NewtonSystem::Reduced5 => solve_reduced(a, b, rel, opts, length, xa, &mut alpha, &mut beta),
         NewtonSystem::Full8 => solve_full(a, b, rel, opts, length, xa, xb, &mut alpha, &mut beta),
     };
-    if let Status::Converged { iterations } | Status::IterationCap { iterations } = &mut result.status {
+    if let Status::Converged { iterations } | Status::IterationCap { iterations } =
+        &mut result.status
+    {
         *iterations += descent_steps;
     }
     result
@@ -252,10 +258,12 @@ fn solve_reduced<A: SmoothSurface, B: SmoothSurface>(
         let mut j = SMatrix::<f64, 5, 5>::zeros();
         j.fixed_view_mut::<3, 3>(0, 0)
             .copy_from(&(fa.hessian + gb.hessian * grow * a2));
-        j.fixed_view_mut::<3, 1>(0, 3).copy_from(&(gb.gradient * (2.0 * *alpha)));
+        j.fixed_view_mut::<3, 1>(0, 3)
+            .copy_from(&(gb.gradient * (2.0 * *alpha)));
         j.fixed_view_mut::<3, 1>(0, 4)
             .copy_from(&(gb.hessian * fa.gradient * a2));
-        j.fixed_view_mut::<1, 3>(3, 0).copy_from(&fa.gradient.transpose());
+        j.fixed_view_mut::<1, 3>(3, 0)
+            .copy_from(&fa.gradient.transpose());
         j.fixed_view_mut::<1, 3>(4, 0)
             .copy_from(&(grow * gb.gradient).transpose());
         j[(4, 4)] = gb.gradient.dot(&fa.gradient);
@@ -285,11 +293,31 @@ fn solve_reduced<A: SmoothSurface, B: SmoothSurface>(
         *beta += dbeta * xi;
         let tol = opts.tolerance * length;
         if xi == 1.0 && dx.norm() <= tol && dbeta.abs() * grad_norm <= tol {
-            return finish(a, b, rel, x, x + a.implicit(&x).gradient * *beta, *alpha, *beta, it, length);
+            return finish(
+                a,
+                b,
+                rel,
+                x,
+                x + a.implicit(&x).gradient * *beta,
+                *alpha,
+                *beta,
+                it,
+                length,
+            );
         }
     }
     let fa = a.implicit(&x);
-    let mut c = finish(a, b, rel, x, x + fa.gradient * *beta, *alpha, *beta, opts.max_iterations, length);
+    let mut c = finish(
+        a,
+        b,
+        rel,
+        x,
+        x + fa.gradient * *beta,
+        *alpha,
+        *beta,
+        opts.max_iterations,
+        length,
+    );
     if matches!(c.status, Status::Converged { .. }) {
         c.status = Status::IterationCap {
             iterations: opts.max_iterations,
@@ -319,10 +347,14 @@ fn solve_full<A: SmoothSurface, B: SmoothSurface>(
         let mut j = SMatrix::<f64, 8, 8>::zeros();
         j.fixed_view_mut::<3, 3>(0, 0).copy_from(&fa.hessian);
         j.fixed_view_mut::<3, 3>(0, 3).copy_from(&(gb.hessian * a2));
-        j.fixed_view_mut::<3, 1>(0, 6).copy_from(&(gb.gradient * (2.0 * *alpha)));
-        j.fixed_view_mut::<1, 3>(3, 0).copy_from(&fa.gradient.transpose());
-        j.fixed_view_mut::<1, 3>(4, 3).copy_from(&gb.gradient.transpose());
-        j.fixed_view_mut::<3, 3>(5, 0).copy_from(&(eye + fa.hessian * *beta));
+        j.fixed_view_mut::<3, 1>(0, 6)
+            .copy_from(&(gb.gradient * (2.0 * *alpha)));
+        j.fixed_view_mut::<1, 3>(3, 0)
+            .copy_from(&fa.gradient.transpose());
+        j.fixed_view_mut::<1, 3>(4, 3)
+            .copy_from(&gb.gradient.transpose());
+        j.fixed_view_mut::<3, 3>(5, 0)
+            .copy_from(&(eye + fa.hessian * *beta));
         j.fixed_view_mut::<3, 3>(5, 3).copy_from(&-eye);
         j.fixed_view_mut::<3, 1>(5, 7).copy_from(&fa.gradient);
         let r1 = fa.gradient + gb.gradient * a2;
@@ -336,7 +368,11 @@ fn solve_full<A: SmoothSurface, B: SmoothSurface>(
         let dxa = step.fixed_rows::<3>(0).into_owned();
         let dxb = step.fixed_rows::<3>(3).into_owned();
         let (dalpha, dbeta) = (step[6], step[7]);
-        if !(dxa.norm().is_finite() && dxb.norm().is_finite() && dalpha.is_finite() && dbeta.is_finite()) {
+        if !(dxa.norm().is_finite()
+            && dxb.norm().is_finite()
+            && dalpha.is_finite()
+            && dbeta.is_finite())
+        {
             return failed(Failure::NonFinite, it);
         }
         let grad_norm = fa.gradient.norm();
@@ -358,7 +394,17 @@ fn solve_full<A: SmoothSurface, B: SmoothSurface>(
             return finish(a, b, rel, xa, xb, *alpha, *beta, it, length);
         }
     }
-    let mut c = finish(a, b, rel, xa, xb, *alpha, *beta, opts.max_iterations, length);
+    let mut c = finish(
+        a,
+        b,
+        rel,
+        xa,
+        xb,
+        *alpha,
+        *beta,
+        opts.max_iterations,
+        length,
+    );
     if matches!(c.status, Status::Converged { .. }) {
         c.status = Status::IterationCap {
             iterations: opts.max_iterations,
@@ -416,7 +462,8 @@ fn finish<A: SmoothSurface, B: SmoothSurface>(
     let surface_tol = 1e-8;
     let on_surfaces = fa.value.abs() < surface_tol && gb.value.abs() < surface_tol;
     // Normals antiparallel and the displacement along them (eqs. 9a, 9d).
-    let aligned = na.dot(&nb) < -1.0 + 1e-8 && d.norm() <= 1e-8 * length + d.dot(&na).abs() * (1.0 + 1e-8);
+    let aligned =
+        na.dot(&nb) < -1.0 + 1e-8 && d.norm() <= 1e-8 * length + d.dot(&na).abs() * (1.0 + 1e-8);
     if !(on_surfaces && aligned && distance.is_finite()) {
         return failed(Failure::NotASolution, iterations);
     }

@@ -26,7 +26,12 @@ impl Obb {
     /// The tight oriented box of `shape` placed at `center` with rotation
     /// matrix `rotation` (body → lab), grown by `shell` on every face (the
     /// Δ_NNL of De Michele eq. 52).
-    pub fn of_shape(shape: &Shape, center: Vector3<f64>, rotation: Matrix3<f64>, shell: f64) -> Self {
+    pub fn of_shape(
+        shape: &Shape,
+        center: Vector3<f64>,
+        rotation: Matrix3<f64>,
+        shell: f64,
+    ) -> Self {
         Self {
             center,
             axes: rotation,
@@ -38,7 +43,12 @@ impl Obb {
     pub fn overlaps(&self, other: &Obb) -> bool {
         let rotation = self.axes.tr_mul(&other.axes);
         let translation = self.axes.tr_mul(&(other.center - self.center));
-        boxes_overlap(&self.half_extents, &other.half_extents, &rotation, &translation)
+        boxes_overlap(
+            &self.half_extents,
+            &other.half_extents,
+            &rotation,
+            &translation,
+        )
     }
 }
 
@@ -46,7 +56,12 @@ impl Obb {
 /// origin) and box B (half-extents `b`, centre `t`, axes the columns of `r`),
 /// all in A's frame. True when no axis of the 15 separates them.
 #[inline]
-pub fn boxes_overlap(a: &Vector3<f64>, b: &Vector3<f64>, r: &Matrix3<f64>, t: &Vector3<f64>) -> bool {
+pub fn boxes_overlap(
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    r: &Matrix3<f64>,
+    t: &Vector3<f64>,
+) -> bool {
     let abs_r = r.abs().add_scalar(PARALLEL_GUARD);
     // A's face normals.
     for i in 0..3 {
@@ -132,8 +147,12 @@ mod tests {
         // Two unit cubes, B turned 45° about z and about x, placed along the
         // diagonal so that only an edge–edge axis separates them.
         let a = Vector3::repeat(0.5);
-        let r = *Rotation3::from_euler_angles(std::f64::consts::FRAC_PI_4, 0.0, std::f64::consts::FRAC_PI_4)
-            .matrix();
+        let r = *Rotation3::from_euler_angles(
+            std::f64::consts::FRAC_PI_4,
+            0.0,
+            std::f64::consts::FRAC_PI_4,
+        )
+        .matrix();
         let far = Vector3::new(3.0, 3.0, 0.0);
         assert!(!boxes_overlap(&a, &a, &r, &far));
         assert!(boxes_overlap(&a, &a, &r, &Vector3::new(0.9, 0.0, 0.0)));

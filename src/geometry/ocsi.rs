@@ -124,27 +124,42 @@ pub fn point_box_distance(p: &Vector3<f64>, half: &Vector3<f64>) -> (f64, Vector
     }
 }
 
-/// Many spheres, one cuboid, structure of arrays: OCSI written so that the
-/// compiler vectorises the loop (no branches, no early exits).
+/// Sphere centres and radii as columns (structure of arrays).
+#[derive(Debug, Clone, Copy)]
+pub struct Spheres<'a> {
+    /// x of the centres.
+    pub x: &'a [f64],
+    /// y of the centres.
+    pub y: &'a [f64],
+    /// z of the centres.
+    pub z: &'a [f64],
+    /// Radii.
+    pub radius: &'a [f64],
+}
+
+/// Many spheres, one cuboid: OCSI written so that the compiler vectorises
+/// the loop (no branches, no early exits).
 ///
-/// `xs, ys, zs` are sphere centres and `radii` their radii, in the frame in
-/// which the cuboid has centre `center` and unit axes `axes` (columns);
-/// `out[i]` is set to whether sphere i overlaps. All slices must have the
-/// same length.
+/// The spheres are given in the frame in which the cuboid has centre
+/// `center` and unit axes `axes` (columns); `out[i]` is set to whether sphere
+/// i overlaps. Panics if the columns and `out` differ in length.
 pub fn ocsi_batch(
     center: &Vector3<f64>,
     axes: &Matrix3<f64>,
     half: &Vector3<f64>,
-    xs: &[f64],
-    ys: &[f64],
-    zs: &[f64],
-    radii: &[f64],
+    spheres: &Spheres,
     out: &mut [bool],
 ) {
     let n = out.len();
+    let Spheres {
+        x: xs,
+        y: ys,
+        z: zs,
+        radius: radii,
+    } = *spheres;
     assert!(
         xs.len() == n && ys.len() == n && zs.len() == n && radii.len() == n,
-        "ocsi_batch: slices of different lengths"
+        "ocsi_batch: columns of different lengths"
     );
     let (e0, e1, e2) = (axes.column(0), axes.column(1), axes.column(2));
     let (cx, cy, cz) = (center.x, center.y, center.z);
@@ -169,11 +184,14 @@ mod tests {
     #[test]
     fn all_algorithms_agree_with_the_exact_distance() {
         let half = Vector3::new(0.5, 2.0, 4.0);
-        let axes = *Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 2.0, 3.0)), 0.7)
-            .matrix();
+        let axes =
+            *Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 2.0, 3.0)), 0.7)
+                .matrix();
         let mut seed = 7u64;
         let mut u = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         let n = 4000;
@@ -185,14 +203,31 @@ mod tests {
             rs.push([0.05, 0.5, 5.0][(u() * 3.0) as usize % 3]);
         }
         let mut out = vec![false; n];
-        ocsi_batch(&Vector3::zeros(), &axes, &half, &xs, &ys, &zs, &rs, &mut out);
+        ocsi_batch(
+            &Vector3::zeros(),
+            &axes,
+            &half,
+            &Spheres {
+                x: &xs,
+                y: &ys,
+                z: &zs,
+                radius: &rs,
+            },
+            &mut out,
+        );
         let mut overlaps = 0;
         for i in 0..n {
             let r = Vector3::new(xs[i], ys[i], zs[i]);
             let (d, _) = point_box_distance(&axes.tr_mul(&r), &half);
             let exact = d <= rs[i];
             overlaps += exact as usize;
-            for (name, f) in [("ocsi", ocsi as fn(&_, _, &_, &_) -> bool), ("arvo", arvo), ("qri", qri), ("qrf", qrf), ("sse", sse)] {
+            for (name, f) in [
+                ("ocsi", ocsi as fn(&_, _, &_, &_) -> bool),
+                ("arvo", arvo),
+                ("qri", qri),
+                ("qrf", qrf),
+                ("sse", sse),
+            ] {
                 assert_eq!(f(&r, rs[i], &axes, &half), exact, "{name} at {r:?}");
             }
             assert_eq!(out[i], exact, "batch at {r:?}");

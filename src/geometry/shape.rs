@@ -10,7 +10,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use statrs::function::gamma::ln_gamma;
 
-use super::roots::solve_power_sum;
+use super::roots::{brent_minimize, solve_power_sum};
 
 /// A shape that cannot be built, with the parameter at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -96,6 +96,8 @@ impl Ellipsoid {
 pub struct Superellipsoid {
     semi_axes: Vector3<f64>,
     exponents: Vector3<f64>,
+    /// Cached: the search over the surface costs ~10⁴ evaluations.
+    bounding_radius: f64,
 }
 
 impl Superellipsoid {
@@ -108,17 +110,20 @@ impl Superellipsoid {
                 Err(ShapeError::BadExponent { field, value })
             }
         };
+        let semi_axes = Vector3::new(
+            positive("Superellipsoid", "a", a)?,
+            positive("Superellipsoid", "b", b)?,
+            positive("Superellipsoid", "c", c)?,
+        );
+        let exponents = Vector3::new(
+            check("n", exponents.0)?,
+            check("m", exponents.1)?,
+            check("p", exponents.2)?,
+        );
         Ok(Self {
-            semi_axes: Vector3::new(
-                positive("Superellipsoid", "a", a)?,
-                positive("Superellipsoid", "b", b)?,
-                positive("Superellipsoid", "c", c)?,
-            ),
-            exponents: Vector3::new(
-                check("n", exponents.0)?,
-                check("m", exponents.1)?,
-                check("p", exponents.2)?,
-            ),
+            semi_axes,
+            exponents,
+            bounding_radius: superellipsoid_bounding_radius(&semi_axes, &exponents),
         })
     }
     /// Semi-axes (a, b, c).
@@ -323,9 +328,7 @@ impl Shape {
         match self {
             Shape::Sphere(s) => 4.0 / 3.0 * PI * s.radius.powi(3),
             Shape::Ellipsoid(e) => 4.0 / 3.0 * PI * e.semi_axes.product(),
-            Shape::Superellipsoid(s) => {
-                superellipsoid_moment(&s.semi_axes, &s.exponents, [0.0; 3])
-            }
+            Shape::Superellipsoid(s) => superellipsoid_moment(&s.semi_axes, &s.exponents, [0.0; 3]),
             Shape::Cuboid(c) => 8.0 * c.half_extents.product(),
         }
     }
@@ -365,7 +368,7 @@ impl Shape {
         match self {
             Shape::Sphere(s) => s.radius,
             Shape::Ellipsoid(e) => e.semi_axes.max(),
-            Shape::Superellipsoid(s) => superellipsoid_bounding_radius(s),
+            Shape::Superellipsoid(s) => s.bounding_radius,
             Shape::Cuboid(c) => c.half_extents.norm(),
         }
     }
@@ -431,7 +434,10 @@ impl Support for Sphere {
 impl Support for Ellipsoid {
     fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
         // x = A² d / sqrt(dᵀ A² d), A = diag(a, b, c).
-        let a2d = self.semi_axes.component_mul(&self.semi_axes).component_mul(dir);
+        let a2d = self
+            .semi_axes
+            .component_mul(&self.semi_axes)
+            .component_mul(dir);
         let q = dir.dot(&a2d);
         if q > 0.0 {
             a2d / q.sqrt()
@@ -480,37 +486,23 @@ impl Support for Superellipsoid {
 }
 
 /// max |x| over the superellipsoid surface. With uᵢ = |xᵢ/aᵢ|^{nᵢ} on the
-/// simplex Σuᵢ = 1, |x|² = Σ aᵢ² uᵢ^{2/nᵢ} is concave (nᵢ ≥ 2), so a nested
-/// ternary search finds the global maximum.
-fn superellipsoid_bounding_radius(s: &Superellipsoid) -> f64 {
-    let a = s.semi_axes;
-    let p = s.exponents.map(|n| 2.0 / n);
+/// simplex Σuᵢ = 1, |x|² = Σ aᵢ² uᵢ^{2/nᵢ} is concave (nᵢ ≥ 2), and so is its
+/// partial maximum over u₁: nested Brent searches find the global maximum.
+fn superellipsoid_bounding_radius(a: &Vector3<f64>, exponents: &Vector3<f64>) -> f64 {
+    let p = exponents.map(|n| 2.0 / n);
     let r2 = |u0: f64, u1: f64| {
         let u2 = (1.0 - u0 - u1).max(0.0);
         a.x * a.x * u0.max(0.0).powf(p.x)
             + a.y * a.y * u1.max(0.0).powf(p.y)
             + a.z * a.z * u2.powf(p.z)
     };
-    let inner = |u0: f64| {
-        ternary_max(0.0, (1.0 - u0).max(0.0), |u1| r2(u0, u1))
-    };
-    let best = ternary_max(0.0, 1.0, |u0| inner(u0));
+    let inner = |u0: f64| -brent_minimize(|u1| -r2(u0, u1), 0.0, (1.0 - u0).max(0.0), 1e-13, 200).1;
+    let (u0, _, _) = brent_minimize(|u0| -inner(u0), 0.0, 1.0, 1e-13, 200);
+    // The corners of the simplex (the semi-axes) are candidates too: the
+    // maximum of a concave function can sit on the boundary.
+    let best = inner(u0).max(a.x * a.x).max(a.y * a.y).max(a.z * a.z);
     // A hair above the maximum so that it is a true bound after rounding.
-    best.sqrt() * (1.0 + 1e-12)
-}
-
-/// Maximum of a concave function on [lo, hi] by ternary search.
-fn ternary_max(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64) -> f64 {
-    for _ in 0..100 {
-        let m1 = lo + (hi - lo) / 3.0;
-        let m2 = hi - (hi - lo) / 3.0;
-        if f(m1) < f(m2) {
-            lo = m1;
-        } else {
-            hi = m2;
-        }
-    }
-    f(0.5 * (lo + hi)).max(f(lo)).max(f(hi))
+    best.sqrt() * (1.0 + 1e-9)
 }
 
 #[cfg(test)]
@@ -548,7 +540,7 @@ mod tests {
         let e = Shape::Ellipsoid(Ellipsoid::new(1.0, 2.0, 3.0).unwrap());
         assert!((q.volume() - e.volume()).abs() < 1e-12 * e.volume());
         assert!((q.inertia_tensor(1.0) - e.inertia_tensor(1.0)).norm() < 1e-12);
-        assert!((q.bounding_radius() - 3.0).abs() < 1e-9);
+        assert!((q.bounding_radius() - 3.0).abs() < 1e-8);
         let d = Vector3::new(0.3, -0.7, 0.2);
         assert!((q.support(&d) - e.support(&d)).norm() < 1e-12);
     }
@@ -576,7 +568,9 @@ mod tests {
         let q = Superellipsoid::new(1.0, 0.6, 0.3, (2.0, 4.0, 8.0)).unwrap();
         let mut rng = 12345u64;
         let mut next = || {
-            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((rng >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         };
         for _ in 0..200 {

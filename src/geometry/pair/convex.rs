@@ -9,6 +9,11 @@ use crate::geometry::shape::Shape;
 
 type V3 = Vector3<f64>;
 
+/// EPA converges finitely on polytopes but only as O(1/n) on curved
+/// surfaces; past this many expansions it reports `IterationCap` with its
+/// estimate (the sign, overlap, is certain).
+const EPA_MAX_ITERATIONS: usize = 64;
+
 /// Support of A (at the origin) and of B (placed by `rel`), both in A's frame.
 fn supports<'s>(
     a: &'s Shape,
@@ -41,7 +46,11 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
         GjkOutcome::Separated | GjkOutcome::IterationCap => {
             let d = g.point_b - g.point_a;
             let len = d.norm();
-            let normal = if len > 0.0 { d / len } else { rel.translation.normalize() };
+            let normal = if len > 0.0 {
+                d / len
+            } else {
+                rel.translation.normalize()
+            };
             Contact {
                 distance: g.distance,
                 point_a: g.point_a,
@@ -70,7 +79,7 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
                 // The origin is on the simplex: within rounding of touching.
                 return touching;
             }
-            match epa(&sa, &sb, &g.simplex, tol, opts.gjk_max_iterations) {
+            match epa(&sa, &sb, &g.simplex, tol, EPA_MAX_ITERATIONS) {
                 Some(p) => Contact {
                     distance: -p.depth,
                     point_a: p.point_a,

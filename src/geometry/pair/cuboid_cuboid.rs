@@ -10,14 +10,23 @@ use crate::geometry::shape::{Cuboid, Shape};
 /// Separating-axis test in A's frame.
 #[inline]
 pub fn overlap(a: &Cuboid, b: &Cuboid, rel: &Relative) -> bool {
-    boxes_overlap(&a.half_extents(), &b.half_extents(), &rel.rotation, &rel.translation)
+    boxes_overlap(
+        &a.half_extents(),
+        &b.half_extents(),
+        &rel.rotation,
+        &rel.translation,
+    )
 }
 
 /// Signed distance of two cuboids.
 pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) -> Contact {
     if overlap(a, b, rel) {
-        let (sep, axis) =
-            max_axis_separation(&a.half_extents(), &b.half_extents(), &rel.rotation, &rel.translation);
+        let (sep, axis) = max_axis_separation(
+            &a.half_extents(),
+            &b.half_extents(),
+            &rel.rotation,
+            &rel.translation,
+        );
         // Deepest points along the axis.
         let sa = Shape::Cuboid(*a).support(&axis);
         let sb = rel.b_to_a(&Shape::Cuboid(*b).support(&rel.rotation.tr_mul(&-axis)));

@@ -10,7 +10,12 @@ use crate::geometry::shape::{Cuboid, Sphere};
 /// OCSI in the cuboid's frame (its axes are the identity there).
 #[inline]
 pub fn overlap(a: &Cuboid, b: &Sphere, rel: &Relative) -> bool {
-    ocsi(&rel.translation, b.radius(), &Matrix3::identity(), &a.half_extents())
+    ocsi(
+        &rel.translation,
+        b.radius(),
+        &Matrix3::identity(),
+        &a.half_extents(),
+    )
 }
 
 /// Signed distance: the exact point–box distance of the sphere centre (eq. 2,

@@ -196,7 +196,9 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         (Superellipsoid(_), Sphere(_) | Ellipsoid(_) | Superellipsoid(_))
         | (Sphere(_) | Ellipsoid(_), Superellipsoid(_)) => smooth_smooth::overlap(a, b, rel),
         (Cuboid(_), Ellipsoid(_) | Superellipsoid(_)) => cuboid_smooth::overlap(a, b, rel),
-        (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => cuboid_smooth::overlap(b, a, &rel.inverse()),
+        (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => {
+            cuboid_smooth::overlap(b, a, &rel.inverse())
+        }
     }
 }
 
@@ -216,9 +218,10 @@ pub fn distance(
         (Cuboid(c), Sphere(s)) => cuboid_sphere::distance(c, s, rel),
         (Sphere(s), Cuboid(c)) => cuboid_sphere::distance(c, s, &rel.inverse()).swapped(rel),
         (Cuboid(p), Cuboid(q)) => cuboid_cuboid::distance(p, q, rel, opts),
-        (Sphere(_) | Ellipsoid(_) | Superellipsoid(_), Sphere(_) | Ellipsoid(_) | Superellipsoid(_)) => {
-            smooth_smooth::distance(a, b, rel, opts, warm)
-        }
+        (
+            Sphere(_) | Ellipsoid(_) | Superellipsoid(_),
+            Sphere(_) | Ellipsoid(_) | Superellipsoid(_),
+        ) => smooth_smooth::distance(a, b, rel, opts, warm),
         (Cuboid(_), Ellipsoid(_) | Superellipsoid(_)) => cuboid_smooth::distance(a, b, rel, opts),
         (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => {
             cuboid_smooth::distance(b, a, &rel.inverse(), opts).swapped(rel)

@@ -49,7 +49,11 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
     // Start at the sphere optimum λ = ρ_A/(ρ_A + ρ_B), ρ the radius along r.
     let rho_a = r.dot(&(ma * r)).sqrt();
     let rho_b = r.dot(&(mb * r)).sqrt();
-    let mut l = if rho_a + rho_b > 0.0 { rho_a / (rho_a + rho_b) } else { 0.5 };
+    let mut l = if rho_a + rho_b > 0.0 {
+        rho_a / (rho_a + rho_b)
+    } else {
+        0.5
+    };
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
     for _ in 0..200 {
         let Some((f, f1, f2)) = eval(l) else {
@@ -70,7 +74,11 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
             return f <= 1.0;
         }
         let newton = if f2 < 0.0 { l - f1 / f2 } else { f64::NAN };
-        l = if newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+        l = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
     }
     true
 }
@@ -83,15 +91,35 @@ mod tests {
     fn spheres_reduce_to_the_radius_sum() {
         let ma = Matrix3::from_diagonal_element(1.0);
         let mb = Matrix3::from_diagonal_element(4.0);
-        assert!(perram_wertheim(&ma, &mb, &Vector3::new(3.0 - 1e-9, 0.0, 0.0)));
-        assert!(!perram_wertheim(&ma, &mb, &Vector3::new(3.0 + 1e-9, 0.0, 0.0)));
+        assert!(perram_wertheim(
+            &ma,
+            &mb,
+            &Vector3::new(3.0 - 1e-9, 0.0, 0.0)
+        ));
+        assert!(!perram_wertheim(
+            &ma,
+            &mb,
+            &Vector3::new(3.0 + 1e-9, 0.0, 0.0)
+        ));
     }
 
     #[test]
     fn aligned_ellipsoids_tip_to_tip() {
         let m = Matrix3::from_diagonal(&Vector3::new(4.0, 1.0, 1.0));
-        assert!(perram_wertheim(&m, &m, &Vector3::new(4.0 - 1e-10, 0.0, 0.0)));
-        assert!(!perram_wertheim(&m, &m, &Vector3::new(4.0 + 1e-10, 0.0, 0.0)));
-        assert!(!perram_wertheim(&m, &m, &Vector3::new(0.0, 2.0 + 1e-10, 0.0)));
+        assert!(perram_wertheim(
+            &m,
+            &m,
+            &Vector3::new(4.0 - 1e-10, 0.0, 0.0)
+        ));
+        assert!(!perram_wertheim(
+            &m,
+            &m,
+            &Vector3::new(4.0 + 1e-10, 0.0, 0.0)
+        ));
+        assert!(!perram_wertheim(
+            &m,
+            &m,
+            &Vector3::new(0.0, 2.0 + 1e-10, 0.0)
+        ));
     }
 }

@@ -16,7 +16,9 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         None => {
             // Within rounding of touching: ask Newton; touching counts.
             let c = distance(a, b, rel, &DistanceOptions::default(), None);
-            !(c.distance > 0.0)
+            // NaN (failed) counts as overlap too: a move is never accepted on
+            // an undecided test.
+            c.distance.is_nan() || c.distance <= 0.0
         }
     }
 }
