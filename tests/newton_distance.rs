@@ -178,7 +178,14 @@ fn needles_disks_tips_and_slight_overlaps() {
     let needle = spheroid(10.0); // long axis along body z
     let disk = spheroid(0.1); // short axis along body z
     let tilt = |angle: f64| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), angle);
-    let cases: Vec<(&str, &Shape, &Shape, UnitQuaternion<f64>, Vector3<f64>)> = vec![
+    type Case<'s> = (
+        &'static str,
+        &'s Shape,
+        &'s Shape,
+        UnitQuaternion<f64>,
+        Vector3<f64>,
+    );
+    let cases: Vec<Case> = vec![
         // Side by side, nearly parallel (B turned by 1e-6 rad).
         (
             "parallel needles",
