@@ -143,7 +143,42 @@ pub struct Spheres<'a> {
 /// The spheres are given in the frame in which the cuboid has centre
 /// `center` and unit axes `axes` (columns); `out[i]` is set to whether sphere
 /// i overlaps. Panics if the columns and `out` differ in length.
+///
+/// On x86-64 machines with AVX2 the same loop runs compiled for 4-wide
+/// vectors (chosen once at run time); elsewhere for the baseline (SSE2,
+/// 2-wide). The arithmetic is identical, so are the answers.
 pub fn ocsi_batch(
+    center: &Vector3<f64>,
+    axes: &Matrix3<f64>,
+    half: &Vector3<f64>,
+    spheres: &Spheres,
+    out: &mut [bool],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { ocsi_batch_avx2(center, axes, half, spheres, out) };
+            return;
+        }
+    }
+    ocsi_batch_kernel(center, axes, half, spheres, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn ocsi_batch_avx2(
+    center: &Vector3<f64>,
+    axes: &Matrix3<f64>,
+    half: &Vector3<f64>,
+    spheres: &Spheres,
+    out: &mut [bool],
+) {
+    ocsi_batch_kernel(center, axes, half, spheres, out);
+}
+
+#[inline(always)]
+fn ocsi_batch_kernel(
     center: &Vector3<f64>,
     axes: &Matrix3<f64>,
     half: &Vector3<f64>,
@@ -161,18 +196,22 @@ pub fn ocsi_batch(
         xs.len() == n && ys.len() == n && zs.len() == n && radii.len() == n,
         "ocsi_batch: columns of different lengths"
     );
-    let (e0, e1, e2) = (axes.column(0), axes.column(1), axes.column(2));
+    let (xs, ys, zs, radii) = (&xs[..n], &ys[..n], &zs[..n], &radii[..n]);
+    let e = axes.transpose(); // rows are the cuboid axes
     let (cx, cy, cz) = (center.x, center.y, center.z);
     let (h0, h1, h2) = (half.x, half.y, half.z);
-    for ((((o, &x), &y), &z), &r) in out.iter_mut().zip(xs).zip(ys).zip(zs).zip(radii) {
-        let (dx, dy, dz) = (x - cx, y - cy, z - cz);
-        let a0 = dx * e0.x + dy * e0.y + dz * e0.z;
-        let a1 = dx * e1.x + dy * e1.y + dz * e1.z;
-        let a2 = dx * e2.x + dy * e2.y + dz * e2.z;
-        let l0 = (a0.abs() - h0).max(0.0);
-        let l1 = (a1.abs() - h1).max(0.0);
-        let l2 = (a2.abs() - h2).max(0.0);
-        *o = l0 * l0 + l1 * l1 + l2 * l2 <= r * r;
+    // `if l > 0 { l } else { 0 }` rather than `f64::max`, whose NaN rule
+    // costs extra instructions per lane; positions here are finite.
+    let excess = |a: f64, h: f64| {
+        let l = a.abs() - h;
+        if l > 0.0 { l } else { 0.0 }
+    };
+    for i in 0..n {
+        let (dx, dy, dz) = (xs[i] - cx, ys[i] - cy, zs[i] - cz);
+        let l0 = excess(dx * e[(0, 0)] + dy * e[(0, 1)] + dz * e[(0, 2)], h0);
+        let l1 = excess(dx * e[(1, 0)] + dy * e[(1, 1)] + dz * e[(1, 2)], h1);
+        let l2 = excess(dx * e[(2, 0)] + dy * e[(2, 1)] + dz * e[(2, 2)], h2);
+        out[i] = l0 * l0 + l1 * l1 + l2 * l2 <= radii[i] * radii[i];
     }
 }
 
