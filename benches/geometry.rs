@@ -5,7 +5,8 @@ use std::hint::black_box;
 
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 use hardbody::analysis::virial::random_rotation;
-use hardbody::geometry::ocsi::{Spheres, ocsi, ocsi_batch, qrf, qri};
+use hardbody::bench::ocsi::sampling_radius;
+use hardbody::geometry::ocsi::{Spheres, ocsi, ocsi_batch, point_box_distance, qrf, qri};
 use hardbody::geometry::{DistanceOptions, Relative, Shape, distance, overlap};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};

@@ -388,11 +388,11 @@ pub fn table(rows: &[OcsiRow]) -> String {
                 .map(|r| r.ns_per_test)
         };
         if let (Some(o), Some(i), Some(f), Some(b)) =
-            (ns("ocsi"), ns("qri"), ns("qrf"), ns("ocsi_batch"))
+            (ns("ocsi"), ns("qri"), ns("qrf"), ns("ocsi_batch_in_cache"))
         {
             let _ = writeln!(
                 s,
-                "R* = {radius}: QRI/OCSI = {:.2}, QRF/OCSI = {:.2}, OCSI/OCSI-batch = {:.2}",
+                "R* = {radius}: QRI/OCSI = {:.2}, QRF/OCSI = {:.2}, OCSI/OCSI-batch-in-cache = {:.2}",
                 i / o,
                 f / o,
                 o / b
