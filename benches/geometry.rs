@@ -17,12 +17,24 @@ fn ocsi_kernels(c: &mut Criterion) {
     let n = 1024;
     let half = Vector3::new(0.5, 5.0, 2.5);
     let axes = random_rotation(&mut rng).to_rotation_matrix().into_inner();
-    let coord = |rng: &mut Pcg64| {
-        (0..n)
-            .map(|_| rng.r#gen::<f64>() * 16.0 - 8.0)
-            .collect::<Vec<f64>>()
-    };
-    let (xs, ys, zs) = (coord(&mut rng), coord(&mut rng), coord(&mut rng));
+    // Centres uniform in the spherocuboid with 40% non-overlapping (the
+    // protocol of Tonti & Patti, as `hardbody bench ocsi`).
+    let dilation = sampling_radius(&(half * 2.0), 0.5, 0.4);
+    let reach = half.add_scalar(dilation);
+    let (mut xs, mut ys, mut zs) = (Vec::new(), Vec::new(), Vec::new());
+    while xs.len() < n {
+        let p = Vector3::new(
+            reach.x * (2.0 * rng.r#gen::<f64>() - 1.0),
+            reach.y * (2.0 * rng.r#gen::<f64>() - 1.0),
+            reach.z * (2.0 * rng.r#gen::<f64>() - 1.0),
+        );
+        if point_box_distance(&p, &half).0 <= dilation {
+            let q = axes * p;
+            xs.push(q.x);
+            ys.push(q.y);
+            zs.push(q.z);
+        }
+    }
     let radii = vec![0.5; n];
     let mut out = vec![false; n];
     let mut group = c.benchmark_group("ocsi");
