@@ -9,4 +9,5 @@
 pub mod analysis;
 pub mod bench;
 pub mod geometry;
+pub mod mc;
 pub mod space;

@@ -1,6 +1,8 @@
-//! Space: the periodic simulation box (cell and neighbour lists will live
-//! here too). Depends on nothing but nalgebra.
+//! Space: the periodic simulation box and cell lists. Depends on nothing but
+//! nalgebra.
 
+pub mod cell_list;
 pub mod periodic_box;
 
+pub use cell_list::CellList;
 pub use periodic_box::PeriodicBox;

@@ -1,0 +1,289 @@
+//! Metropolis Monte Carlo of hard particles: the system (box, species,
+//! particles, cell list), trial moves, volume moves and step-size tuning.
+//!
+//! A move is accepted iff it creates no overlap (hard-particle Metropolis);
+//! volume moves in ln V carry the NPT weight. Overlap tests go through the
+//! geometry layer's pair dispatch only.
+
+pub mod moves;
+pub mod tuning;
+
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+use crate::geometry::{Relative, Shape, overlap};
+use crate::space::{CellList, PeriodicBox};
+
+type V3 = Vector3<f64>;
+
+/// A kind of particle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Species {
+    /// Name, as in the scene.
+    pub name: String,
+    /// Shape.
+    pub shape: Shape,
+    /// Whether orientations change (false: frozen; always false for spheres).
+    pub rotation: bool,
+}
+
+/// One particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Particle {
+    /// Centre, in [−L/2, L/2).
+    pub position: V3,
+    /// Body → lab rotation.
+    pub orientation: UnitQuaternion<f64>,
+    /// Index into the species list.
+    pub species: u16,
+}
+
+/// What can go wrong setting up or running Monte Carlo.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum McError {
+    /// Two particles overlap in a state that must be overlap-free.
+    #[error("particles {0} and {1} overlap")]
+    Overlap(usize, usize),
+    /// The box is smaller than twice the largest interaction range, so the
+    /// minimum image is not unique.
+    #[error("box {lengths:?} is smaller than twice the interaction range {range}")]
+    BoxTooSmall {
+        /// Box edges.
+        lengths: [f64; 3],
+        /// Largest centre–centre distance at which two particles can touch.
+        range: f64,
+    },
+    /// A particle names a species that does not exist.
+    #[error("particle {0} has species {1}, but there are only {2} species")]
+    UnknownSpecies(usize, u16, usize),
+    /// No particles.
+    #[error("the system has no particles")]
+    Empty,
+}
+
+/// Particles of several species in a periodic box, with a cell list.
+#[derive(Debug, Clone)]
+pub struct System {
+    box_: PeriodicBox,
+    species: Vec<Species>,
+    particles: Vec<Particle>,
+    /// Cached rotation matrices of the orientations.
+    rotations: Vec<Matrix3<f64>>,
+    /// Bounding radius per species.
+    radii: Vec<f64>,
+    cells: CellList,
+    /// Largest distance at which two centres can still touch.
+    range: f64,
+    /// Overlap tests switched off (ideal-gas checks only).
+    ideal: bool,
+}
+
+impl System {
+    /// A system, checked to be overlap-free and in a box large enough for
+    /// the minimum image.
+    pub fn new(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+    ) -> Result<Self, McError> {
+        if particles.is_empty() {
+            return Err(McError::Empty);
+        }
+        for (i, p) in particles.iter().enumerate() {
+            if p.species as usize >= species.len() {
+                return Err(McError::UnknownSpecies(i, p.species, species.len()));
+            }
+        }
+        let species: Vec<Species> = species
+            .into_iter()
+            .map(|s| Species {
+                rotation: s.rotation && !s.shape.is_sphere(),
+                ..s
+            })
+            .collect();
+        let radii: Vec<f64> = species.iter().map(|s| s.shape.bounding_radius()).collect();
+        let range = 2.0 * radii.iter().cloned().fold(0.0, f64::max);
+        let particles: Vec<Particle> = particles
+            .into_iter()
+            .map(|p| Particle {
+                position: box_.wrap(&p.position),
+                ..p
+            })
+            .collect();
+        let rotations = particles
+            .iter()
+            .map(|p| p.orientation.to_rotation_matrix().into_inner())
+            .collect();
+        Self::check_box(&box_, range)?;
+        let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
+        let cells = CellList::new(box_.lengths(), range, &positions);
+        let system = Self {
+            box_,
+            species,
+            particles,
+            rotations,
+            radii,
+            cells,
+            range,
+            ideal: false,
+        };
+        if let Some((i, j)) = system.first_overlap_all_pairs() {
+            return Err(McError::Overlap(i, j));
+        }
+        Ok(system)
+    }
+
+    fn check_box(box_: &PeriodicBox, range: f64) -> Result<(), McError> {
+        if box_.lengths().min() < 2.0 * range {
+            Err(McError::BoxTooSmall {
+                lengths: box_.lengths().into(),
+                range,
+            })
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Switches overlap tests off (an ideal gas of the same particles), for
+    /// checking the volume-move statistics.
+    pub fn set_ideal(&mut self, ideal: bool) {
+        self.ideal = ideal;
+    }
+
+    /// The box.
+    pub fn periodic_box(&self) -> &PeriodicBox {
+        &self.box_
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// The species.
+    pub fn species(&self) -> &[Species] {
+        &self.species
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// Always false: a system has particles.
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    /// φ = Σ vᵢ / V.
+    pub fn packing_fraction(&self) -> f64 {
+        let v: f64 = self
+            .particles
+            .iter()
+            .map(|p| self.species[p.species as usize].shape.volume())
+            .sum();
+        v / self.box_.volume()
+    }
+
+    /// Whether particle `i`, placed at `position` with rotation `rotation`,
+    /// would overlap any other particle (periodic images included).
+    pub fn overlaps_at(&self, i: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
+        if self.ideal {
+            return false;
+        }
+        let si = self.particles[i].species as usize;
+        let shape_i = &self.species[si].shape;
+        let ri = self.radii[si];
+        self.cells.any_near(position, |j| {
+            if j == i {
+                return false;
+            }
+            let pj = &self.particles[j];
+            let sj = pj.species as usize;
+            let d = self.box_.minimum_image(&(pj.position - position));
+            let reach = ri + self.radii[sj];
+            if d.norm_squared() > reach * reach {
+                return false;
+            }
+            let shape_j = &self.species[sj].shape;
+            if shape_i.is_sphere() && shape_j.is_sphere() {
+                return true; // within the sum of radii
+            }
+            let rel = Relative {
+                translation: rotation.tr_mul(&d),
+                rotation: rotation.tr_mul(&self.rotations[j]),
+            };
+            overlap(shape_i, shape_j, &rel)
+        })
+    }
+
+    /// The first overlapping pair by testing all N(N−1)/2 pairs, without the
+    /// cell list: the independent check that a state is overlap-free.
+    pub fn first_overlap_all_pairs(&self) -> Option<(usize, usize)> {
+        let n = self.particles.len();
+        for i in 0..n {
+            let (pi, si) = (&self.particles[i], self.particles[i].species as usize);
+            for j in i + 1..n {
+                let pj = &self.particles[j];
+                let d = self.box_.minimum_image(&(pj.position - pi.position));
+                let rel = Relative::new(&d, &pi.orientation, &pj.orientation);
+                if overlap(
+                    &self.species[si].shape,
+                    &self.species[pj.species as usize].shape,
+                    &rel,
+                ) {
+                    return Some((i, j));
+                }
+            }
+        }
+        None
+    }
+
+    /// Moves particle `i` (the caller has checked that it creates no overlap).
+    pub(crate) fn place(
+        &mut self,
+        i: usize,
+        position: V3,
+        orientation: UnitQuaternion<f64>,
+        rotation: Matrix3<f64>,
+    ) {
+        let position = self.box_.wrap(&position);
+        self.particles[i].position = position;
+        self.particles[i].orientation = orientation;
+        self.rotations[i] = rotation;
+        self.cells.update(i, &position);
+    }
+
+    /// Rescales the box to `lengths` and the positions with it, if that
+    /// creates no overlap and keeps the box at least twice the interaction
+    /// range; returns whether it did.
+    pub(crate) fn try_rescale(&mut self, lengths: V3) -> bool {
+        let Ok(new_box) = PeriodicBox::new(lengths) else {
+            return false;
+        };
+        if Self::check_box(&new_box, self.range).is_err() {
+            return false;
+        }
+        let old_lengths = self.box_.lengths();
+        let factor = lengths.component_div(&old_lengths);
+        let shrinks = factor.iter().any(|&f| f < 1.0);
+        let mut trial = self.clone();
+        trial.box_ = new_box;
+        for p in &mut trial.particles {
+            p.position = new_box.wrap(&p.position.component_mul(&factor));
+        }
+        let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
+        trial.cells = CellList::new(lengths, self.range, &positions);
+        // Scaling all centres up cannot create an overlap of convex bodies
+        // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some
+        // axis needs checking.
+        if shrinks
+            && !self.ideal
+            && (0..trial.len())
+                .any(|i| trial.overlaps_at(i, &trial.particles[i].position, &trial.rotations[i]))
+        {
+            return false;
+        }
+        *self = trial;
+        true
+    }
+}

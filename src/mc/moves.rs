@@ -1,0 +1,196 @@
+//! Trial moves: translation, rotation, and ln V box moves (isotropic or
+//! along one axis), with their counters.
+
+use std::ops::{Add, AddAssign};
+
+use nalgebra::{Unit, UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_distr::StandardNormal;
+
+use super::System;
+
+/// Attempts and acceptances of one kind of move; counts add.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Count {
+    /// Moves tried.
+    pub tried: u64,
+    /// Moves accepted.
+    pub accepted: u64,
+}
+
+impl Count {
+    /// Accepted / tried (NaN when nothing was tried).
+    pub fn rate(&self) -> f64 {
+        self.accepted as f64 / self.tried as f64
+    }
+    fn record(&mut self, accepted: bool) {
+        self.tried += 1;
+        self.accepted += accepted as u64;
+    }
+}
+
+impl Add for Count {
+    type Output = Count;
+    fn add(self, o: Count) -> Count {
+        Count {
+            tried: self.tried + o.tried,
+            accepted: self.accepted + o.accepted,
+        }
+    }
+}
+
+/// Counters of every move kind.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Translations.
+    pub translate: Count,
+    /// Rotations.
+    pub rotate: Count,
+    /// Box moves.
+    pub volume: Count,
+}
+
+impl Add for Counts {
+    type Output = Counts;
+    fn add(self, o: Counts) -> Counts {
+        Counts {
+            translate: self.translate + o.translate,
+            rotate: self.rotate + o.rotate,
+            volume: self.volume + o.volume,
+        }
+    }
+}
+
+impl AddAssign for Counts {
+    fn add_assign(&mut self, o: Counts) {
+        *self = *self + o;
+    }
+}
+
+/// Move sizes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MoveSizes {
+    /// Side of the cube a translation is drawn from.
+    pub translate: f64,
+    /// Largest rotation angle (radians).
+    pub rotate: f64,
+    /// Largest change of ln V (or ln L for a per-axis move).
+    pub volume: f64,
+}
+
+/// The thermodynamic ensemble of a stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Ensemble {
+    /// Fixed N, V, T.
+    Nvt,
+    /// Fixed N, P, T: βP and whether box moves change one axis at a time.
+    Npt {
+        /// βP (1/length³).
+        pressure: f64,
+        /// Per-axis (true) or isotropic (false) box moves.
+        anisotropic: bool,
+    },
+}
+
+/// One sweep: N particle moves (translation, or rotation with probability
+/// ½ for rotating species), then in NPT one box move.
+pub fn sweep<R: Rng>(
+    system: &mut System,
+    sizes: &MoveSizes,
+    ensemble: &Ensemble,
+    rng: &mut R,
+) -> Counts {
+    let mut counts = Counts::default();
+    let n = system.len();
+    for _ in 0..n {
+        let i = rng.gen_range(0..n);
+        let rotates = system.species[system.particles[i].species as usize].rotation;
+        if rotates && rng.r#gen::<bool>() {
+            counts.rotate.record(rotate(system, i, sizes.rotate, rng));
+        } else {
+            counts
+                .translate
+                .record(translate(system, i, sizes.translate, rng));
+        }
+    }
+    if let Ensemble::Npt {
+        pressure,
+        anisotropic,
+    } = *ensemble
+    {
+        counts
+            .volume
+            .record(box_move(system, pressure, sizes.volume, anisotropic, rng));
+    }
+    counts
+}
+
+/// Translation uniform in a cube of side `size` around the old position.
+pub fn translate<R: Rng>(system: &mut System, i: usize, size: f64, rng: &mut R) -> bool {
+    let p = system.particles[i];
+    let step = Vector3::new(
+        rng.r#gen::<f64>() - 0.5,
+        rng.r#gen::<f64>() - 0.5,
+        rng.r#gen::<f64>() - 0.5,
+    ) * size;
+    let position = p.position + step;
+    let rotation = system.rotations[i];
+    if system.overlaps_at(i, &position, &rotation) {
+        return false;
+    }
+    system.place(i, position, p.orientation, rotation);
+    true
+}
+
+/// Rotation about a uniformly random axis by an angle uniform in
+/// [−`max_angle`, `max_angle`] (a symmetric proposal).
+pub fn rotate<R: Rng>(system: &mut System, i: usize, max_angle: f64, rng: &mut R) -> bool {
+    let p = system.particles[i];
+    let axis = loop {
+        let v = Vector3::new(
+            rng.sample(StandardNormal),
+            rng.sample(StandardNormal),
+            rng.sample(StandardNormal),
+        );
+        if let Some(u) = Unit::try_new(v, 1e-12) {
+            break u;
+        }
+    };
+    let angle = max_angle * (2.0 * rng.r#gen::<f64>() - 1.0);
+    let orientation = UnitQuaternion::from_axis_angle(&axis, angle) * p.orientation;
+    let rotation = orientation.to_rotation_matrix().into_inner();
+    if system.overlaps_at(i, &p.position, &rotation) {
+        return false;
+    }
+    system.place(i, p.position, orientation, rotation);
+    true
+}
+
+/// A box move in ln V (isotropic) or in ln Lₖ of a random axis k, accepted
+/// with min(1, exp(−βP ΔV + (N+1) ln(V′/V))) when it creates no overlap.
+/// The random number is drawn first, so rejected moves skip the overlap
+/// check.
+pub fn box_move<R: Rng>(
+    system: &mut System,
+    pressure: f64,
+    size: f64,
+    anisotropic: bool,
+    rng: &mut R,
+) -> bool {
+    let old = system.box_.lengths();
+    let v = old.product();
+    let delta = size * (2.0 * rng.r#gen::<f64>() - 1.0);
+    let mut lengths = old;
+    if anisotropic {
+        let k = rng.gen_range(0..3);
+        lengths[k] *= delta.exp();
+    } else {
+        lengths *= (delta / 3.0).exp();
+    }
+    let v_new = lengths.product();
+    let log_acc = -pressure * (v_new - v) + (system.len() as f64 + 1.0) * (v_new / v).ln();
+    if log_acc < 0.0 && rng.r#gen::<f64>() >= log_acc.exp() {
+        return false;
+    }
+    system.try_rescale(lengths)
+}

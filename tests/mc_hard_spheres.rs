@@ -1,0 +1,174 @@
+//! Hard-sphere NPT Monte Carlo against the Carnahan–Starling equation of
+//! state, the ideal-gas check of the ln V box move, and overlap-free states
+//! checked by the independent all-pairs test.
+
+use std::f64::consts::PI;
+
+use hardbody::geometry::Shape;
+use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
+use hardbody::mc::tuning::Tuner;
+use hardbody::mc::{Particle, Species, System};
+use hardbody::space::PeriodicBox;
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+use statrs::statistics::Statistics;
+
+/// N = n³ spheres of diameter 1 on a simple cubic lattice at packing
+/// fraction `phi` (mechanically unstable for hard spheres: it melts at once).
+fn cubic_spheres(n: usize, phi: f64) -> System {
+    let count = n * n * n;
+    let len = (count as f64 * PI / 6.0 / phi).cbrt();
+    let a = len / n as f64;
+    let mut particles = Vec::with_capacity(count);
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                particles.push(Particle {
+                    position: Vector3::new(i as f64, j as f64, k as f64) * a
+                        - Vector3::repeat(len / 2.0),
+                    orientation: UnitQuaternion::identity(),
+                    species: 0,
+                });
+            }
+        }
+    }
+    let species = vec![Species {
+        name: "sphere".into(),
+        shape: "Sphere(radius: 0.5)".parse::<Shape>().unwrap(),
+        rotation: false,
+    }];
+    System::new(
+        PeriodicBox::new(Vector3::repeat(len)).unwrap(),
+        species,
+        particles,
+    )
+    .unwrap()
+}
+
+/// βPσ³ = ρσ³ (1 + η + η² − η³)/(1 − η)³ with ρσ³ = 6η/π, solved for η.
+fn carnahan_starling_packing_fraction(beta_p: f64) -> f64 {
+    let pressure =
+        |eta: f64| 6.0 * eta / PI * (1.0 + eta + eta * eta - eta.powi(3)) / (1.0 - eta).powi(3);
+    let (mut lo, mut hi) = (0.0, 0.7);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if pressure(mid) < beta_p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Means of consecutive blocks of `size` samples.
+fn block_means(samples: &[f64], size: usize) -> Vec<f64> {
+    samples.chunks_exact(size).map(|c| c.mean()).collect()
+}
+
+/// Mean and standard error of (nearly independent) block means.
+fn mean_and_error(blocks: &[f64]) -> (f64, f64) {
+    (
+        blocks.iter().mean(),
+        blocks.iter().std_dev() / (blocks.len() as f64).sqrt(),
+    )
+}
+
+/// One replica: equilibrates with tuning, then samples φ every sweep with
+/// frozen move sizes. The start is a melting cubic lattice a little below
+/// the expected density (where it starts does not change where it ends).
+fn npt_replica(beta_p: f64, seed: u64) -> (Vec<f64>, System) {
+    let mut system = cubic_spheres(7, 0.9 * carnahan_starling_packing_fraction(beta_p)); // 343 spheres
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let ensemble = Ensemble::Npt {
+        pressure: beta_p,
+        anisotropic: false,
+    };
+    let mut sizes = MoveSizes {
+        translate: 0.2,
+        rotate: 0.0,
+        volume: 0.01,
+    };
+    let tuner = Tuner {
+        target: 0.3,
+        max_translate: 1.0,
+    };
+    let mut window = Counts::default();
+    for s in 1..=6000 {
+        window += sweep(&mut system, &sizes, &ensemble, &mut rng);
+        if s % 50 == 0 {
+            tuner.update(&mut sizes, &window);
+            window = Counts::default();
+        }
+    }
+    let mut samples = Vec::new();
+    for _ in 0..25_000 {
+        sweep(&mut system, &sizes, &ensemble, &mut rng);
+        samples.push(system.packing_fraction());
+    }
+    (samples, system)
+}
+
+/// Four independent replicas per pressure. Density fluctuations of the
+/// dense fluid decay over thousands of sweeps, so the error comes from
+/// blocks of 5000 sweeps (20 in all), which are close to independent.
+#[test]
+fn hard_spheres_follow_carnahan_starling() {
+    use rayon::prelude::*;
+    let pressures = [1.0, 3.0, 6.0];
+    let runs: Vec<(usize, Vec<f64>, System)> = (0..pressures.len() * 4)
+        .into_par_iter()
+        .map(|k| {
+            let (samples, system) = npt_replica(pressures[k / 4], 40 + k as u64);
+            (k / 4, samples, system)
+        })
+        .collect();
+    for (p, &beta_p) in pressures.iter().enumerate() {
+        let mut blocks = Vec::new();
+        for (_, samples, system) in runs.iter().filter(|r| r.0 == p) {
+            assert_eq!(
+                system.first_overlap_all_pairs(),
+                None,
+                "overlap at the end of βP = {beta_p}"
+            );
+            blocks.extend(block_means(samples, 5000));
+        }
+        let (mean, se) = mean_and_error(&blocks);
+        let cs = carnahan_starling_packing_fraction(beta_p);
+        eprintln!("βP = {beta_p}: φ = {mean:.5} ± {se:.5}, Carnahan–Starling {cs:.5}");
+        assert!(
+            (mean - cs).abs() < 3.0 * se && (mean - cs).abs() < 0.005,
+            "βP = {beta_p}: φ = {mean:.5} ± {se:.5}, Carnahan–Starling {cs:.5}"
+        );
+        assert!(se > 0.0 && se < 0.002, "βP = {beta_p}: standard error {se}");
+    }
+}
+
+/// With overlaps switched off the ln V move samples p(V) ∝ V^N e^{−βPV} dV
+/// (the extra V of the ln V measure included), whose mean is (N+1)/βP.
+#[test]
+fn ideal_gas_volume_moves_give_n_plus_one_over_p() {
+    let mut system = cubic_spheres(3, 0.05); // 27 particles
+    system.set_ideal(true);
+    let beta_p = 0.5;
+    let mut rng = Pcg64::seed_from_u64(5);
+    let sizes = MoveSizes {
+        translate: 0.5,
+        rotate: 0.0,
+        volume: 0.3,
+    };
+    let mut volumes = Vec::new();
+    for _ in 0..200_000 {
+        hardbody::mc::moves::box_move(&mut system, beta_p, sizes.volume, false, &mut rng);
+        volumes.push(system.periodic_box().volume());
+    }
+    let (mean, se) = mean_and_error(&block_means(&volumes[10_000..], 9_500));
+    let exact = (system.len() as f64 + 1.0) / beta_p;
+    eprintln!("ideal gas: ⟨V⟩ = {mean:.3} ± {se:.3}, (N+1)/βP = {exact}");
+    assert!(
+        (mean - exact).abs() < 3.0 * se,
+        "⟨V⟩ = {mean} ± {se}, (N+1)/βP = {exact}"
+    );
+    assert!(se < 0.01 * exact);
+}
