@@ -5,6 +5,7 @@
 //! volume moves in ln V carry the NPT weight. Overlap tests go through the
 //! geometry layer's pair dispatch only.
 
+pub mod compress;
 pub mod moves;
 pub mod tuning;
 
