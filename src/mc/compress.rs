@@ -110,7 +110,7 @@ pub fn compress<R: Rng>(
             start,
         });
     }
-    if !(sizes.translate > 0.0) {
+    if sizes.translate.is_nan() || sizes.translate <= 0.0 {
         return Err(CompressError::ZeroMoveSize(sizes.translate));
     }
     let tuner = Tuner {
