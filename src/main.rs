@@ -72,6 +72,8 @@ enum Command {
 enum Suite {
     /// Cuboid–sphere overlap: OCSI against Arvo, QRI, QRF, SSE (Tonti & Patti).
     Ocsi,
+    /// Monte Carlo trial moves per second by shape at packing fraction 0.5.
+    Mc,
 }
 
 fn main() -> ExitCode {
@@ -85,11 +87,10 @@ fn main() -> ExitCode {
             seed,
             json,
         } => virial(&shape_a, &shape_b, samples, seed, json),
-        Command::Bench {
-            suite: Suite::Ocsi,
-            quick,
-            json,
-        } => bench_ocsi(quick, json),
+        Command::Bench { suite, quick, json } => match suite {
+            Suite::Ocsi => bench_ocsi(quick, json),
+            Suite::Mc => bench_mc(quick, json),
+        },
     }
 }
 
@@ -199,6 +200,37 @@ fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
         }
         Err(e) => {
             eprintln!("hardbody: OCSI benchmark failed: {e}");
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
+}
+
+fn bench_mc(quick: bool, json: bool) -> ExitCode {
+    match hardbody::bench::mc::run(quick) {
+        Ok(rows) => {
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&rows).expect("plain numbers serialise")
+                );
+            } else {
+                println!("| shape | N | phi | trial moves/s (median) | translate acceptance |");
+                println!("|---|---|---|---|---|");
+                for r in rows {
+                    println!(
+                        "| {} | {} | {:.3} | {:.3e} | {:.2} |",
+                        r.shape,
+                        r.n,
+                        r.packing_fraction,
+                        r.trial_moves_per_s,
+                        r.acceptance_translate
+                    );
+                }
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("hardbody: MC benchmark failed: {e}");
             ExitCode::from(EXIT_FAILED)
         }
     }

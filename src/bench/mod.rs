@@ -1,3 +1,4 @@
 //! Benchmark suites behind `hardbody bench`.
 
+pub mod mc;
 pub mod ocsi;
