@@ -12,7 +12,7 @@ pub mod tuning;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use crate::geometry::{Relative, Shape, overlap};
-use crate::space::{CellList, PeriodicBox};
+use crate::space::{AabbCells, CellList, PeriodicBox};
 
 type V3 = Vector3<f64>;
 
@@ -61,6 +61,59 @@ pub enum McError {
     Empty,
 }
 
+/// How candidate neighbours are found, chosen from the species (the plan):
+/// cells as wide as the largest interaction range with the 27-cell stencil
+/// for near-isotropic particles of similar size; AABB cells, much smaller,
+/// for elongated or flat particles and size-asymmetric mixtures.
+#[derive(Debug, Clone)]
+enum Neighbours {
+    Cells(CellList),
+    Aabb(AabbCells),
+}
+
+impl Neighbours {
+    /// The structure the species call for, with the reason.
+    fn plan(species: &[Species]) -> (bool, f64) {
+        let radii: Vec<f64> = species.iter().map(|s| s.shape.bounding_radius()).collect();
+        let range = 2.0 * radii.iter().cloned().fold(0.0, f64::max);
+        let smallest = radii.iter().cloned().fold(f64::INFINITY, f64::min);
+        let thickness = species
+            .iter()
+            .map(|s| 2.0 * s.shape.min_half_extent())
+            .fold(0.0, f64::max);
+        let elongated = species
+            .iter()
+            .any(|s| s.shape.bounding_radius() > 1.5 * s.shape.min_half_extent());
+        let asymmetric = 2.0 * smallest < 0.5 * range;
+        let use_aabb = elongated || asymmetric;
+        // Cells between the thickness and the range (their geometric mean):
+        // thin enough to separate neighbours, wide enough that a particle
+        // spans few of them.
+        (use_aabb, (thickness * range).sqrt().max(2.0 * smallest))
+    }
+
+    fn build(
+        use_aabb: bool,
+        width: f64,
+        range: f64,
+        lengths: V3,
+        centres: &[V3],
+        halves: &[V3],
+    ) -> Self {
+        if use_aabb {
+            Neighbours::Aabb(AabbCells::new(lengths, width, centres, halves))
+        } else {
+            Neighbours::Cells(CellList::new(lengths, range, centres))
+        }
+    }
+}
+
+/// The AABB half-extents of a body with OBB half-extents `h` rotated by `r`.
+#[inline]
+fn aabb_half_extents(r: &Matrix3<f64>, h: &V3) -> V3 {
+    r.abs() * h
+}
+
 /// Particles of several species in a periodic box, with a cell list.
 #[derive(Debug, Clone)]
 pub struct System {
@@ -71,7 +124,14 @@ pub struct System {
     rotations: Vec<Matrix3<f64>>,
     /// Bounding radius per species.
     radii: Vec<f64>,
-    cells: CellList,
+    /// OBB half-extents per species.
+    obb: Vec<V3>,
+    /// Lab-frame AABB half-extents per particle.
+    aabb: Vec<V3>,
+    cells: Neighbours,
+    /// AABB cells (true) or stencil cells, and the AABB cell width.
+    use_aabb: bool,
+    aabb_width: f64,
     /// Largest distance at which two centres can still touch.
     range: f64,
     /// Overlap tests switched off (ideal-gas checks only).
@@ -115,15 +175,34 @@ impl System {
             .map(|p| p.orientation.to_rotation_matrix().into_inner())
             .collect();
         Self::check_box(&box_, range)?;
+        let obb: Vec<V3> = species.iter().map(|s| s.shape.obb_half_extents()).collect();
+        let rotations: Vec<Matrix3<f64>> = rotations;
+        let aabb: Vec<V3> = particles
+            .iter()
+            .zip(&rotations)
+            .map(|(p, r)| aabb_half_extents(r, &obb[p.species as usize]))
+            .collect();
+        let (use_aabb, aabb_width) = Neighbours::plan(&species);
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
-        let cells = CellList::new(box_.lengths(), range, &positions);
+        let cells = Neighbours::build(
+            use_aabb,
+            aabb_width,
+            range,
+            box_.lengths(),
+            &positions,
+            &aabb,
+        );
         let system = Self {
             box_,
             species,
             particles,
             rotations,
             radii,
+            obb,
+            aabb,
             cells,
+            use_aabb,
+            aabb_width,
             range,
             ideal: false,
         };
@@ -165,6 +244,12 @@ impl System {
         &self.species
     }
 
+    /// Whether candidates come from AABB cells (elongated or size-asymmetric
+    /// species) rather than range-wide cells.
+    pub fn uses_aabb_cells(&self) -> bool {
+        self.use_aabb
+    }
+
     /// Number of particles.
     pub fn len(&self) -> usize {
         self.particles.len()
@@ -194,13 +279,14 @@ impl System {
         let si = self.particles[i].species as usize;
         let shape_i = &self.species[si].shape;
         let ri = self.radii[si];
-        self.cells.any_near(position, |j| {
+        let test = |j: usize| {
             if j == i {
                 return false;
             }
             let pj = &self.particles[j];
             let sj = pj.species as usize;
-            let d = self.box_.minimum_image(&(pj.position - position));
+            // Both centres lie within half a box of it: |d| < 3L/2.
+            let d = self.box_.minimum_image_near(&(pj.position - position));
             let reach = ri + self.radii[sj];
             if d.norm_squared() > reach * reach {
                 return false;
@@ -214,7 +300,24 @@ impl System {
                 rotation: rotation.tr_mul(&self.rotations[j]),
             };
             overlap(shape_i, shape_j, &rel)
-        })
+        };
+        match &self.cells {
+            Neighbours::Cells(cells) => cells.any_near(position, test),
+            Neighbours::Aabb(cells) => {
+                let h = aabb_half_extents(rotation, &self.obb[si]);
+                cells.any_near(position, &h, |j| {
+                    // Disjoint AABBs (the registry is coarser than them).
+                    let d = self
+                        .box_
+                        .minimum_image_near(&(self.particles[j].position - position));
+                    let hj = &self.aabb[j];
+                    if (0..3).any(|k| d[k].abs() > h[k] + hj[k]) {
+                        return false;
+                    }
+                    test(j)
+                })
+            }
+        }
     }
 
     /// The first overlapping pair by testing all N(N−1)/2 pairs, without the
@@ -226,6 +329,10 @@ impl System {
             for j in i + 1..n {
                 let pj = &self.particles[j];
                 let d = self.box_.minimum_image(&(pj.position - pi.position));
+                let reach = self.radii[si] + self.radii[pj.species as usize];
+                if d.norm_squared() > reach * reach {
+                    continue; // the pair kernels would reject it the same way
+                }
                 let rel = Relative::new(&d, &pi.orientation, &pj.orientation);
                 if overlap(
                     &self.species[si].shape,
@@ -251,7 +358,12 @@ impl System {
         self.particles[i].position = position;
         self.particles[i].orientation = orientation;
         self.rotations[i] = rotation;
-        self.cells.update(i, &position);
+        let h = aabb_half_extents(&rotation, &self.obb[self.particles[i].species as usize]);
+        self.aabb[i] = h;
+        match &mut self.cells {
+            Neighbours::Cells(cells) => cells.update(i, &position),
+            Neighbours::Aabb(cells) => cells.update(i, &position, &h),
+        }
     }
 
     /// Rescales the box to `lengths` and the positions with it, if that
@@ -273,7 +385,14 @@ impl System {
             p.position = new_box.wrap(&p.position.component_mul(&factor));
         }
         let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
-        trial.cells = CellList::new(lengths, self.range, &positions);
+        trial.cells = Neighbours::build(
+            self.use_aabb,
+            self.aabb_width,
+            self.range,
+            lengths,
+            &positions,
+            &trial.aabb,
+        );
         // Scaling all centres up cannot create an overlap of convex bodies
         // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some
         // axis needs checking.
