@@ -469,6 +469,18 @@ impl Support for Superellipsoid {
         }
         let e = e / emax; // scale-free
         let n = self.exponents;
+        if n.x == n.y && n.y == n.z {
+            // Equal exponents, closed form: yᵢ ∝ eᵢ^{1/(n−1)} normalised so
+            // that Σ yᵢⁿ = 1.
+            let r = 1.0 / (n.x - 1.0);
+            let y = e.map(|v| if v > 0.0 { v.powf(r) } else { 0.0 });
+            let norm = y.map(|v| v.powf(n.x)).sum().powf(-1.0 / n.x);
+            return Vector3::new(
+                (self.semi_axes.x * y.x * norm).copysign(dir.x),
+                (self.semi_axes.y * y.y * norm).copysign(dir.y),
+                (self.semi_axes.z * y.z * norm).copysign(dir.z),
+            );
+        }
         let q = n.map(|n| n / (n - 1.0));
         let c = Vector3::new(
             (e.x / n.x).powf(q.x),
@@ -565,7 +577,15 @@ mod tests {
 
     #[test]
     fn superellipsoid_support_points_lie_on_the_surface_and_maximise() {
-        let q = Superellipsoid::new(1.0, 0.6, 0.3, (2.0, 4.0, 8.0)).unwrap();
+        for q in [
+            Superellipsoid::new(1.0, 0.6, 0.3, (2.0, 4.0, 8.0)).unwrap(),
+            Superellipsoid::new(1.0, 0.6, 0.3, (5.0, 5.0, 5.0)).unwrap(),
+        ] {
+            check_support(&q);
+        }
+    }
+
+    fn check_support(q: &Superellipsoid) {
         let mut rng = 12345u64;
         let mut next = || {
             rng = rng

@@ -187,6 +187,23 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         return false;
     }
     use Shape::*;
+    // The oriented bounding boxes next (15 axes, ~20 ns): for elongated or
+    // flat bodies they reject most pairs whose bounding spheres meet, before
+    // the exact tests (Perram–Wertheim, GJK) that cost far more.
+    let needs_obb = matches!(
+        (a, b),
+        (Ellipsoid(_) | Superellipsoid(_), _) | (_, Ellipsoid(_) | Superellipsoid(_))
+    );
+    if needs_obb
+        && !crate::geometry::obb::boxes_overlap(
+            &a.obb_half_extents(),
+            &b.obb_half_extents(),
+            &rel.rotation,
+            &rel.translation,
+        )
+    {
+        return false;
+    }
     match (a, b) {
         (Sphere(p), Sphere(q)) => sphere_sphere::overlap(p, q, rel),
         (Cuboid(c), Sphere(s)) => cuboid_sphere::overlap(c, s, rel),
