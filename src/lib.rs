@@ -11,3 +11,17 @@ pub mod bench;
 pub mod geometry;
 pub mod mc;
 pub mod space;
+
+/// Deterministic numbers for unit tests, without a dependency.
+#[cfg(test)]
+pub(crate) mod test_support {
+    /// Uniform numbers in [0, 1) from a 64-bit LCG (Knuth's MMIX constants).
+    pub fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+}

@@ -94,6 +94,14 @@ fn main() -> ExitCode {
     }
 }
 
+/// Pretty JSON on standard output (the `--json` of every command).
+fn print_json(value: &impl serde::Serialize) {
+    println!(
+        "{}",
+        serde_json::to_string_pretty(value).expect("plain numbers serialise")
+    );
+}
+
 fn bad_input(message: impl std::fmt::Display) -> ExitCode {
     eprintln!("hardbody: {message}");
     ExitCode::from(EXIT_BAD_INPUT)
@@ -144,10 +152,7 @@ fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> ExitCode {
     }
     let e = excluded_volume(&sa, &sb, samples, seed);
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&e).expect("plain numbers serialise")
-        );
+        print_json(&e);
     } else {
         println!("shapes:          {sa} / {sb}");
         println!(
@@ -185,10 +190,7 @@ fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
     match result {
         Ok(rows) => {
             if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&rows).expect("plain numbers serialise")
-                );
+                print_json(&rows);
             } else {
                 println!(
                     "OCSI benchmark: {} configurations x {} sets per cuboid, L*, W* in {:?}, non-overlap target {}",
@@ -209,10 +211,7 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
     match hardbody::bench::mc::run(quick) {
         Ok(rows) => {
             if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&rows).expect("plain numbers serialise")
-                );
+                print_json(&rows);
             } else {
                 println!("| shape | N | phi | trial moves/s (median) | translate acceptance |");
                 println!("|---|---|---|---|---|");

@@ -237,13 +237,7 @@ mod tests {
         let axes =
             *Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::new(1.0, 2.0, 3.0)), 0.7)
                 .matrix();
-        let mut seed = 7u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = crate::test_support::uniform(7);
         let n = 4000;
         let (mut xs, mut ys, mut zs, mut rs) = (vec![], vec![], vec![], vec![]);
         for _ in 0..n {

@@ -586,13 +586,8 @@ mod tests {
     }
 
     fn check_support(q: &Superellipsoid) {
-        let mut rng = 12345u64;
-        let mut next = || {
-            rng = rng
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((rng >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut uniform = crate::test_support::uniform(12345);
+        let mut next = || 2.0 * uniform() - 1.0;
         for _ in 0..200 {
             let d = Vector3::new(next(), next(), next());
             let x = q.support(&d);

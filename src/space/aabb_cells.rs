@@ -167,13 +167,7 @@ mod tests {
     /// Every pair whose periodic AABBs intersect is found, after moves too.
     #[test]
     fn finds_every_pair_of_intersecting_boxes() {
-        let mut seed = 9u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = crate::test_support::uniform(9);
         let lengths = Vector3::new(10.0, 12.0, 9.0);
         let n = 150;
         let mut c: Vec<Vector3<f64>> = (0..n)

@@ -118,13 +118,8 @@ mod tests {
     /// Every pair closer than the range is found, in boxes of 1 to 5 cells.
     #[test]
     fn finds_every_pair_within_range() {
-        let mut seed = 3u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = crate::test_support::uniform(3);
+        let mut u = || uniform() - 0.5;
         for &len in &[2.5, 4.0, 5.5, 7.2] {
             let lengths = Vector3::new(len, len * 1.3, len * 0.9);
             let pos: Vec<Vector3<f64>> = (0..200)
