@@ -1,3 +1,4 @@
 //! Observables computed from the geometry layer.
 
+pub mod order;
 pub mod virial;
