@@ -123,8 +123,12 @@ pub struct System {
     particles: Vec<Particle>,
     /// Cached rotation matrices of the orientations.
     rotations: Vec<Matrix3<f64>>,
-    /// Bounding radius per species.
+    /// Bounding radius per species, and the largest.
     radii: Vec<f64>,
+    max_radius: f64,
+    /// Centres, contiguous (the hot loop reads only these); kept equal to
+    /// `particles[i].position`.
+    positions: Vec<V3>,
     /// OBB half-extents per species.
     obb: Vec<V3>,
     /// Lab-frame AABB half-extents per particle.
@@ -193,12 +197,15 @@ impl System {
             &positions,
             &aabb,
         );
+        let max_radius = radii.iter().cloned().fold(0.0, f64::max);
         let system = Self {
             box_,
             species,
             particles,
             rotations,
             radii,
+            max_radius,
+            positions: positions.clone(),
             obb,
             aabb,
             cells,
@@ -298,16 +305,17 @@ impl System {
         let si = self.particles[i].species as usize;
         let shape_i = &self.species[si].shape;
         let ri = self.radii[si];
-        let test = |j: usize| {
-            if j == i {
+        // The largest reach any partner could have: most candidates fail
+        // this before their species is even looked up.
+        let reach_max = ri + self.max_radius;
+        let test = |j: usize, d: &V3| {
+            let d2 = d.norm_squared();
+            if j == i || d2 > reach_max * reach_max {
                 return false;
             }
-            let pj = &self.particles[j];
-            let sj = pj.species as usize;
-            // Both centres lie within half a box of it: |d| < 3L/2.
-            let d = self.box_.minimum_image_near(&(pj.position - position));
+            let sj = self.particles[j].species as usize;
             let reach = ri + self.radii[sj];
-            if d.norm_squared() > reach * reach {
+            if d2 > reach * reach {
                 return false;
             }
             let shape_j = &self.species[sj].shape;
@@ -315,25 +323,28 @@ impl System {
                 return true; // within the sum of radii
             }
             let rel = Relative {
-                translation: rotation.tr_mul(&d),
+                translation: rotation.tr_mul(d),
                 rotation: rotation.tr_mul(&self.rotations[j]),
             };
             overlap(shape_i, shape_j, &rel)
         };
+        // Both centres lie within half a box of the box: |d| < 3L/2.
+        let separation = |j: usize| {
+            self.box_
+                .minimum_image_near(&(self.positions[j] - position))
+        };
         match &self.cells {
-            Neighbours::Cells(cells) => cells.any_near(position, test),
+            Neighbours::Cells(cells) => cells.any_near(position, |j| test(j, &separation(j))),
             Neighbours::Aabb(cells) => {
                 let h = aabb_half_extents(rotation, &self.obb[si]);
                 cells.any_near(position, &h, |j| {
                     // Disjoint AABBs (the registry is coarser than them).
-                    let d = self
-                        .box_
-                        .minimum_image_near(&(self.particles[j].position - position));
+                    let d = separation(j);
                     let hj = &self.aabb[j];
                     if (0..3).any(|k| d[k].abs() > h[k] + hj[k]) {
                         return false;
                     }
-                    test(j)
+                    test(j, &d)
                 })
             }
         }
@@ -373,8 +384,9 @@ impl System {
         orientation: UnitQuaternion<f64>,
         rotation: Matrix3<f64>,
     ) {
-        let position = self.box_.wrap(&position);
+        let position = self.box_.wrap_near(&position);
         self.particles[i].position = position;
+        self.positions[i] = position;
         self.particles[i].orientation = orientation;
         self.rotations[i] = rotation;
         let h = aabb_half_extents(&rotation, &self.obb[self.particles[i].species as usize]);
@@ -404,6 +416,7 @@ impl System {
             p.position = new_box.wrap(&p.position.component_mul(&factor));
         }
         let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
+        trial.positions.clone_from(&positions);
         trial.cells = Neighbours::build(
             self.use_aabb,
             self.aabb_width,

@@ -2,6 +2,10 @@
 //! the interaction range, so that every pair within range lies in the same
 //! or an adjacent cell. In a box fewer than three cells wide along an axis
 //! the neighbour cells repeat; they are deduplicated, never skipped.
+//!
+//! Storage is flat: each cell owns `capacity` slots of one array (no
+//! per-cell allocation, no pointer chasing in the 27-cell loop); when a cell
+//! overflows, the capacity doubles and everything is re-binned.
 
 use nalgebra::Vector3;
 
@@ -10,10 +14,14 @@ use nalgebra::Vector3;
 pub struct CellList {
     dims: [usize; 3],
     lengths: Vector3<f64>,
-    cells: Vec<Vec<u32>>,
+    capacity: usize,
+    slots: Vec<u32>,
+    counts: Vec<u32>,
     cell_of: Vec<u32>,
-    /// For each cell, the distinct cells within one step (itself included).
-    neighbours: Vec<Vec<u32>>,
+    /// For each cell, the distinct cells within one step (itself included),
+    /// 27 slots per cell, `neighbour_counts` of them used.
+    neighbours: Vec<u32>,
+    neighbour_counts: Vec<u8>,
 }
 
 impl CellList {
@@ -21,43 +29,75 @@ impl CellList {
     pub fn new(lengths: Vector3<f64>, range: f64, positions: &[Vector3<f64>]) -> Self {
         let dims = [0, 1, 2].map(|k| ((lengths[k] / range).floor() as usize).max(1));
         let count = dims[0] * dims[1] * dims[2];
-        let mut neighbours = Vec::with_capacity(count);
+        let mut neighbours = vec![0u32; 27 * count];
+        let mut neighbour_counts = vec![0u8; count];
         for c in 0..count {
             let (x, y, z) = (
                 c % dims[0],
                 (c / dims[0]) % dims[1],
                 c / (dims[0] * dims[1]),
             );
-            let mut list = Vec::with_capacity(27);
+            let list = &mut neighbours[27 * c..27 * c + 27];
+            let mut used = 0;
             for dz in [-1i64, 0, 1] {
                 for dy in [-1i64, 0, 1] {
                     for dx in [-1i64, 0, 1] {
                         let wrap = |v: usize, d: i64, n: usize| {
                             ((v as i64 + d).rem_euclid(n as i64)) as usize
                         };
-                        let n = wrap(x, dx, dims[0])
-                            + dims[0] * (wrap(y, dy, dims[1]) + dims[1] * wrap(z, dz, dims[2]));
-                        if !list.contains(&(n as u32)) {
-                            list.push(n as u32);
+                        let n = (wrap(x, dx, dims[0])
+                            + dims[0] * (wrap(y, dy, dims[1]) + dims[1] * wrap(z, dz, dims[2])))
+                            as u32;
+                        if !list[..used].contains(&n) {
+                            list[used] = n;
+                            used += 1;
                         }
                     }
                 }
             }
-            neighbours.push(list);
+            neighbour_counts[c] = used as u8;
         }
         let mut this = Self {
             dims,
             lengths,
-            cells: vec![Vec::new(); count],
-            cell_of: Vec::with_capacity(positions.len()),
+            capacity: 8,
+            slots: Vec::new(),
+            counts: vec![0; count],
+            cell_of: vec![0; positions.len()],
             neighbours,
+            neighbour_counts,
         };
-        for (i, p) in positions.iter().enumerate() {
-            let c = this.cell_index(p);
-            this.cells[c].push(i as u32);
-            this.cell_of.push(c as u32);
-        }
+        this.rebin(
+            positions
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i, this.cell_index(p)))
+                .collect(),
+        );
         this
+    }
+
+    /// Bins (particle, cell) pairs, growing the capacity until every cell fits.
+    fn rebin(&mut self, placed: Vec<(usize, usize)>) {
+        loop {
+            self.slots = vec![0; self.capacity * self.counts.len()];
+            self.counts.iter_mut().for_each(|c| *c = 0);
+            let mut fits = true;
+            for &(i, c) in &placed {
+                let k = self.counts[c] as usize;
+                if k == self.capacity {
+                    fits = false;
+                    break;
+                }
+                self.slots[c * self.capacity + k] = i as u32;
+                self.counts[c] += 1;
+                self.cell_of[i] = c as u32;
+            }
+            if fits {
+                return;
+            }
+            self.capacity *= 2;
+        }
     }
 
     /// Cells along each axis.
@@ -70,8 +110,13 @@ impl CellList {
     pub fn cell_index(&self, r: &Vector3<f64>) -> usize {
         let mut idx = [0usize; 3];
         for k in 0..3 {
-            let f = r[k] / self.lengths[k] + 0.5;
-            let f = f - f.floor();
+            let mut f = r[k] / self.lengths[k] + 0.5;
+            // One shift suffices for positions within a box of it.
+            if f < 0.0 {
+                f += 1.0;
+            } else if f >= 1.0 {
+                f -= 1.0;
+            }
             idx[k] = ((f * self.dims[k] as f64) as usize).min(self.dims[k] - 1);
         }
         idx[0] + self.dims[0] * (idx[1] + self.dims[1] * idx[2])
@@ -82,16 +127,37 @@ impl CellList {
     pub fn update(&mut self, i: usize, r: &Vector3<f64>) {
         let new = self.cell_index(r);
         let old = self.cell_of[i] as usize;
-        if new != old {
-            let cell = &mut self.cells[old];
-            let at = cell
-                .iter()
-                .position(|&j| j as usize == i)
-                .expect("particle in its cell");
-            cell.swap_remove(at);
-            self.cells[new].push(i as u32);
-            self.cell_of[i] = new as u32;
+        if new == old {
+            return;
         }
+        let base = old * self.capacity;
+        let n = self.counts[old] as usize;
+        let at = self.slots[base..base + n]
+            .iter()
+            .position(|&j| j as usize == i)
+            .expect("particle in its cell");
+        self.slots[base + at] = self.slots[base + n - 1];
+        self.counts[old] -= 1;
+        if self.counts[new] as usize == self.capacity {
+            let placed = (0..self.cell_of.len())
+                .map(|j| {
+                    (
+                        j,
+                        if j == i {
+                            new
+                        } else {
+                            self.cell_of[j] as usize
+                        },
+                    )
+                })
+                .collect();
+            self.capacity *= 2;
+            self.rebin(placed);
+            return;
+        }
+        self.slots[new * self.capacity + self.counts[new] as usize] = i as u32;
+        self.counts[new] += 1;
+        self.cell_of[i] = new as u32;
     }
 
     /// Calls `f` with every particle in the cells around `r` (including the
@@ -100,8 +166,10 @@ impl CellList {
     #[inline]
     pub fn any_near(&self, r: &Vector3<f64>, mut f: impl FnMut(usize) -> bool) -> bool {
         let c = self.cell_index(r);
-        for &n in &self.neighbours[c] {
-            for &j in &self.cells[n as usize] {
+        let used = self.neighbour_counts[c] as usize;
+        for &n in &self.neighbours[27 * c..27 * c + used] {
+            let base = n as usize * self.capacity;
+            for &j in &self.slots[base..base + self.counts[n as usize] as usize] {
                 if f(j as usize) {
                     return true;
                 }
@@ -110,7 +178,6 @@ impl CellList {
         false
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -133,6 +200,7 @@ mod tests {
                     false
                 });
                 let mut sorted = near.clone();
+                assert!(near.contains(&i), "a particle is not near itself");
                 sorted.sort();
                 sorted.dedup();
                 assert_eq!(sorted.len(), near.len(), "a particle listed twice");
@@ -151,5 +219,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Particles moved one by one (cells overflow and grow on the way) are
+    /// found where they now are and nowhere else.
+    #[test]
+    fn updates_follow_moves() {
+        let mut u = crate::test_support::uniform(8);
+        let lengths = Vector3::new(6.0, 6.0, 6.0);
+        let mut pos: Vec<Vector3<f64>> = (0..60)
+            .map(|_| Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 6.0)
+            .collect();
+        let mut cl = CellList::new(lengths, 1.0, &pos);
+        for step in 0..3000 {
+            let i = step % pos.len();
+            // Drift everything towards one corner so that cells overflow.
+            let mut p = pos[i] * 0.9 + Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 0.2;
+            for k in 0..3 {
+                if p[k] >= 3.0 {
+                    p[k] -= 6.0;
+                } else if p[k] < -3.0 {
+                    p[k] += 6.0;
+                }
+            }
+            pos[i] = p;
+            cl.update(i, &p);
+        }
+        for (i, p) in pos.iter().enumerate() {
+            let mut seen = 0;
+            cl.any_near(p, |j| {
+                seen += (j == i) as usize;
+                false
+            });
+            assert_eq!(seen, 1, "particle {i} listed {seen} times near itself");
+        }
+        assert!(cl.capacity > 8, "the test did not make any cell overflow");
     }
 }

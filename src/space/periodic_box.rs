@@ -60,6 +60,22 @@ impl PeriodicBox {
         r
     }
 
+    /// `r` wrapped into [−L/2, L/2) when it lies within a box of it (a
+    /// particle just moved): one compare-and-shift per axis.
+    #[inline]
+    pub fn wrap_near(&self, r: &Vector3<f64>) -> Vector3<f64> {
+        let mut w = *r;
+        for k in 0..3 {
+            let l = self.lengths[k];
+            if w[k] >= 0.5 * l {
+                w[k] -= l;
+            } else if w[k] < -0.5 * l {
+                w[k] += l;
+            }
+        }
+        w
+    }
+
     /// `r` wrapped into [−L/2, L/2).
     #[inline]
     pub fn wrap(&self, r: &Vector3<f64>) -> Vector3<f64> {
@@ -87,5 +103,7 @@ mod tests {
         assert!(PeriodicBox::new(Vector3::new(1.0, 0.0, 1.0)).is_err());
         let near = Vector3::new(13.0, -5.0, 2.9);
         assert!((b.minimum_image_near(&near) - b.minimum_image(&near)).norm() < 1e-12);
+        let moved = Vector3::new(5.5, -4.5, 2.0);
+        assert!((b.wrap_near(&moved) - b.wrap(&moved)).norm() < 1e-12);
     }
 }
