@@ -48,14 +48,14 @@ impl PeriodicBox {
     /// one compare-and-shift per axis instead of a rounding call.
     #[inline]
     pub fn minimum_image_near(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        // Branch-free: the shifts are selected, not jumped to (separations
+        // are random, so branches would mispredict).
         let mut r = *d;
         for k in 0..3 {
             let l = self.lengths[k];
-            if r[k] > 0.5 * l {
-                r[k] -= l;
-            } else if r[k] < -0.5 * l {
-                r[k] += l;
-            }
+            let up = if r[k] < -0.5 * l { l } else { 0.0 };
+            let down = if r[k] > 0.5 * l { l } else { 0.0 };
+            r[k] += up - down;
         }
         r
     }
