@@ -7,6 +7,7 @@
 
 pub mod compress;
 pub mod moves;
+pub mod parallel;
 pub mod tuning;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -299,6 +300,53 @@ impl System {
     /// Whether particle `i`, placed at `position` with rotation `rotation`,
     /// would overlap any other particle (periodic images included).
     pub fn overlaps_at(&self, i: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
+        self.overlaps_at_except(i, position, rotation, |j| j == i)
+    }
+
+    /// Whether particle `i` (its species), placed at `position` with
+    /// `rotation`, overlaps particle `j` placed at `position_j` with
+    /// `rotation_j`.
+    pub(crate) fn pair_overlaps(
+        &self,
+        i: usize,
+        position: &V3,
+        rotation: &Matrix3<f64>,
+        j: usize,
+        position_j: &V3,
+        rotation_j: &Matrix3<f64>,
+    ) -> bool {
+        if self.ideal {
+            return false;
+        }
+        let (si, sj) = (
+            self.particles[i].species as usize,
+            self.particles[j].species as usize,
+        );
+        let d = self.box_.minimum_image(&(position_j - position));
+        let reach = self.radii[si] + self.radii[sj];
+        if d.norm_squared() > reach * reach {
+            return false;
+        }
+        let (shape_i, shape_j) = (&self.species[si].shape, &self.species[sj].shape);
+        if shape_i.is_sphere() && shape_j.is_sphere() {
+            return true;
+        }
+        let rel = Relative {
+            translation: rotation.tr_mul(&d),
+            rotation: rotation.tr_mul(rotation_j),
+        };
+        overlap(shape_i, shape_j, &rel)
+    }
+
+    /// As [`System::overlaps_at`], ignoring every particle `j` for which
+    /// `skip(j)` holds (the particle itself always among them).
+    pub(crate) fn overlaps_at_except(
+        &self,
+        i: usize,
+        position: &V3,
+        rotation: &Matrix3<f64>,
+        skip: impl Fn(usize) -> bool,
+    ) -> bool {
         if self.ideal {
             return false;
         }
@@ -310,7 +358,7 @@ impl System {
         let reach_max = ri + self.max_radius;
         let test = |j: usize, d: &V3| {
             let d2 = d.norm_squared();
-            if j == i || d2 > reach_max * reach_max {
+            if d2 > reach_max * reach_max || skip(j) {
                 return false;
             }
             let sj = self.particles[j].species as usize;

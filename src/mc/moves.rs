@@ -23,7 +23,7 @@ impl Count {
     pub fn rate(&self) -> f64 {
         self.accepted as f64 / self.tried as f64
     }
-    fn record(&mut self, accepted: bool) {
+    pub(crate) fn record(&mut self, accepted: bool) {
         self.tried += 1;
         self.accepted += accepted as u64;
     }
@@ -125,27 +125,27 @@ pub fn sweep<R: Rng>(
     counts
 }
 
-/// Translation uniform in a cube of side `size` around the old position.
-pub fn translate<R: Rng>(system: &mut System, i: usize, size: f64, rng: &mut R) -> bool {
-    let p = system.particles[i];
-    let step = Vector3::new(
-        rng.r#gen::<f64>() - 0.5,
-        rng.r#gen::<f64>() - 0.5,
-        rng.r#gen::<f64>() - 0.5,
-    ) * size;
-    let position = p.position + step;
-    let rotation = system.rotations[i];
-    if system.overlaps_at(i, &position, &rotation) {
-        return false;
-    }
-    system.place(i, position, p.orientation, rotation);
-    true
+/// A point uniform in the cube of side `size` centred on `position`.
+pub fn propose_translation<R: Rng>(
+    position: &Vector3<f64>,
+    size: f64,
+    rng: &mut R,
+) -> Vector3<f64> {
+    position
+        + Vector3::new(
+            rng.r#gen::<f64>() - 0.5,
+            rng.r#gen::<f64>() - 0.5,
+            rng.r#gen::<f64>() - 0.5,
+        ) * size
 }
 
-/// Rotation about a uniformly random axis by an angle uniform in
+/// `orientation` turned about a uniformly random axis by an angle uniform in
 /// [−`max_angle`, `max_angle`] (a symmetric proposal).
-pub fn rotate<R: Rng>(system: &mut System, i: usize, max_angle: f64, rng: &mut R) -> bool {
-    let p = system.particles[i];
+pub fn propose_rotation<R: Rng>(
+    orientation: &UnitQuaternion<f64>,
+    max_angle: f64,
+    rng: &mut R,
+) -> UnitQuaternion<f64> {
     let axis = loop {
         let v = Vector3::new(
             rng.sample(StandardNormal),
@@ -157,7 +157,25 @@ pub fn rotate<R: Rng>(system: &mut System, i: usize, max_angle: f64, rng: &mut R
         }
     };
     let angle = max_angle * (2.0 * rng.r#gen::<f64>() - 1.0);
-    let orientation = UnitQuaternion::from_axis_angle(&axis, angle) * p.orientation;
+    UnitQuaternion::from_axis_angle(&axis, angle) * orientation
+}
+
+/// Translation uniform in a cube of side `size` around the old position.
+pub fn translate<R: Rng>(system: &mut System, i: usize, size: f64, rng: &mut R) -> bool {
+    let p = system.particles[i];
+    let position = propose_translation(&p.position, size, rng);
+    let rotation = system.rotations[i];
+    if system.overlaps_at(i, &position, &rotation) {
+        return false;
+    }
+    system.place(i, position, p.orientation, rotation);
+    true
+}
+
+/// Rotation about a uniformly random axis by a bounded angle.
+pub fn rotate<R: Rng>(system: &mut System, i: usize, max_angle: f64, rng: &mut R) -> bool {
+    let p = system.particles[i];
+    let orientation = propose_rotation(&p.orientation, max_angle, rng);
     let rotation = orientation.to_rotation_matrix().into_inner();
     if system.overlaps_at(i, &p.position, &rotation) {
         return false;

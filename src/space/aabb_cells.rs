@@ -7,7 +7,7 @@
 //! largest bounding sphere, which is what makes needles and 1:10 mixtures
 //! cheap.
 
-use std::cell::Cell;
+use std::cell::RefCell;
 
 use nalgebra::Vector3;
 
@@ -20,8 +20,12 @@ pub struct AabbCells {
     cells: Vec<Vec<u32>>,
     /// Per particle: the (unwrapped) first and last cell index per axis.
     spans: Vec<[[i64; 2]; 3]>,
-    stamps: Vec<Cell<u32>>,
-    stamp: Cell<u32>,
+}
+
+thread_local! {
+    /// Visit stamps per particle and the current stamp, per thread, so that
+    /// queries need no `&mut` and run from many threads at once.
+    static STAMPS: RefCell<(u32, Vec<u32>)> = const { RefCell::new((0, Vec::new())) };
 }
 
 impl AabbCells {
@@ -45,8 +49,6 @@ impl AabbCells {
             lengths,
             cells: vec![Vec::new(); dims[0] * dims[1] * dims[2]],
             spans: Vec::with_capacity(centres.len()),
-            stamps: (0..centres.len()).map(|_| Cell::new(0)).collect(),
-            stamp: Cell::new(0),
         };
         let mut cells = std::mem::take(&mut this.cells);
         for (i, (c, h)) in centres.iter().zip(half_extents).enumerate() {
@@ -122,32 +124,38 @@ impl AabbCells {
         h: &Vector3<f64>,
         mut f: impl FnMut(usize) -> bool,
     ) -> bool {
-        let stamp = self.stamp.get().wrapping_add(1);
-        self.stamp.set(stamp);
-        if stamp == 0 {
-            // Wrapped around: clear the stamps so none is mistaken as visited.
-            for s in &self.stamps {
-                s.set(u32::MAX);
+        STAMPS.with(|cell| {
+            let mut guard = cell.borrow_mut();
+            let (stamp, stamps) = &mut *guard;
+            if stamps.len() < self.spans.len() {
+                stamps.resize(self.spans.len(), 0);
             }
-        }
-        let span = self.span(c, h);
-        let mut found = false;
-        self.for_cells(&span, |cell| {
-            if found {
-                return;
+            *stamp = stamp.wrapping_add(1);
+            if *stamp == 0 {
+                // Wrapped around: clear, so that no particle looks visited.
+                stamps.iter_mut().for_each(|s| *s = 0);
+                *stamp = 1;
             }
-            for &j in &self.cells[cell] {
-                let s = &self.stamps[j as usize];
-                if s.get() != stamp {
-                    s.set(stamp);
-                    if f(j as usize) {
-                        found = true;
-                        return;
+            let current = *stamp;
+            let span = self.span(c, h);
+            let mut found = false;
+            self.for_cells(&span, |cell| {
+                if found {
+                    return;
+                }
+                for &j in &self.cells[cell] {
+                    let s = &mut stamps[j as usize];
+                    if *s != current {
+                        *s = current;
+                        if f(j as usize) {
+                            found = true;
+                            return;
+                        }
                     }
                 }
-            }
-        });
-        found
+            });
+            found
+        })
     }
 }
 
