@@ -322,7 +322,8 @@ impl System {
             self.particles[i].species as usize,
             self.particles[j].species as usize,
         );
-        let d = self.box_.minimum_image(&(position_j - position));
+        // Both positions lie in the box: |d| < 3L/2.
+        let d = self.box_.minimum_image_near(&(position_j - position));
         let reach = self.radii[si] + self.radii[sj];
         if d.norm_squared() > reach * reach {
             return false;
@@ -330,6 +331,16 @@ impl System {
         let (shape_i, shape_j) = (&self.species[si].shape, &self.species[sj].shape);
         if shape_i.is_sphere() && shape_j.is_sphere() {
             return true;
+        }
+        if self.use_aabb {
+            // Disjoint AABBs, as the AABB cells would have told.
+            let (hi, hj) = (
+                aabb_half_extents(rotation, &self.obb[si]),
+                aabb_half_extents(rotation_j, &self.obb[sj]),
+            );
+            if (0..3).any(|k| d[k].abs() > hi[k] + hj[k]) {
+                return false;
+            }
         }
         let rel = Relative {
             translation: rotation.tr_mul(&d),

@@ -44,12 +44,17 @@ struct Local {
     moved: bool,
 }
 
+/// Particles per checkerboard cell aimed at: enough that a cell's bookkeeping
+/// (its stream, its copies) is paid for by its moves; few enough that the
+/// same-cell pairs, tested directly, stay cheap.
+const PARTICLES_PER_CELL: f64 = 12.0;
+
 /// Cells per axis for the checkerboard: the largest even number whose cells
-/// are at least `range` wide, or `None` when fewer than two fit.
-fn grid(lengths: &V3, range: f64) -> Option<[usize; 3]> {
+/// are at least `width` wide, or `None` when fewer than two fit.
+fn grid(lengths: &V3, width: f64) -> Option<[usize; 3]> {
     let mut dims = [0usize; 3];
     for k in 0..3 {
-        let n = (lengths[k] / range).floor() as usize;
+        let n = (lengths[k] / width).floor() as usize;
         let even = n - n % 2;
         if even < 2 {
             return None;
@@ -71,7 +76,9 @@ pub fn parallel_sweep(
 ) -> Counts {
     let lengths = system.periodic_box().lengths();
     let mut master = stream(seed, sweep_index, u64::MAX, u64::MAX);
-    let Some(dims) = grid(&lengths, system.range) else {
+    let density = system.len() as f64 / lengths.product();
+    let width = system.range.max((PARTICLES_PER_CELL / density).cbrt());
+    let Some(dims) = grid(&lengths, width) else {
         return sweep(system, sizes, ensemble, &mut master);
     };
     let width = Vector3::new(
@@ -163,9 +170,16 @@ pub fn parallel_sweep(
                     };
                     // Confined to the cell; then no overlap with the cell's
                     // own particles (as they are now) or with the frozen rest.
+                    let reach = shared.radii[shared.particles[me.index].species as usize]
+                        + shared.max_radius;
                     let accepted = flat(cell_of(&position)) == c
                         && !local.iter().enumerate().any(|(m, o)| {
                             m != k
+                                && shared
+                                    .box_
+                                    .minimum_image_near(&(o.position - position))
+                                    .norm_squared()
+                                    <= reach * reach
                                 && shared.pair_overlaps(
                                     me.index,
                                     &position,
