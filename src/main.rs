@@ -112,19 +112,19 @@ fn bad_input(message: impl std::fmt::Display) -> ExitCode {
 fn run(scene: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> ExitCode {
     if let Some(scene) = scene {
         return bad_input(format!(
-            "cannot run {}: scenes and the MC/EDMD drivers are not implemented in this version ({}); \
-             only `virial` and `bench ocsi` work",
+            "cannot run {}: scenes, stages and the EDMD driver are not implemented in this version ({}); \
+             only `virial` and `bench` work",
             scene.display(),
             env!("CARGO_PKG_VERSION")
         ));
     }
     if out.is_some() {
         return bad_input(
-            "--out: this version writes no log (the drivers are not implemented yet)",
+            "--out: this version writes no log (scenes and logs are not implemented yet)",
         );
     }
     println!(
-        "hardbody {}: the Monte Carlo and EDMD drivers are not implemented yet, so no scene was simulated \
+        "hardbody {}: scenes, stages and the EDMD driver are not implemented yet (the Monte Carlo core exists only as a library), so no scene was simulated \
          and no log was written.",
         env!("CARGO_PKG_VERSION")
     );
