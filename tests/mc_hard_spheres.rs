@@ -172,3 +172,41 @@ fn ideal_gas_volume_moves_give_n_plus_one_over_p() {
     );
     assert!(se < 0.01 * exact);
 }
+
+/// NVT at φ = 0.3: the pressure from the scale distribution function agrees
+/// with Carnahan–Starling, βPσ³ = ρσ³ (1 + η + η² − η³)/(1 − η)³.
+#[test]
+fn nvt_sdf_pressure_follows_carnahan_starling() {
+    use hardbody::mc::sdf::Sdf;
+    let phi = 0.3;
+    let rho = 6.0 * phi / PI;
+    let cs = rho * (1.0 + phi + phi * phi - phi.powi(3)) / (1.0 - phi).powi(3);
+    let mut system = cubic_spheres(7, phi);
+    let mut rng = Pcg64::seed_from_u64(77);
+    let sizes = MoveSizes {
+        translate: 0.5,
+        rotate: 0.0,
+        volume: 0.0,
+    };
+    for _ in 0..2000 {
+        sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+    }
+    // Independent estimates from 10 blocks of configurations.
+    let mut estimates = Vec::new();
+    for _ in 0..10 {
+        let mut sdf = Sdf::new(0.02, 200);
+        for _ in 0..100 {
+            for _ in 0..10 {
+                sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+            }
+            sdf.add(&system);
+        }
+        estimates.push(sdf.pressure().unwrap());
+    }
+    let (mean, se) = mean_and_error(&estimates);
+    eprintln!("NVT phi = 0.3: SDF betaP = {mean:.4} ± {se:.4}, Carnahan–Starling {cs:.4}");
+    assert!(
+        (mean - cs).abs() < 3.0 * se && (mean - cs).abs() < 0.02 * cs,
+        "SDF βP = {mean} ± {se}, CS {cs}"
+    );
+}
