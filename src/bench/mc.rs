@@ -148,3 +148,113 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
     }
     Ok(rows)
 }
+
+/// One compression of the benchmark.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CompressRow {
+    /// Species, in the scene spelling, with counts.
+    pub shape: String,
+    /// Particles.
+    pub n: usize,
+    /// Packing fraction reached (the target).
+    pub packing_fraction: f64,
+    /// Sweeps it took.
+    pub sweeps: u64,
+    /// Wall-clock seconds it took.
+    pub seconds: f64,
+    /// Threads used.
+    pub threads: usize,
+}
+
+/// Compresses dilute lattices (random orientations) to the targets of the
+/// MC acceptance list: spheres and ellipsoids of aspect 2 and 0.5 to 0.55,
+/// cubes to 0.60, a cuboid–sphere mixture to 0.45. `quick` uses 64
+/// particles instead of 216–343.
+pub fn compression(quick: bool) -> Result<Vec<CompressRow>, String> {
+    use crate::analysis::virial::random_rotation;
+    use crate::mc::compress::{CompressOptions, compress};
+    let cases: [(&str, &[&str], f64); 5] = [
+        ("spheres", &["Sphere(radius: 0.5)"], 0.55),
+        (
+            "prolate ellipsoids",
+            &["Ellipsoid(a: 1.0, b: 0.5, c: 0.5)"],
+            0.55,
+        ),
+        (
+            "oblate ellipsoids",
+            &["Ellipsoid(a: 0.5, b: 1.0, c: 1.0)"],
+            0.55,
+        ),
+        ("cubes", &["Cuboid(a: 0.5, b: 0.5, c: 0.5)"], 0.60),
+        (
+            "cuboids + spheres",
+            &["Cuboid(a: 0.5, b: 1.0, c: 1.5)", "Sphere(radius: 0.4)"],
+            0.45,
+        ),
+    ];
+    let mut rows = Vec::new();
+    for (name, shapes, target) in cases {
+        let species: Vec<Species> = shapes
+            .iter()
+            .map(|s| {
+                let shape: Shape = s.parse().expect("built-in shape");
+                Species {
+                    name: name.into(),
+                    shape,
+                    rotation: !shape.is_sphere(),
+                }
+            })
+            .collect();
+        let n = if quick {
+            4
+        } else if name == "spheres" {
+            7
+        } else {
+            6
+        };
+        let mut rng = Pcg64::seed_from_u64(3);
+        let largest = species
+            .iter()
+            .map(|s| s.shape.bounding_radius())
+            .fold(0.0, f64::max);
+        let volume: f64 = (0..n * n * n)
+            .map(|i| species[i % species.len()].shape.volume())
+            .sum();
+        let spacing = (2.0 * largest * 1.001).max((volume / 0.1).cbrt() / n as f64);
+        let len = spacing * n as f64;
+        let particles = (0..n * n * n)
+            .map(|i| Particle {
+                position: Vector3::new((i % n) as f64, ((i / n) % n) as f64, (i / (n * n)) as f64)
+                    * spacing
+                    - Vector3::repeat(len / 2.0),
+                orientation: random_rotation(&mut rng),
+                species: (i % species.len()) as u16,
+            })
+            .collect();
+        let box_ = PeriodicBox::new(Vector3::repeat(len)).map_err(|e| e.to_string())?;
+        let mut system = System::new(box_, species, particles).map_err(|e| e.to_string())?;
+        let sizes = MoveSizes {
+            translate: 0.3,
+            rotate: 0.3,
+            volume: 0.0,
+        };
+        let start = Instant::now();
+        let report = compress(&mut system, sizes, &CompressOptions::to(target), &mut rng)
+            .map_err(|e| format!("{name}: {e}"))?;
+        let seconds = start.elapsed().as_secs_f64();
+        if let Some((i, j)) = system.first_overlap_all_pairs() {
+            return Err(format!(
+                "{name}: particles {i} and {j} overlap after compression"
+            ));
+        }
+        rows.push(CompressRow {
+            shape: shapes.join(" + "),
+            n: system.len(),
+            packing_fraction: system.packing_fraction(),
+            sweeps: report.sweeps,
+            seconds,
+            threads: 1,
+        });
+    }
+    Ok(rows)
+}
