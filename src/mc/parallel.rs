@@ -104,13 +104,23 @@ pub fn parallel_sweep(
     };
     let flat = |c: [usize; 3]| c[0] + dims[0] * (c[1] + dims[1] * c[2]);
     let n_cells = dims[0] * dims[1] * dims[2];
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n_cells];
-    let mut home = vec![0usize; system.len()];
-    for (i, p) in system.particles().iter().enumerate() {
-        let c = flat(cell_of(&p.position));
-        members[c].push(i);
-        home[i] = c;
+    // Cell members by counting sort: `order[start[c]..start[c + 1]]` are the
+    // particles of cell c (one allocation per sweep, not one per cell).
+    let home: Vec<usize> = system.positions.iter().map(|r| flat(cell_of(r))).collect();
+    let mut start = vec![0usize; n_cells + 1];
+    for &c in &home {
+        start[c + 1] += 1;
     }
+    for c in 0..n_cells {
+        start[c + 1] += start[c];
+    }
+    let mut order = vec![0usize; home.len()];
+    let mut fill = start.clone();
+    for (i, &c) in home.iter().enumerate() {
+        order[fill[c]] = i;
+        fill[c] += 1;
+    }
+    let members = |c: usize| &order[start[c]..start[c + 1]];
     let mut colours: Vec<u64> = (0..8).collect();
     colours.shuffle(&mut master);
     let mut counts = Counts::default();
@@ -124,14 +134,14 @@ pub fn parallel_sweep(
                 );
                 ((x % 2) | (y % 2) << 1 | (z % 2) << 2) as u64 == colour
             })
-            .filter(|&c| !members[c].is_empty())
+            .filter(|&c| !members(c).is_empty())
             .collect();
         let shared: &System = system;
         let results: Vec<(Vec<Local>, Counts)> = active
             .par_iter()
             .map(|&c| {
                 let mut rng = stream(seed, sweep_index, colour, c as u64);
-                let mut local: Vec<Local> = members[c]
+                let mut local: Vec<Local> = members(c)
                     .iter()
                     .map(|&i| {
                         let p = &shared.particles[i];
