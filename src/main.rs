@@ -234,12 +234,17 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
         );
         print_json(&all);
     } else {
-        println!("| shape | N | phi | trial moves/s (median) | translate acceptance |");
-        println!("|---|---|---|---|---|");
+        println!("| shape | N | phi | threads | trial moves/s (median) | translate acceptance |");
+        println!("|---|---|---|---|---|---|");
         for r in &moves {
             println!(
-                "| {} | {} | {:.3} | {:.3e} | {:.2} |",
-                r.shape, r.n, r.packing_fraction, r.trial_moves_per_s, r.acceptance_translate
+                "| {} | {} | {:.3} | {} | {:.3e} | {:.2} |",
+                r.shape,
+                r.n,
+                r.packing_fraction,
+                r.threads,
+                r.trial_moves_per_s,
+                r.acceptance_translate
             );
         }
         println!();

@@ -16,6 +16,7 @@ use rand_pcg::Pcg64;
 
 use crate::geometry::Shape;
 use crate::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
+use crate::mc::parallel::parallel_sweep;
 use crate::mc::tuning::Tuner;
 use crate::mc::{McError, Particle, Species, System};
 use crate::space::PeriodicBox;
@@ -97,7 +98,8 @@ pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, McError>
     System::new(box_, species, particles)
 }
 
-/// Times NVT sweeps of each shape; `quick` uses N ≈ 1400 and fewer sweeps.
+/// Times NVT sweeps of each shape, serial and (with more than one rayon
+/// thread) checkerboard; `quick` uses N ≈ 1400 and fewer sweeps.
 pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
     let shapes = [
         "Sphere(radius: 0.5)",
@@ -145,6 +147,34 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
             acceptance_translate: counts.translate.rate(),
             threads: 1,
         });
+        // The checkerboard sweep on all of rayon's threads, same sizes,
+        // interleaved with nothing else: the speed-up is the ratio of the
+        // two rows.
+        let threads = rayon::current_num_threads();
+        if threads > 1 {
+            let mut rates = Vec::new();
+            let mut counts = Counts::default();
+            let mut index = 0;
+            for _ in 0..repeats {
+                let start = Instant::now();
+                for _ in 0..sweeps {
+                    counts += parallel_sweep(&mut system, &sizes, &Ensemble::Nvt, 17, index);
+                    index += 1;
+                }
+                rates.push((sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
+            }
+            if let Some((i, j)) = system.first_overlap_all_pairs() {
+                return Err(McError::Overlap(i, j));
+            }
+            rows.push(McRow {
+                shape: text.into(),
+                n: system.len(),
+                packing_fraction: system.packing_fraction(),
+                trial_moves_per_s: super::ocsi::median(&mut rates),
+                acceptance_translate: counts.translate.rate(),
+                threads,
+            });
+        }
     }
     Ok(rows)
 }
