@@ -77,7 +77,8 @@ impl Neighbours {
     /// The structure the species call for, with the reason.
     fn plan(species: &[Species]) -> (bool, f64) {
         let radii: Vec<f64> = species.iter().map(|s| s.shape.bounding_radius()).collect();
-        let range = 2.0 * radii.iter().cloned().fold(0.0, f64::max);
+        let max_radius = radii.iter().cloned().fold(0.0, f64::max);
+        let range = 2.0 * max_radius;
         let smallest = radii.iter().cloned().fold(f64::INFINITY, f64::min);
         let thickness = species
             .iter()
@@ -169,7 +170,8 @@ impl System {
             })
             .collect();
         let radii: Vec<f64> = species.iter().map(|s| s.shape.bounding_radius()).collect();
-        let range = 2.0 * radii.iter().cloned().fold(0.0, f64::max);
+        let max_radius = radii.iter().cloned().fold(0.0, f64::max);
+        let range = 2.0 * max_radius;
         let particles: Vec<Particle> = particles
             .into_iter()
             .map(|p| Particle {
@@ -177,13 +179,12 @@ impl System {
                 ..p
             })
             .collect();
-        let rotations = particles
+        let rotations: Vec<Matrix3<f64>> = particles
             .iter()
             .map(|p| p.orientation.to_rotation_matrix().into_inner())
             .collect();
         Self::check_box(&box_, range)?;
         let obb: Vec<V3> = species.iter().map(|s| s.shape.obb_half_extents()).collect();
-        let rotations: Vec<Matrix3<f64>> = rotations;
         let aabb: Vec<V3> = particles
             .iter()
             .zip(&rotations)
@@ -199,7 +200,6 @@ impl System {
             &positions,
             &aabb,
         );
-        let max_radius = radii.iter().cloned().fold(0.0, f64::max);
         let system = Self {
             box_,
             species,
@@ -207,7 +207,7 @@ impl System {
             rotations,
             radii,
             max_radius,
-            positions: positions.clone(),
+            positions,
             obb,
             aabb,
             cells,
