@@ -3,51 +3,21 @@
 //! cuboid–sphere mixture; the end state is checked by the independent
 //! all-pairs test. Parameters that cannot work are errors.
 
-use hardbody::analysis::virial::random_rotation;
 use hardbody::geometry::Shape;
 use hardbody::mc::compress::{CompressError, CompressOptions, compress};
 use hardbody::mc::moves::MoveSizes;
-use hardbody::mc::{Particle, Species, System};
-use hardbody::space::PeriodicBox;
-use nalgebra::Vector3;
+use hardbody::mc::{Species, System};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
-/// n³ particles on a cubic lattice of spacing at least 2 × the largest
-/// bounding radius (so no orientation overlaps) and dilute (φ ≤ 0.1),
-/// species assigned by `species_of`.
 fn dilute_lattice(
     n: usize,
     species: Vec<Species>,
     species_of: impl Fn(usize) -> u16,
     seed: u64,
 ) -> System {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let largest = species
-        .iter()
-        .map(|s| s.shape.bounding_radius())
-        .fold(0.0, f64::max);
-    let volume: f64 = (0..n * n * n)
-        .map(|i| species[species_of(i) as usize].shape.volume())
-        .sum();
-    let spacing = (2.0 * largest * 1.001).max((volume / 0.1).cbrt() / n as f64);
-    let len = spacing * n as f64;
-    let mut particles = Vec::new();
-    for i in 0..n * n * n {
-        let (x, y, z) = (i % n, (i / n) % n, i / (n * n));
-        particles.push(Particle {
-            position: Vector3::new(x as f64, y as f64, z as f64) * spacing
-                - Vector3::repeat(len / 2.0),
-            orientation: random_rotation(&mut rng),
-            species: species_of(i),
-        });
-    }
-    System::new(
-        PeriodicBox::new(Vector3::repeat(len)).unwrap(),
-        species,
-        particles,
-    )
-    .unwrap()
+    hardbody::mc::start::dilute_lattice(n, species, species_of, &mut Pcg64::seed_from_u64(seed))
+        .unwrap()
 }
 
 fn one(name: &str, shape: &str) -> Vec<Species> {

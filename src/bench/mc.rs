@@ -201,7 +201,6 @@ pub struct CompressRow {
 /// cubes to 0.60, a cuboid–sphere mixture to 0.45. `quick` uses 64
 /// particles instead of 216–343.
 pub fn compression(quick: bool) -> Result<Vec<CompressRow>, String> {
-    use crate::analysis::virial::random_rotation;
     use crate::mc::compress::{CompressOptions, compress};
     let cases: [(&str, &[&str], f64); 5] = [
         ("spheres", &["Sphere(radius: 0.5)"], 0.55),
@@ -243,26 +242,10 @@ pub fn compression(quick: bool) -> Result<Vec<CompressRow>, String> {
             6
         };
         let mut rng = Pcg64::seed_from_u64(3);
-        let largest = species
-            .iter()
-            .map(|s| s.shape.bounding_radius())
-            .fold(0.0, f64::max);
-        let volume: f64 = (0..n * n * n)
-            .map(|i| species[i % species.len()].shape.volume())
-            .sum();
-        let spacing = (2.0 * largest * 1.001).max((volume / 0.1).cbrt() / n as f64);
-        let len = spacing * n as f64;
-        let particles = (0..n * n * n)
-            .map(|i| Particle {
-                position: Vector3::new((i % n) as f64, ((i / n) % n) as f64, (i / (n * n)) as f64)
-                    * spacing
-                    - Vector3::repeat(len / 2.0),
-                orientation: random_rotation(&mut rng),
-                species: (i % species.len()) as u16,
-            })
-            .collect();
-        let box_ = PeriodicBox::new(Vector3::repeat(len)).map_err(|e| e.to_string())?;
-        let mut system = System::new(box_, species, particles).map_err(|e| e.to_string())?;
+        let kinds = species.len();
+        let mut system =
+            crate::mc::start::dilute_lattice(n, species, |i| (i % kinds) as u16, &mut rng)
+                .map_err(|e| e.to_string())?;
         let sizes = MoveSizes {
             translate: 0.3,
             rotate: 0.3,

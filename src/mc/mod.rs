@@ -9,6 +9,7 @@ pub mod compress;
 pub mod moves;
 pub mod parallel;
 pub mod sdf;
+pub mod start;
 pub mod tuning;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
