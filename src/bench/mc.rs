@@ -126,57 +126,66 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
             let c = sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
             tuner.update(&mut sizes, &c);
         }
-        let mut rates = Vec::new();
-        let mut counts = Counts::default();
-        for _ in 0..repeats {
-            let start = Instant::now();
-            for _ in 0..sweeps {
-                counts += sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
-            }
-            let moves = (sweeps * system.len()) as f64;
-            rates.push(moves / start.elapsed().as_secs_f64());
-        }
-        if let Some((i, j)) = system.first_overlap_all_pairs() {
-            return Err(McError::Overlap(i, j));
-        }
-        rows.push(McRow {
-            shape: text.into(),
-            n: system.len(),
-            packing_fraction: system.packing_fraction(),
-            trial_moves_per_s: super::ocsi::median(&mut rates),
-            acceptance_translate: counts.translate.rate(),
-            threads: 1,
-        });
+        rows.push(timed_row(
+            text,
+            &mut system,
+            repeats,
+            sweeps,
+            1,
+            |system| sweep(system, &sizes, &Ensemble::Nvt, &mut rng),
+        )?);
         // The checkerboard sweep on all of rayon's threads, same sizes,
         // interleaved with nothing else: the speed-up is the ratio of the
         // two rows.
         let threads = rayon::current_num_threads();
         if threads > 1 {
-            let mut rates = Vec::new();
-            let mut counts = Counts::default();
             let mut index = 0;
-            for _ in 0..repeats {
-                let start = Instant::now();
-                for _ in 0..sweeps {
-                    counts += parallel_sweep(&mut system, &sizes, &Ensemble::Nvt, 17, index);
-                    index += 1;
-                }
-                rates.push((sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
-            }
-            if let Some((i, j)) = system.first_overlap_all_pairs() {
-                return Err(McError::Overlap(i, j));
-            }
-            rows.push(McRow {
-                shape: text.into(),
-                n: system.len(),
-                packing_fraction: system.packing_fraction(),
-                trial_moves_per_s: super::ocsi::median(&mut rates),
-                acceptance_translate: counts.translate.rate(),
+            rows.push(timed_row(
+                text,
+                &mut system,
+                repeats,
+                sweeps,
                 threads,
-            });
+                |system| {
+                    index += 1;
+                    parallel_sweep(system, &sizes, &Ensemble::Nvt, 17, index - 1)
+                },
+            )?);
         }
     }
     Ok(rows)
+}
+
+/// Times `repeats` × `sweeps` calls of `step` and checks the end state by
+/// all pairs: the median rate as a row.
+fn timed_row(
+    shape: &str,
+    system: &mut System,
+    repeats: usize,
+    sweeps: usize,
+    threads: usize,
+    mut step: impl FnMut(&mut System) -> Counts,
+) -> Result<McRow, McError> {
+    let mut rates = Vec::new();
+    let mut counts = Counts::default();
+    for _ in 0..repeats {
+        let start = Instant::now();
+        for _ in 0..sweeps {
+            counts += step(system);
+        }
+        rates.push((sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
+    }
+    if let Some((i, j)) = system.first_overlap_all_pairs() {
+        return Err(McError::Overlap(i, j));
+    }
+    Ok(McRow {
+        shape: shape.into(),
+        n: system.len(),
+        packing_fraction: system.packing_fraction(),
+        trial_moves_per_s: super::ocsi::median(&mut rates),
+        acceptance_translate: counts.translate.rate(),
+        threads,
+    })
 }
 
 /// One compression of the benchmark.
