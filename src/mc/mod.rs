@@ -224,15 +224,15 @@ impl System {
             if system.overlaps_at(i, &p.position, &system.rotations[i]) {
                 let j = (0..system.len())
                     .find(|&j| {
-                        j != i && {
-                            let q = &system.particles[j];
-                            let d = system.box_.minimum_image(&(q.position - p.position));
-                            overlap(
-                                &system.species[p.species as usize].shape,
-                                &system.species[q.species as usize].shape,
-                                &Relative::new(&d, &p.orientation, &q.orientation),
+                        j != i
+                            && system.pair_overlaps(
+                                i,
+                                &p.position,
+                                &system.rotations[i],
+                                j,
+                                &system.positions[j],
+                                &system.rotations[j],
                             )
-                        }
                     })
                     .unwrap_or(i);
                 return Err(McError::Overlap(i.min(j), i.max(j)));
@@ -498,5 +498,61 @@ impl System {
         }
         *self = trial;
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere_at(x: f64) -> Particle {
+        Particle {
+            position: V3::new(x, 0.0, 0.0),
+            orientation: UnitQuaternion::identity(),
+            species: 0,
+        }
+    }
+
+    #[test]
+    fn construction_names_the_overlapping_pair_and_bad_input() {
+        let species = vec![Species {
+            name: "s".into(),
+            shape: "Sphere(radius: 0.5)".parse().unwrap(),
+            rotation: false,
+        }];
+        let box_ = PeriodicBox::new(V3::repeat(6.0)).unwrap();
+        let particles = vec![
+            sphere_at(-2.0),
+            sphere_at(0.0),
+            sphere_at(2.0),
+            sphere_at(2.9),
+        ];
+        assert_eq!(
+            System::new(box_, species.clone(), particles).unwrap_err(),
+            McError::Overlap(2, 3)
+        );
+        // Across the periodic boundary: −2.95 and 2.9 are 0.15 apart.
+        let particles = vec![sphere_at(-2.95), sphere_at(0.0), sphere_at(2.9)];
+        assert_eq!(
+            System::new(box_, species.clone(), particles).unwrap_err(),
+            McError::Overlap(0, 2)
+        );
+        assert_eq!(
+            System::new(box_, species.clone(), vec![]).unwrap_err(),
+            McError::Empty
+        );
+        let stray = Particle {
+            species: 3,
+            ..sphere_at(0.0)
+        };
+        assert_eq!(
+            System::new(box_, species.clone(), vec![stray]).unwrap_err(),
+            McError::UnknownSpecies(0, 3, 1)
+        );
+        let small = PeriodicBox::new(V3::repeat(1.5)).unwrap();
+        assert!(matches!(
+            System::new(small, species, vec![sphere_at(0.0)]),
+            Err(McError::BoxTooSmall { .. })
+        ));
     }
 }
