@@ -8,6 +8,7 @@
 
 pub mod analysis;
 pub mod bench;
+pub mod edmd;
 pub mod geometry;
 pub mod mc;
 pub mod space;

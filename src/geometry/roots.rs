@@ -149,3 +149,94 @@ mod brent_tests {
         assert!((x - 1.0).abs() < 1e-10);
     }
 }
+
+/// A sign change of `f` narrowed down: `f(lo) > 0 > f(hi)` on entry,
+/// `f(lo) ≥ 0 > f(hi)` on return. Stops when `f(lo) ≤ tol` (the point just before the root, where
+/// `f` is still non-negative), when the bracket is as narrow as floating
+/// point allows, or after `max_evals` evaluations. Illinois regula falsi
+/// (superlinear on smooth `f`) with a bisection whenever an interpolated
+/// point would shrink the bracket by less than half.
+///
+/// Returns `(lo, f(lo), hi, f(hi), evaluations)`.
+pub fn narrow_sign_change(
+    mut f: impl FnMut(f64) -> f64,
+    (mut lo, mut f_lo): (f64, f64),
+    (mut hi, mut f_hi): (f64, f64),
+    tol: f64,
+    max_evals: u32,
+) -> (f64, f64, f64, f64, u32) {
+    debug_assert!(f_lo > 0.0 && f_hi < 0.0 && lo < hi);
+    let mut evals = 0;
+    // Which end was kept last time (Illinois halves its value if kept twice).
+    let mut kept = 0i8;
+    while f_lo > tol && evals < max_evals {
+        let width = hi - lo;
+        if width <= 4.0 * f64::EPSILON * lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE) {
+            break;
+        }
+        let (mut wl, mut wh) = (f_lo, f_hi);
+        if kept == 1 {
+            wh *= 0.5;
+        } else if kept == -1 {
+            wl *= 0.5;
+        }
+        let mut t = lo + width * wl / (wl - wh);
+        if !(t > lo && t < hi) {
+            t = 0.5 * (lo + hi);
+        }
+        let ft = f(t);
+        evals += 1;
+        if ft >= 0.0 {
+            lo = t;
+            f_lo = ft;
+            kept = if kept == 1 { 2 } else { 1 };
+        } else {
+            hi = t;
+            f_hi = ft;
+            kept = if kept == -1 { -2 } else { -1 };
+        }
+        // A point kept twice in a row: bisect once to guarantee progress.
+        if kept.abs() == 2 && f_lo > tol {
+            let m = 0.5 * (lo + hi);
+            let fm = f(m);
+            evals += 1;
+            if fm >= 0.0 {
+                lo = m;
+                f_lo = fm;
+            } else {
+                hi = m;
+                f_hi = fm;
+            }
+            kept = 0;
+        }
+    }
+    (lo, f_lo, hi, f_hi, evals)
+}
+
+#[cfg(test)]
+mod sign_change_tests {
+    use super::*;
+
+    /// Finds the point just before the root of smooth, steep and flat
+    /// functions, always keeping the bracket.
+    #[test]
+    fn narrows_to_the_root_from_above() {
+        type Case = (fn(f64) -> f64, f64);
+        let cases: [Case; 3] = [
+            (|t| 1.0 - t * t, 1.0),
+            (|t| (0.3 - t).powi(3), 0.3),
+            (|t| (-(t - 0.7)).tanh() * 1e-3, 0.7),
+        ];
+        for (f, root) in cases {
+            let (lo, flo, hi, fhi, evals) =
+                narrow_sign_change(f, (0.0, f(0.0)), (2.0, f(2.0)), 1e-14, 200);
+            assert!(flo >= 0.0 && fhi < 0.0 && lo < hi, "{flo} {fhi} {lo} {hi}");
+            assert!(lo <= root && hi >= root, "{lo} {hi} vs {root}");
+            assert!(
+                flo <= 1e-14 || hi - lo < 1e-14,
+                "{flo} {lo} {hi} after {evals}"
+            );
+            assert!(evals < 200);
+        }
+    }
+}

@@ -122,10 +122,62 @@ impl CellList {
         idx[0] + self.dims[0] * (idx[1] + self.dims[1] * idx[2])
     }
 
+    /// The cell at integer coordinates `c` (each below its `dims`).
+    #[inline]
+    pub fn index_of(&self, c: [usize; 3]) -> usize {
+        c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
+    }
+
+    /// The integer coordinates of cell `cell`.
+    #[inline]
+    pub fn coords_of(&self, cell: usize) -> [usize; 3] {
+        [
+            cell % self.dims[0],
+            (cell / self.dims[0]) % self.dims[1],
+            cell / (self.dims[0] * self.dims[1]),
+        ]
+    }
+
+    /// Cell edge lengths (the box divided by `dims`).
+    pub fn cell_lengths(&self) -> Vector3<f64> {
+        Vector3::new(
+            self.lengths.x / self.dims[0] as f64,
+            self.lengths.y / self.dims[1] as f64,
+            self.lengths.z / self.dims[2] as f64,
+        )
+    }
+
+    /// The cell particle `i` is listed in.
+    #[inline]
+    pub fn cell_of(&self, i: usize) -> usize {
+        self.cell_of[i] as usize
+    }
+
+    /// The distinct cells within one step of `cell`, itself included.
+    #[inline]
+    pub fn neighbour_cells(&self, cell: usize) -> &[u32] {
+        &self.neighbours[27 * cell..27 * cell + self.neighbour_counts[cell] as usize]
+    }
+
+    /// The particles listed in `cell`.
+    #[inline]
+    pub fn members(&self, cell: usize) -> &[u32] {
+        let base = cell * self.capacity;
+        &self.slots[base..base + self.counts[cell] as usize]
+    }
+
     /// Records that particle `i` now sits at `r`.
     #[inline]
     pub fn update(&mut self, i: usize, r: &Vector3<f64>) {
         let new = self.cell_index(r);
+        self.move_to(i, new);
+    }
+
+    /// Lists particle `i` in cell `new` (event-driven dynamics moves
+    /// particles between cells at their crossing events, not by position,
+    /// so that round-off at a boundary cannot disagree with the calendar).
+    #[inline]
+    pub fn move_to(&mut self, i: usize, new: usize) {
         let old = self.cell_of[i] as usize;
         if new == old {
             return;

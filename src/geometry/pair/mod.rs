@@ -246,6 +246,19 @@ pub fn distance(
     }
 }
 
+/// The centre–centre distance at which `a` and `b` touch, where it does not
+/// depend on their orientations (two spheres): the event-driven driver then
+/// predicts their contact in closed form
+/// ([`sphere_sphere::contact_time`]).
+pub fn contact_sum(a: &Shape, b: &Shape) -> Option<f64> {
+    match (a, b) {
+        (Shape::Sphere(p), Shape::Sphere(q)) => Some(p.radius() + q.radius()),
+        _ => None,
+    }
+}
+
+pub use sphere_sphere::contact_time as sphere_contact_time;
+
 /// The overlap test by GJK on support points alone, for any pair: the
 /// independent second method the tests compare the pair kernels with.
 pub fn overlap_by_gjk(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {

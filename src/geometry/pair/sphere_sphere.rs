@@ -27,3 +27,49 @@ pub fn distance(a: &Sphere, b: &Sphere, rel: &Relative) -> Contact {
         warm_start: None,
     }
 }
+
+/// The earliest time t ≥ 0 at which two spheres with contact distance
+/// `sigma` = R_A + R_B touch, their separation being `d + v t` (`d` = r_B −
+/// r_A, `v` = v_B − v_A); `None` if they do not approach or miss. A pair
+/// already touching or overlapping by round-off and approaching gives 0.
+///
+/// |d + v t|² = σ² gives t = (−b − √(b² − v² c)) / v² with b = d·v,
+/// c = |d|² − σ²; written as c / (−b + √(b² − v² c)), which does not
+/// cancel when the pair is close (c small).
+#[inline]
+pub fn contact_time(d: &Vector3<f64>, v: &Vector3<f64>, sigma: f64) -> Option<f64> {
+    let b = d.dot(v);
+    if b >= 0.0 {
+        return None;
+    }
+    let c = d.norm_squared() - sigma * sigma;
+    let v2 = v.norm_squared();
+    let disc = b * b - v2 * c;
+    if disc < 0.0 {
+        return None;
+    }
+    Some((c / (-b + disc.sqrt())).max(0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Head-on and oblique approaches touch exactly at the predicted time;
+    /// receding and missing pairs never do.
+    #[test]
+    fn contact_time_is_exact() {
+        let sigma = 1.5;
+        let d = Vector3::new(3.0, 0.4, 0.0);
+        let v = Vector3::new(-1.0, 0.0, 0.0);
+        let t = contact_time(&d, &v, sigma).unwrap();
+        assert!(((d + v * t).norm() - sigma).abs() < 1e-14);
+        assert!((t - (3.0 - (sigma * sigma - 0.16f64).sqrt())).abs() < 1e-14);
+        assert_eq!(contact_time(&d, &-v, sigma), None);
+        let miss = Vector3::new(3.0, 1.6, 0.0);
+        assert_eq!(contact_time(&miss, &v, sigma), None);
+        // Overlapping by round-off and approaching: now.
+        let touching = Vector3::new(sigma * (1.0 - 1e-15), 0.0, 0.0);
+        assert_eq!(contact_time(&touching, &v, sigma), Some(0.0));
+    }
+}

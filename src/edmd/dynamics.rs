@@ -1,0 +1,778 @@
+//! The event loop (De Michele Sec. 2.7): bodies move freely and lazily
+//! (each keeps the time its stored pose belongs to), the calendar yields the
+//! next collision or cell crossing, and only the bodies involved are
+//! advanced, changed and re-predicted.
+
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_distr::StandardNormal;
+
+use super::calendar::{Calendar, EventKind};
+use super::collision::{Kinetics, collide, collide_spheres};
+use super::motion::{orientation_after, position_after};
+use super::predict::{Predictor, PredictorOptions};
+use crate::geometry::pair::contact_sum;
+use crate::geometry::{Relative, Shape};
+use crate::mc::{McError, Particle, Species, System};
+use crate::space::{CellList, PeriodicBox};
+
+type V3 = Vector3<f64>;
+
+/// What can go wrong setting up or running the dynamics.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EdmdError {
+    /// The temperature is not a positive finite number.
+    #[error("temperature must be finite and > 0, got {0}")]
+    BadTemperature(f64),
+    /// A mass is not a positive finite number, or the masses do not match
+    /// the species.
+    #[error("masses must be one finite value > 0 per species ({species} species), got {masses:?}")]
+    BadMasses {
+        /// Species count.
+        species: usize,
+        /// What was given.
+        masses: Vec<f64>,
+    },
+    /// Fewer than two particles: no degrees of freedom once the total
+    /// momentum is removed.
+    #[error("dynamics needs at least two particles, got {0}")]
+    TooFewParticles(usize),
+    /// The starting state is not a valid hard-body state.
+    #[error("invalid starting state: {0}")]
+    State(#[from] McError),
+    /// A pair predicted to touch does not: the prediction or the motion is
+    /// wrong. Reported with the pair, the time and the distance found.
+    #[error(
+        "collision of particles {i} and {j} at t = {time}: their distance is {distance:e}, not 0 (predicted contact missed)"
+    )]
+    ContactMismatch {
+        /// First particle.
+        i: usize,
+        /// Second particle.
+        j: usize,
+        /// Simulated time.
+        time: f64,
+        /// Signed distance at the predicted contact.
+        distance: f64,
+    },
+    /// The distance solver failed at a collision or a prediction.
+    #[error("distance of particles {i} and {j} at t = {time} could not be computed: {why}")]
+    Solver {
+        /// First particle.
+        i: usize,
+        /// Second particle.
+        j: usize,
+        /// Simulated time.
+        time: f64,
+        /// The solver's report.
+        why: String,
+    },
+}
+
+/// Settings of a dynamics run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicsOptions {
+    /// kT of the Maxwell–Boltzmann start; the kinetic energy is set to
+    /// exactly (dof/2) kT.
+    pub temperature: f64,
+    /// Mass per species (empty: all 1).
+    pub masses: Vec<f64>,
+    /// Collision prediction for non-spherical pairs.
+    pub predictor: PredictorOptions,
+}
+
+impl Default for DynamicsOptions {
+    fn default() -> Self {
+        Self {
+            temperature: 1.0,
+            masses: Vec::new(),
+            predictor: PredictorOptions::default(),
+        }
+    }
+}
+
+/// A body's motion since its last event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Body {
+    /// Centre at `time` (wrapped into the box at cell crossings only).
+    position: V3,
+    velocity: V3,
+    /// The time the stored pose belongs to.
+    time: f64,
+    orientation: UnitQuaternion<f64>,
+    /// Lab frame.
+    angular_velocity: V3,
+    species: u16,
+    /// When the body next leaves its cell (its events after that are
+    /// invalidated there anyway, so none later is scheduled).
+    crossing_time: f64,
+}
+
+/// Per species: what the dynamics needs to know.
+#[derive(Debug, Clone, PartialEq)]
+struct Kind {
+    shape: Shape,
+    inverse_mass: f64,
+    /// Scalar moment of inertia of the spherical top, 1/I (0: no rotation).
+    inverse_inertia: f64,
+}
+
+/// Counters and sums over the interval since the last sample.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Interval {
+    start: f64,
+    collisions: u64,
+    /// Σ (r_B − r_A)·J n̂ over collisions.
+    virial: f64,
+    /// ∫ (translational kinetic energy) dt, up to `ke_since`.
+    ke_integral: f64,
+    ke_since: f64,
+}
+
+/// Observables over the interval since the previous sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Simulated time.
+    pub time: f64,
+    /// Collisions since the start of the run.
+    pub collisions: u64,
+    /// Collisions in the interval.
+    pub interval_collisions: u64,
+    /// βP from the collision virial over the interval:
+    /// P V = ⅔⟨K_trans⟩ + Σ r_AB·J / (3 Δt), β = 1/kT.
+    pub pressure: Option<f64>,
+    /// kT = 2K / dof.
+    pub temperature: f64,
+    /// φ.
+    pub packing_fraction: f64,
+}
+
+/// Event-driven molecular dynamics of hard bodies in a periodic box.
+#[derive(Debug, Clone)]
+pub struct Dynamics {
+    box_: PeriodicBox,
+    species: Vec<Species>,
+    kinds: Vec<Kind>,
+    /// Closed-form contact distance per species pair (spheres), else None.
+    contact_sums: Vec<Option<f64>>,
+    bodies: Vec<Body>,
+    cells: CellList,
+    cell_lengths: V3,
+    calendar: Calendar,
+    predictor: Predictor,
+    /// Time since `origin`.
+    now: f64,
+    /// Absolute time of `now` = 0 (moved forward at rebases).
+    origin: f64,
+    events_since_rebase: u64,
+    collisions: u64,
+    interval: Interval,
+    /// Translational kinetic energy (changes only at collisions).
+    kinetic_translational: f64,
+    degrees_of_freedom: f64,
+    packing_fraction: f64,
+    /// Whether any body rotates (else orientations are never touched).
+    rotating: bool,
+}
+
+impl Dynamics {
+    /// Dynamics from an MC state with Maxwell–Boltzmann velocities at the
+    /// temperature of `options`, zero total momentum, and the kinetic energy
+    /// set exactly to dof · kT / 2.
+    pub fn from_state<R: Rng>(
+        system: &System,
+        options: &DynamicsOptions,
+        rng: &mut R,
+    ) -> Result<Self, EdmdError> {
+        let t = options.temperature;
+        if !(t.is_finite() && t > 0.0) {
+            return Err(EdmdError::BadTemperature(t));
+        }
+        let n = system.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let species = system.species().to_vec();
+        let masses = if options.masses.is_empty() {
+            vec![1.0; species.len()]
+        } else {
+            options.masses.clone()
+        };
+        if masses.len() != species.len() || masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
+            return Err(EdmdError::BadMasses {
+                species: species.len(),
+                masses: options.masses.clone(),
+            });
+        }
+        let kinds: Vec<Kind> = species
+            .iter()
+            .zip(&masses)
+            .map(|(s, &m)| Kind {
+                shape: s.shape,
+                inverse_mass: 1.0 / m,
+                inverse_inertia: if s.rotation {
+                    // A spherical top: the mean principal moment.
+                    3.0 / s.shape.inertia_tensor(m).trace()
+                } else {
+                    0.0
+                },
+            })
+            .collect();
+        let ns = species.len();
+        let contact_sums = (0..ns * ns)
+            .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
+            .collect();
+        let mut bodies: Vec<Body> = system
+            .particles()
+            .iter()
+            .map(|p| {
+                let kind = &kinds[p.species as usize];
+                let gauss = |rng: &mut R| {
+                    V3::new(
+                        rng.sample(StandardNormal),
+                        rng.sample(StandardNormal),
+                        rng.sample(StandardNormal),
+                    )
+                };
+                let velocity = gauss(rng) * (t * kind.inverse_mass).sqrt();
+                let angular_velocity = if kind.inverse_inertia > 0.0 {
+                    gauss(rng) * (t * kind.inverse_inertia).sqrt()
+                } else {
+                    V3::zeros()
+                };
+                Body {
+                    position: p.position,
+                    velocity,
+                    time: 0.0,
+                    orientation: p.orientation,
+                    angular_velocity,
+                    species: p.species,
+                    crossing_time: f64::INFINITY,
+                }
+            })
+            .collect();
+        // Zero total momentum, then the exact kinetic energy.
+        let total_mass: f64 = bodies
+            .iter()
+            .map(|b| 1.0 / kinds[b.species as usize].inverse_mass)
+            .sum();
+        let momentum: V3 = bodies
+            .iter()
+            .map(|b| b.velocity / kinds[b.species as usize].inverse_mass)
+            .sum();
+        let drift = momentum / total_mass;
+        let rotors = kinds_rotating(&bodies, &kinds);
+        let dof = 3.0 * n as f64 - 3.0 + 3.0 * rotors as f64;
+        for b in &mut bodies {
+            b.velocity -= drift;
+        }
+        let energy: f64 = bodies.iter().map(|b| body_energy(b, &kinds)).sum();
+        let scale = (0.5 * dof * t / energy).sqrt();
+        for b in &mut bodies {
+            b.velocity *= scale;
+            b.angular_velocity *= scale;
+        }
+        let box_ = *system.periodic_box();
+        let range = 2.0
+            * kinds
+                .iter()
+                .map(|k| k.shape.bounding_radius())
+                .fold(0.0, f64::max);
+        let positions: Vec<V3> = bodies.iter().map(|b| b.position).collect();
+        let cells = CellList::new(box_.lengths(), range, &positions);
+        let cell_lengths = cells.cell_lengths();
+        let kinetic_translational = bodies
+            .iter()
+            .map(|b| 0.5 * b.velocity.norm_squared() / kinds[b.species as usize].inverse_mass)
+            .sum();
+        let mut dynamics = Self {
+            box_,
+            contact_sums,
+            cells,
+            cell_lengths,
+            calendar: Calendar::new(n),
+            predictor: Predictor::new(options.predictor),
+            now: 0.0,
+            origin: 0.0,
+            events_since_rebase: 0,
+            collisions: 0,
+            interval: Interval::default(),
+            kinetic_translational,
+            degrees_of_freedom: dof,
+            packing_fraction: system.packing_fraction(),
+            rotating: rotors > 0,
+            species,
+            kinds,
+            bodies,
+        };
+        dynamics.schedule_everything()?;
+        Ok(dynamics)
+    }
+
+    /// Predicts every crossing and every pair collision from scratch.
+    fn schedule_everything(&mut self) -> Result<(), EdmdError> {
+        self.calendar.clear();
+        for i in 0..self.bodies.len() {
+            self.schedule_crossing(i);
+        }
+        for i in 0..self.bodies.len() {
+            self.schedule_collisions(i, None, true)?;
+        }
+        Ok(())
+    }
+
+    /// Simulated time.
+    pub fn time(&self) -> f64 {
+        self.origin + self.now
+    }
+
+    /// Collisions so far.
+    pub fn collisions(&self) -> u64 {
+        self.collisions
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// Always false: the dynamics has bodies.
+    pub fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// The box.
+    pub fn periodic_box(&self) -> &PeriodicBox {
+        &self.box_
+    }
+
+    /// Total kinetic energy, translational plus rotational.
+    pub fn kinetic_energy(&self) -> f64 {
+        self.bodies
+            .iter()
+            .map(|b| body_energy(b, &self.kinds))
+            .sum()
+    }
+
+    /// Total momentum.
+    pub fn momentum(&self) -> V3 {
+        self.bodies
+            .iter()
+            .map(|b| b.velocity / self.kinds[b.species as usize].inverse_mass)
+            .sum()
+    }
+
+    /// Degrees of freedom (translations, rotations, minus the three of the
+    /// fixed total momentum).
+    pub fn degrees_of_freedom(&self) -> f64 {
+        self.degrees_of_freedom
+    }
+
+    /// The particles at the current time, positions wrapped into the box.
+    pub fn particles(&self) -> Vec<Particle> {
+        self.bodies
+            .iter()
+            .map(|b| {
+                let dt = self.now - b.time;
+                Particle {
+                    position: self
+                        .box_
+                        .wrap(&position_after(&b.position, &b.velocity, dt)),
+                    orientation: orientation_after(&b.orientation, &b.angular_velocity, dt),
+                    species: b.species,
+                }
+            })
+            .collect()
+    }
+
+    /// Velocities and angular velocities (lab frame) at the current time.
+    pub fn velocities(&self) -> Vec<(V3, V3)> {
+        self.bodies
+            .iter()
+            .map(|b| (b.velocity, b.angular_velocity))
+            .collect()
+    }
+
+    /// The current state as an MC system: building it checks, independently
+    /// of the predictions, that no two bodies overlap.
+    pub fn to_system(&self) -> Result<System, McError> {
+        System::new(self.box_, self.species.clone(), self.particles())
+    }
+
+    /// Runs until the simulated time reaches `t_end` (bodies are then
+    /// advanced to it).
+    pub fn run_until(&mut self, t_end: f64) -> Result<(), EdmdError> {
+        while let Some(e) = self.calendar.peek() {
+            // Relative to the origin, which a rebase moves.
+            if e.time > t_end - self.origin {
+                break;
+            }
+            self.process_next()?;
+        }
+        self.advance_clock(t_end - self.origin);
+        Ok(())
+    }
+
+    /// Runs `count` more collisions.
+    pub fn run_collisions(&mut self, count: u64) -> Result<(), EdmdError> {
+        let target = self.collisions + count;
+        while self.collisions < target {
+            if !self.process_next()? {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// Observables over the interval since the previous sample (or the
+    /// start), and a new interval begins.
+    pub fn sample(&mut self) -> Sample {
+        self.accumulate_kinetic();
+        let iv = self.interval;
+        let dt = self.now - iv.start;
+        let kt = 2.0 * self.kinetic_energy() / self.degrees_of_freedom;
+        let pressure = (dt > 0.0).then(|| {
+            let pv = (2.0 / 3.0) * iv.ke_integral / dt + iv.virial / (3.0 * dt);
+            pv / (self.box_.volume() * kt)
+        });
+        self.interval = Interval {
+            start: self.now,
+            ke_since: self.now,
+            ..Interval::default()
+        };
+        Sample {
+            time: self.time(),
+            collisions: self.collisions,
+            interval_collisions: iv.collisions,
+            pressure,
+            temperature: kt,
+            packing_fraction: self.packing_fraction,
+        }
+    }
+
+    fn accumulate_kinetic(&mut self) {
+        let iv = &mut self.interval;
+        iv.ke_integral += self.kinetic_translational * (self.now - iv.ke_since);
+        iv.ke_since = self.now;
+    }
+
+    /// Moves the clock to `now` (no event in between).
+    fn advance_clock(&mut self, now: f64) {
+        if now > self.now {
+            self.now = now;
+        }
+    }
+
+    /// Processes the next event; false if the calendar is empty (nothing
+    /// moves).
+    fn process_next(&mut self) -> Result<bool, EdmdError> {
+        let Some(e) = self.calendar.pop() else {
+            return Ok(false);
+        };
+        self.now = e.time.max(self.now);
+        match e.kind {
+            EventKind::Collision => self.collide(e.i as usize, e.j as usize)?,
+            EventKind::CellCrossing { axis, up } => self.cross(e.i as usize, axis as usize, up)?,
+        }
+        self.events_since_rebase += 1;
+        if self.events_since_rebase > 64 * self.bodies.len() as u64 {
+            self.rebase();
+        }
+        Ok(true)
+    }
+
+    /// Advances body `i` to the current time.
+    #[inline]
+    fn advance(&mut self, i: usize) {
+        let now = self.now;
+        let rotating = self.rotating;
+        let b = &mut self.bodies[i];
+        let dt = now - b.time;
+        if dt != 0.0 {
+            b.position = position_after(&b.position, &b.velocity, dt);
+            if rotating && b.angular_velocity != V3::zeros() {
+                b.orientation = orientation_after(&b.orientation, &b.angular_velocity, dt);
+            }
+            b.time = now;
+        }
+    }
+
+    /// Moves the time origin to now, so that event times stay small and
+    /// keep their precision over long runs.
+    fn rebase(&mut self) {
+        for i in 0..self.bodies.len() {
+            self.advance(i);
+        }
+        self.accumulate_kinetic();
+        let shift = self.now;
+        for b in &mut self.bodies {
+            b.time = 0.0;
+            b.crossing_time -= shift;
+        }
+        self.calendar.shift_times(shift);
+        self.interval.start -= shift;
+        self.interval.ke_since -= shift;
+        self.origin += shift;
+        self.now = 0.0;
+        self.events_since_rebase = 0;
+    }
+
+    fn collide(&mut self, i: usize, j: usize) -> Result<(), EdmdError> {
+        self.advance(i);
+        self.advance(j);
+        let (si, sj) = (
+            self.bodies[i].species as usize,
+            self.bodies[j].species as usize,
+        );
+        let d = self
+            .box_
+            .minimum_image_near(&(self.bodies[j].position - self.bodies[i].position));
+        let impulse = if let Some(sigma) = self.contact_sums[si * self.kinds.len() + sj] {
+            let len = d.norm();
+            let gap = len - sigma;
+            if gap.abs() > 1e-9 * sigma {
+                return Err(EdmdError::ContactMismatch {
+                    i,
+                    j,
+                    time: self.time(),
+                    distance: gap,
+                });
+            }
+            let normal = d / len;
+            let (mi, mj) = (self.kinds[si].inverse_mass, self.kinds[sj].inverse_mass);
+            let (a, b) = pair_mut(&mut self.bodies, i, j);
+            let ke_before = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
+            let jn = collide_spheres(&mut a.velocity, &mut b.velocity, mi, mj, &normal);
+            let ke_after = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
+            self.accumulate_kinetic();
+            self.kinetic_translational += ke_after - ke_before;
+            jn * len
+        } else {
+            self.collide_bodies(i, j, &d)?
+        };
+        self.interval.virial += impulse;
+        self.interval.collisions += 1;
+        self.collisions += 1;
+        self.calendar.invalidate(i);
+        self.calendar.invalidate(j);
+        self.schedule_crossing(i);
+        self.schedule_crossing(j);
+        self.schedule_collisions(i, None, false)?;
+        self.schedule_collisions(j, Some(i), false)?;
+        Ok(())
+    }
+
+    /// The collision of two bodies with at least one non-sphere: contact
+    /// point and normal from the distance kernel, impulse from
+    /// [`collide`]. Returns (r_B − r_A)·J n̂ for the virial.
+    fn collide_bodies(&mut self, i: usize, j: usize, d: &V3) -> Result<f64, EdmdError> {
+        let (bi, bj) = (self.bodies[i], self.bodies[j]);
+        let (ki, kj) = (
+            &self.kinds[bi.species as usize],
+            &self.kinds[bj.species as usize],
+        );
+        let rel = Relative::new(d, &bi.orientation, &bj.orientation);
+        let contact = self.predictor.contact(&ki.shape, &kj.shape, &rel);
+        if !contact.distance.is_finite() {
+            return Err(EdmdError::Solver {
+                i,
+                j,
+                time: self.time(),
+                why: format!("{:?}", contact.status),
+            });
+        }
+        let scale = ki.shape.min_half_extent().min(kj.shape.min_half_extent());
+        if contact.distance.abs() > self.predictor.contact_tolerance() * scale {
+            return Err(EdmdError::ContactMismatch {
+                i,
+                j,
+                time: self.time(),
+                distance: contact.distance,
+            });
+        }
+        let normal = bi.orientation * contact.normal;
+        let xc = bi.orientation * (0.5 * (contact.point_a + contact.point_b));
+        let arm_a = xc;
+        let arm_b = xc - d;
+        let kinetics = |b: &Body, k: &Kind| Kinetics {
+            velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
+            inverse_mass: k.inverse_mass,
+            inverse_inertia: Matrix3::identity() * k.inverse_inertia,
+        };
+        let mut ka = kinetics(&bi, ki);
+        let mut kb = kinetics(&bj, kj);
+        let ke_before = 0.5
+            * (ka.velocity.norm_squared() / ka.inverse_mass
+                + kb.velocity.norm_squared() / kb.inverse_mass);
+        let jn = collide(&mut ka, &mut kb, &arm_a, &arm_b, &normal);
+        let ke_after = 0.5
+            * (ka.velocity.norm_squared() / ka.inverse_mass
+                + kb.velocity.norm_squared() / kb.inverse_mass);
+        self.accumulate_kinetic();
+        self.kinetic_translational += ke_after - ke_before;
+        for (idx, k) in [(i, ka), (j, kb)] {
+            self.bodies[idx].velocity = k.velocity;
+            self.bodies[idx].angular_velocity = k.angular_velocity;
+        }
+        Ok(jn * d.dot(&normal))
+    }
+
+    fn cross(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
+        self.advance(i);
+        let dims = self.cells.dims();
+        let mut c = self.cells.coords_of(self.cells.cell_of(i));
+        let l = self.box_.lengths()[axis];
+        if up {
+            c[axis] += 1;
+            if c[axis] == dims[axis] {
+                c[axis] = 0;
+                self.bodies[i].position[axis] -= l;
+            }
+        } else if c[axis] == 0 {
+            c[axis] = dims[axis] - 1;
+            self.bodies[i].position[axis] += l;
+        } else {
+            c[axis] -= 1;
+        }
+        let cell = self.cells.index_of(c);
+        self.cells.move_to(i, cell);
+        self.calendar.invalidate(i);
+        self.schedule_crossing(i);
+        self.schedule_collisions(i, None, false)
+    }
+
+    /// Schedules body `i`'s next cell crossing (`i` at its own time).
+    fn schedule_crossing(&mut self, i: usize) {
+        let b = &self.bodies[i];
+        let c = self.cells.coords_of(self.cells.cell_of(i));
+        let half = self.box_.lengths() * 0.5;
+        let mut best = (f64::INFINITY, 0u8, false);
+        for k in 0..3 {
+            let v = b.velocity[k];
+            if v == 0.0 {
+                continue;
+            }
+            let lower = -half[k] + c[k] as f64 * self.cell_lengths[k];
+            let (face, up) = if v > 0.0 {
+                (lower + self.cell_lengths[k], true)
+            } else {
+                (lower, false)
+            };
+            let t = ((face - b.position[k]) / v).max(0.0);
+            if t < best.0 {
+                best = (t, k as u8, up);
+            }
+        }
+        let time = b.time + best.0;
+        self.bodies[i].crossing_time = time;
+        if time.is_finite() {
+            self.calendar.schedule(
+                time,
+                EventKind::CellCrossing {
+                    axis: best.1,
+                    up: best.2,
+                },
+                i,
+                i,
+            );
+        }
+    }
+
+    /// Predicts and schedules the collisions of body `i` (at the current
+    /// time) with the bodies in the cells around it, except `skip`; with
+    /// `once`, only with bodies of larger index (the initial sweep over all
+    /// pairs).
+    fn schedule_collisions(
+        &mut self,
+        i: usize,
+        skip: Option<usize>,
+        once: bool,
+    ) -> Result<(), EdmdError> {
+        self.advance(i);
+        let bi = self.bodies[i];
+        let ns = self.kinds.len();
+        let cell = self.cells.cell_of(i);
+        for &nc in self.cells.neighbour_cells(cell) {
+            for &j in self.cells.members(nc as usize) {
+                let j = j as usize;
+                if j == i || Some(j) == skip || (once && j < i) {
+                    continue;
+                }
+                let bj = &self.bodies[j];
+                let horizon = bi.crossing_time.min(bj.crossing_time);
+                // B's centre now, relative to A's, and the relative velocity.
+                let rj = position_after(&bj.position, &bj.velocity, self.now - bj.time);
+                let d = self.box_.minimum_image_near(&(rj - bi.position));
+                let dv = bj.velocity - bi.velocity;
+                let pair = bi.species as usize * ns + bj.species as usize;
+                let t = if let Some(sigma) = self.contact_sums[pair] {
+                    crate::geometry::pair::sphere_contact_time(&d, &dv, sigma).map(|t| self.now + t)
+                } else {
+                    let bj = *bj;
+                    let orientation_j = orientation_after(
+                        &bj.orientation,
+                        &bj.angular_velocity,
+                        self.now - bj.time,
+                    );
+                    let (ki, kj) = (
+                        &self.kinds[bi.species as usize],
+                        &self.kinds[bj.species as usize],
+                    );
+                    self.predictor
+                        .contact_time(
+                            (&ki.shape, &bi.orientation, &bi.angular_velocity),
+                            (&kj.shape, &orientation_j, &bj.angular_velocity),
+                            &d,
+                            &dv,
+                            horizon - self.now,
+                        )
+                        .map_err(|why| EdmdError::Solver {
+                            i,
+                            j,
+                            time: self.time(),
+                            why,
+                        })?
+                        .map(|t| self.now + t)
+                };
+                if let Some(t) = t
+                    && t < horizon
+                {
+                    self.calendar.schedule(t, EventKind::Collision, i, j);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How many bodies rotate.
+fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
+    bodies
+        .iter()
+        .filter(|b| kinds[b.species as usize].inverse_inertia > 0.0)
+        .count()
+}
+
+/// Kinetic energy of one body (spherical top).
+fn body_energy(b: &Body, kinds: &[Kind]) -> f64 {
+    let k = &kinds[b.species as usize];
+    let rot = if k.inverse_inertia > 0.0 {
+        0.5 * b.angular_velocity.norm_squared() / k.inverse_inertia
+    } else {
+        0.0
+    };
+    0.5 * b.velocity.norm_squared() / k.inverse_mass + rot
+}
+
+/// Two distinct elements of a slice, mutably.
+fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
+    debug_assert_ne!(i, j);
+    if i < j {
+        let (lo, hi) = s.split_at_mut(j);
+        (&mut lo[i], &mut hi[0])
+    } else {
+        let (lo, hi) = s.split_at_mut(i);
+        (&mut hi[0], &mut lo[j])
+    }
+}

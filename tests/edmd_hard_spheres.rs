@@ -1,0 +1,153 @@
+//! Event-driven dynamics of hard spheres against theory: the compressibility
+//! factor from the collision virial against Carnahan–Starling, the collision
+//! rate against Enskog with the Carnahan–Starling contact value, and energy
+//! and momentum conservation over 10⁶ collisions, starting from MC states.
+
+use hardbody::edmd::{Dynamics, DynamicsOptions};
+use hardbody::geometry::Shape;
+use hardbody::mc::compress::{CompressOptions, compress};
+use hardbody::mc::moves::MoveSizes;
+use hardbody::mc::{Species, System};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+
+/// 512 spheres of diameter 1 compressed by MC to `phi`.
+fn mc_state(phi: f64, seed: u64) -> System {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let species = vec![Species {
+        name: "sphere".into(),
+        shape: "Sphere(radius: 0.5)".parse::<Shape>().unwrap(),
+        rotation: false,
+    }];
+    let mut system = hardbody::mc::start::dilute_lattice(8, species, |_| 0, &mut rng).unwrap();
+    let sizes = MoveSizes {
+        translate: 0.3,
+        rotate: 0.0,
+        volume: 0.0,
+    };
+    compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
+    system
+}
+
+fn carnahan_starling(phi: f64) -> f64 {
+    (1.0 + phi + phi * phi - phi.powi(3)) / (1.0 - phi).powi(3)
+}
+
+/// Collisions per particle per unit time, Enskog with g(σ) from
+/// Carnahan–Starling: Γ = 4 n σ² g(σ) √(π kT/m).
+fn enskog_rate(phi: f64, sigma: f64, kt: f64) -> f64 {
+    let n = phi / (std::f64::consts::PI / 6.0 * sigma.powi(3));
+    let g = (1.0 - 0.5 * phi) / (1.0 - phi).powi(3);
+    4.0 * n * sigma * sigma * g * (std::f64::consts::PI * kt).sqrt()
+}
+
+/// Runs `collisions` after `equilibration`, sampling the pressure every
+/// `per_sample` collisions; returns (Z, its standard error, collisions per
+/// particle per unit time, energy drift, largest |P|).
+fn measure(
+    phi: f64,
+    seed: u64,
+    equilibration: u64,
+    collisions: u64,
+    per_sample: u64,
+) -> (f64, f64, f64, f64, f64) {
+    let system = mc_state(phi, seed);
+    let n = system.len() as f64;
+    let mut rng = Pcg64::seed_from_u64(seed + 100);
+    let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+    let e0 = md.kinetic_energy();
+    assert!(
+        (e0 - 0.5 * md.degrees_of_freedom()).abs() < 1e-10 * e0,
+        "kinetic energy not set exactly"
+    );
+    assert!(md.momentum().norm() < 1e-12 * n.sqrt());
+    md.run_collisions(equilibration).unwrap();
+    md.sample();
+    let t0 = md.time();
+    let c0 = md.collisions();
+    let mut z = Vec::new();
+    let mut max_momentum: f64 = 0.0;
+    // Samples at fixed times (between events, so that no pair is caught at
+    // the instant it touches) about `per_sample` collisions apart.
+    let interval = per_sample as f64 / (0.5 * n * enskog_rate(phi, 1.0, 1.0));
+    while md.collisions() - c0 < collisions {
+        let next = md.time() + interval;
+        md.run_until(next).unwrap();
+        assert!(
+            (md.time() - next).abs() < 1e-9 * next,
+            "clock at {} after running to {next}",
+            md.time()
+        );
+        let s = md.sample();
+        z.push(s.pressure.unwrap() / (phi / (std::f64::consts::PI / 6.0)));
+        max_momentum = max_momentum.max(md.momentum().norm());
+        // The calendar's view checked independently: rebuilding the state as
+        // an MC system fails on any overlap.
+        if z.len() % 10 == 0 {
+            md.to_system().expect("overlap during the run");
+        }
+    }
+    let rate = 2.0 * (md.collisions() - c0) as f64 / (n * (md.time() - t0));
+    let drift = (md.kinetic_energy() - e0).abs() / e0;
+    let end = md.to_system().unwrap();
+    assert_eq!(end.first_overlap_all_pairs(), None);
+    let mean = z.iter().sum::<f64>() / z.len() as f64;
+    // Blocks of samples are nearly independent at this length.
+    let var = z.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (z.len() - 1) as f64;
+    (
+        mean,
+        (var / z.len() as f64).sqrt(),
+        rate,
+        drift,
+        max_momentum,
+    )
+}
+
+fn check(phi: f64, seed: u64, collisions: u64) {
+    let (z, err, rate, drift, momentum) = measure(phi, seed, 50_000, collisions, 20_000);
+    let cs = carnahan_starling(phi);
+    let enskog = enskog_rate(phi, 1.0, 1.0);
+    eprintln!(
+        "phi {phi}: Z = {z:.4} ± {err:.4} (CS {cs:.4}, {:+.2} %), rate {rate:.4} (Enskog {enskog:.4}, {:+.2} %), energy drift {drift:.2e}, |P| {momentum:.1e}",
+        100.0 * (z / cs - 1.0),
+        100.0 * (rate / enskog - 1.0)
+    );
+    assert!((z / cs - 1.0).abs() < 0.01, "Z = {z} vs CS {cs}");
+    assert!(
+        (rate / enskog - 1.0).abs() < 0.02,
+        "rate {rate} vs Enskog {enskog}"
+    );
+    assert!(drift < 1e-10, "energy drift {drift}");
+    assert!(momentum < 1e-10 * (512.0f64).sqrt(), "momentum {momentum}");
+}
+
+#[test]
+fn phi_0_30_matches_carnahan_starling_and_enskog() {
+    check(0.30, 1, 400_000);
+}
+
+#[test]
+fn phi_0_45_matches_carnahan_starling_and_enskog_over_a_million_collisions() {
+    check(0.45, 2, 1_000_000);
+}
+
+/// Bad settings are errors that say what is wrong.
+#[test]
+fn bad_settings_are_errors() {
+    let system = mc_state(0.1, 3);
+    let mut rng = Pcg64::seed_from_u64(1);
+    for t in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let opts = DynamicsOptions {
+            temperature: t,
+            ..DynamicsOptions::default()
+        };
+        let err = Dynamics::from_state(&system, &opts, &mut rng).unwrap_err();
+        assert!(err.to_string().contains("temperature"), "{err}");
+    }
+    let opts = DynamicsOptions {
+        masses: vec![1.0, 2.0],
+        ..DynamicsOptions::default()
+    };
+    let err = Dynamics::from_state(&system, &opts, &mut rng).unwrap_err();
+    assert!(err.to_string().contains("masses"), "{err}");
+}
