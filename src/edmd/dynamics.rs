@@ -106,6 +106,12 @@ struct Body {
     /// When the body next leaves its cell (its events after that are
     /// invalidated there anyway, so none later is scheduled).
     crossing_time: f64,
+    /// Where its last collision search stopped: its crossing time or the
+    /// earliest collision it found, whichever is first (any later
+    /// collision of this body will be invalidated by that event). If that
+    /// collision is invalidated by the partner instead, the search is
+    /// renewed from there.
+    horizon: f64,
 }
 
 /// Per species: what the dynamics needs to know.
@@ -248,6 +254,7 @@ impl Dynamics {
                     angular_velocity,
                     species: p.species,
                     crossing_time: f64::INFINITY,
+                    horizon: f64::INFINITY,
                 }
             })
             .collect();
@@ -471,6 +478,14 @@ impl Dynamics {
         };
         self.now = e.time.max(self.now);
         match e.kind {
+            EventKind::Collision if !self.calendar.partner_current(&e) => {
+                // The partner changed: no collision; but if this was where
+                // the first body's search stopped, it goes on from here.
+                let i = e.i as usize;
+                if e.time == self.bodies[i].horizon {
+                    self.schedule_collisions(i, None, false)?;
+                }
+            }
             EventKind::Collision => self.collide(e.i as usize, e.j as usize)?,
             EventKind::CellCrossing { axis, up } => self.cross(e.i as usize, axis as usize, up)?,
         }
@@ -508,6 +523,7 @@ impl Dynamics {
         for b in &mut self.bodies {
             b.time = 0.0;
             b.crossing_time -= shift;
+            b.horizon -= shift;
         }
         self.calendar.shift_times(shift);
         self.interval.start -= shift;
@@ -682,7 +698,8 @@ impl Dynamics {
     /// Predicts and schedules the collisions of body `i` (at the current
     /// time) with the bodies in the cells around it, except `skip`; with
     /// `once`, only with bodies of larger index (the initial sweep over all
-    /// pairs).
+    /// pairs). Each search stops at the earliest event found so far for `i`
+    /// (its horizon): a later collision of `i` would be invalidated by it.
     fn schedule_collisions(
         &mut self,
         i: usize,
@@ -693,6 +710,7 @@ impl Dynamics {
         let bi = self.bodies[i];
         let ns = self.kinds.len();
         let cell = self.cells.cell_of(i);
+        let mut horizon_i = bi.crossing_time;
         for &nc in self.cells.neighbour_cells(cell) {
             for &j in self.cells.members(nc as usize) {
                 let j = j as usize;
@@ -700,7 +718,7 @@ impl Dynamics {
                     continue;
                 }
                 let bj = &self.bodies[j];
-                let horizon = bi.crossing_time.min(bj.crossing_time);
+                let horizon = horizon_i.min(bj.crossing_time);
                 // B's centre now, relative to A's, and the relative velocity.
                 let rj = position_after(&bj.position, &bj.velocity, self.now - bj.time);
                 let d = self.box_.minimum_image_near(&(rj - bi.position));
@@ -739,9 +757,11 @@ impl Dynamics {
                     && t < horizon
                 {
                     self.calendar.schedule(t, EventKind::Collision, i, j);
+                    horizon_i = t;
                 }
             }
         }
+        self.bodies[i].horizon = horizon_i;
         Ok(())
     }
 }
