@@ -10,6 +10,7 @@
 mod common;
 
 use common::*;
+use hardbody::geometry::pair::distance_lower_bound;
 use hardbody::geometry::{DistanceOptions, Method, Obb, Shape, distance, overlap};
 use nalgebra::Vector3;
 use rand::Rng;
@@ -35,6 +36,16 @@ fn check(ka: Kind, kb: Kind, tag: u64) {
             let rel = touching(&a, &b, &q, &n, delta);
             let c = distance(&a, &b, &rel, &opts, None);
             let mut why = Vec::new();
+            // The cheap lower bound the dynamics steps with never exceeds the
+            // exact distance.
+            // Overlapping, it must not be positive (its negative values are
+            // not a depth).
+            let bound = distance_lower_bound(&a, &b, &rel);
+            if bound > delta.max(0.0) + 1e-12 * len {
+                why.push(format!(
+                    "lower bound {bound:e} above the distance {delta:e}"
+                ));
+            }
             if apart {
                 if !c.is_converged() || (c.distance - delta).abs() > 1e-9 * len.max(delta) {
                     why.push(format!(

@@ -10,7 +10,7 @@ use rand_distr::StandardNormal;
 use super::calendar::{Calendar, EventKind};
 use super::collision::{Kinetics, collide, collide_spheres};
 use super::motion::{orientation_after, position_after};
-use super::predict::{Predictor, PredictorOptions};
+use super::predict::{Predictor, PredictorOptions, Search};
 use crate::geometry::pair::contact_sum;
 use crate::geometry::{Relative, Shape};
 use crate::mc::{McError, Particle, Species, System};
@@ -54,6 +54,22 @@ pub enum EdmdError {
         time: f64,
         /// Signed distance at the predicted contact.
         distance: f64,
+    },
+    /// Events keep coming at one instant: a pair caught in a contact that
+    /// the collision rule cannot resolve (a bug, reported rather than
+    /// looped on).
+    #[error(
+        "{events} events at t = {time} without time advancing (last: particles {i} and {j}): the dynamics is stuck"
+    )]
+    Stalled {
+        /// Simulated time.
+        time: f64,
+        /// Events at that time.
+        events: u64,
+        /// The last event's particles.
+        i: usize,
+        /// See `i`.
+        j: usize,
     },
     /// The distance solver failed at a collision or a prediction.
     #[error("distance of particles {i} and {j} at t = {time} could not be computed: {why}")]
@@ -179,7 +195,15 @@ pub struct Dynamics {
     packing_fraction: f64,
     /// Whether any body rotates (else orientations are never touched).
     rotating: bool,
+    /// Scratch: searches put off until the cheap ones are done.
+    deferred: Vec<(u32, f64)>,
+    /// Events processed at the current instant (a guard against loops).
+    events_at_now: u64,
 }
+
+/// Steps a pair's contact search may take before it is put off behind the
+/// other pairs of the same body.
+const CHEAP_SEARCH: u32 = 16;
 
 impl Dynamics {
     /// Dynamics from an MC state with Maxwell–Boltzmann velocities at the
@@ -308,6 +332,8 @@ impl Dynamics {
             degrees_of_freedom: dof,
             packing_fraction: system.packing_fraction(),
             rotating: rotors > 0,
+            deferred: Vec::new(),
+            events_at_now: 0,
             species,
             kinds,
             bodies,
@@ -476,7 +502,22 @@ impl Dynamics {
         let Some(e) = self.calendar.pop() else {
             return Ok(false);
         };
-        self.now = e.time.max(self.now);
+        if e.time > self.now {
+            self.now = e.time;
+            self.events_at_now = 0;
+        } else {
+            self.events_at_now += 1;
+            // Every body may meet every neighbour at one instant in a
+            // lattice; far more than that is a loop.
+            if self.events_at_now > 100 * self.bodies.len() as u64 + 1000 {
+                return Err(EdmdError::Stalled {
+                    time: self.time(),
+                    events: self.events_at_now,
+                    i: e.i as usize,
+                    j: e.j as usize,
+                });
+            }
+        }
         match e.kind {
             EventKind::Collision if !self.calendar.partner_current(&e) => {
                 // The partner changed: no collision; but if this was where
@@ -573,8 +614,14 @@ impl Dynamics {
         self.calendar.invalidate(j);
         self.schedule_crossing(i);
         self.schedule_crossing(j);
-        self.schedule_collisions(i, None, false)?;
+        self.schedule_collisions(i, Some(j), false)?;
         self.schedule_collisions(j, Some(i), false)?;
+        // The pair itself last, within both horizons: a pair that has just
+        // touched stays within ε_d for a while, where the search is slow.
+        let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
+        if let Search::Contact(t) = self.predict_pair(i, j, self.now, horizon, u32::MAX)? {
+            self.calendar.schedule(t, EventKind::Collision, i, j);
+        }
         Ok(())
     }
 
@@ -606,10 +653,45 @@ impl Dynamics {
                 distance: contact.distance,
             });
         }
-        let normal = bi.orientation * contact.normal;
-        let xc = bi.orientation * (0.5 * (contact.point_a + contact.point_b));
-        let arm_a = xc;
-        let arm_b = xc - d;
+        let lab = |c: &crate::geometry::Contact| {
+            let normal = bi.orientation * c.normal;
+            let arm_a = bi.orientation * (0.5 * (c.point_a + c.point_b));
+            let closing = normal.dot(
+                &(bi.velocity + bi.angular_velocity.cross(&arm_a)
+                    - bj.velocity
+                    - bj.angular_velocity.cross(&(arm_a - d))),
+            );
+            (normal, arm_a, closing)
+        };
+        let (mut normal, mut arm_a, closing) = lab(&contact);
+        if closing <= 0.0 {
+            // Touching, but not where the bodies close in: at a contact
+            // within round-off of a second one (a box face about to meet a
+            // vertex beside the one touching), the pair overlaps an instant
+            // later at the other. Take the contact from there.
+            let rate = (bj.velocity - bi.velocity).norm()
+                + bi.angular_velocity.norm() * ki.shape.moment_arm()
+                + bj.angular_velocity.norm() * kj.shape.moment_arm();
+            let mut delta =
+                self.predictor.contact_tolerance() * scale / rate.max(f64::MIN_POSITIVE);
+            for _ in 0..40 {
+                let later = Relative::new(
+                    &(d + (bj.velocity - bi.velocity) * delta),
+                    &orientation_after(&bi.orientation, &bi.angular_velocity, delta),
+                    &orientation_after(&bj.orientation, &bj.angular_velocity, delta),
+                );
+                let ahead = self.predictor.contact(&ki.shape, &kj.shape, &later);
+                if ahead.distance < 0.0 {
+                    let (n, a, c) = lab(&ahead);
+                    if c > 0.0 {
+                        (normal, arm_a) = (n, a);
+                    }
+                    break;
+                }
+                delta *= 2.0;
+            }
+        }
+        let arm_b = arm_a - d;
         let kinetics = |b: &Body, k: &Kind| Kinetics {
             velocity: b.velocity,
             angular_velocity: b.angular_velocity,
@@ -707,62 +789,110 @@ impl Dynamics {
         once: bool,
     ) -> Result<(), EdmdError> {
         self.advance(i);
-        let bi = self.bodies[i];
-        let ns = self.kinds.len();
         let cell = self.cells.cell_of(i);
-        let mut horizon_i = bi.crossing_time;
+        let mut horizon_i = self.bodies[i].crossing_time;
+        // Searches that need many steps (pairs lingering close together)
+        // wait until the cheap ones have shortened the horizon.
+        let mut deferred = std::mem::take(&mut self.deferred);
+        deferred.clear();
         for &nc in self.cells.neighbour_cells(cell) {
             for &j in self.cells.members(nc as usize) {
                 let j = j as usize;
                 if j == i || Some(j) == skip || (once && j < i) {
                     continue;
                 }
-                let bj = &self.bodies[j];
-                let horizon = horizon_i.min(bj.crossing_time);
-                // B's centre now, relative to A's, and the relative velocity.
-                let rj = position_after(&bj.position, &bj.velocity, self.now - bj.time);
-                let d = self.box_.minimum_image_near(&(rj - bi.position));
-                let dv = bj.velocity - bi.velocity;
-                let pair = bi.species as usize * ns + bj.species as usize;
-                let t = if let Some(sigma) = self.contact_sums[pair] {
-                    crate::geometry::pair::sphere_contact_time(&d, &dv, sigma).map(|t| self.now + t)
-                } else {
-                    let bj = *bj;
-                    let orientation_j = orientation_after(
-                        &bj.orientation,
-                        &bj.angular_velocity,
-                        self.now - bj.time,
-                    );
-                    let (ki, kj) = (
-                        &self.kinds[bi.species as usize],
-                        &self.kinds[bj.species as usize],
-                    );
-                    self.predictor
-                        .contact_time(
-                            (&ki.shape, &bi.orientation, &bi.angular_velocity),
-                            (&kj.shape, &orientation_j, &bj.angular_velocity),
-                            &d,
-                            &dv,
-                            horizon - self.now,
-                        )
-                        .map_err(|why| EdmdError::Solver {
-                            i,
-                            j,
-                            time: self.time(),
-                            why,
-                        })?
-                        .map(|t| self.now + t)
-                };
-                if let Some(t) = t
-                    && t < horizon
-                {
-                    self.calendar.schedule(t, EventKind::Collision, i, j);
-                    horizon_i = t;
+                // Past j's own horizon, j's first event will have changed it
+                // or renewed its search (which covers this pair).
+                let horizon = horizon_i.min(self.bodies[j].horizon);
+                match self.predict_pair(i, j, self.now, horizon, CHEAP_SEARCH)? {
+                    Search::Contact(t) => {
+                        self.calendar.schedule(t, EventKind::Collision, i, j);
+                        horizon_i = t;
+                    }
+                    Search::Apart => {}
+                    Search::Unfinished(t) => deferred.push((j as u32, t)),
                 }
             }
         }
+        // The put-off searches race: the least advanced one takes the next
+        // few steps, so that the first contact among them is found before
+        // any of them searches past it (it becomes everyone's horizon).
+        while !deferred.is_empty() {
+            let (k, &(j, from)) = deferred
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.1.total_cmp(&b.1.1))
+                .expect("not empty");
+            let j = j as usize;
+            let horizon = horizon_i.min(self.bodies[j].horizon);
+            match self.predict_pair(i, j, from, horizon, CHEAP_SEARCH)? {
+                Search::Contact(t) => {
+                    self.calendar.schedule(t, EventKind::Collision, i, j);
+                    horizon_i = t;
+                    deferred.swap_remove(k);
+                }
+                Search::Apart => {
+                    deferred.swap_remove(k);
+                }
+                Search::Unfinished(t) => deferred[k].1 = t,
+            }
+        }
+        self.deferred = deferred;
         self.bodies[i].horizon = horizon_i;
         Ok(())
+    }
+
+    /// The contact time of bodies `i` (at the current time) and `j` if it
+    /// comes before `horizon`, searched from the time `from` (apart before
+    /// it) with about `budget` distance evaluations.
+    fn predict_pair(
+        &self,
+        i: usize,
+        j: usize,
+        from: f64,
+        horizon: f64,
+        budget: u32,
+    ) -> Result<Search, EdmdError> {
+        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+        // B's centre now, relative to A's, and the relative velocity.
+        let dt_j = self.now - bj.time;
+        let rj = position_after(&bj.position, &bj.velocity, dt_j);
+        let d = self.box_.minimum_image_near(&(rj - bi.position));
+        let dv = bj.velocity - bi.velocity;
+        let pair = bi.species as usize * self.kinds.len() + bj.species as usize;
+        let found = if let Some(sigma) = self.contact_sums[pair] {
+            match crate::geometry::pair::sphere_contact_time(&d, &dv, sigma) {
+                Some(t) => Search::Contact(t),
+                None => Search::Apart,
+            }
+        } else {
+            let orientation_j = orientation_after(&bj.orientation, &bj.angular_velocity, dt_j);
+            let (ki, kj) = (
+                &self.kinds[bi.species as usize],
+                &self.kinds[bj.species as usize],
+            );
+            self.predictor
+                .search(
+                    (&ki.shape, &bi.orientation, &bi.angular_velocity),
+                    (&kj.shape, &orientation_j, &bj.angular_velocity),
+                    &d,
+                    &dv,
+                    from - self.now,
+                    horizon - self.now,
+                    budget,
+                )
+                .map_err(|why| EdmdError::Solver {
+                    i,
+                    j,
+                    time: self.time(),
+                    why,
+                })?
+        };
+        Ok(match found {
+            Search::Contact(t) if self.now + t < horizon => Search::Contact(self.now + t),
+            Search::Contact(_) | Search::Apart => Search::Apart,
+            Search::Unfinished(t) => Search::Unfinished(self.now + t),
+        })
     }
 }
 

@@ -12,4 +12,4 @@ pub mod motion;
 pub mod predict;
 
 pub use dynamics::{Dynamics, DynamicsOptions, EdmdError, Sample};
-pub use predict::{Predictor, PredictorOptions};
+pub use predict::{Predictor, PredictorOptions, Search};

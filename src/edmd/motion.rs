@@ -21,6 +21,9 @@ pub fn orientation_after(
     omega: &V3,
     dt: f64,
 ) -> UnitQuaternion<f64> {
+    if dt == 0.0 {
+        return *orientation;
+    }
     let turn = UnitQuaternion::from_scaled_axis(omega * dt);
     let mut q = turn * orientation;
     q.renormalize_fast();

@@ -18,6 +18,7 @@ use std::cell::Cell;
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::motion::orientation_after;
+use crate::geometry::pair::distance_lower_bound;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
 use crate::geometry::{Contact, DistanceOptions, Relative, Shape, WarmStart, distance};
 
@@ -32,6 +33,10 @@ pub struct PredictorOptions {
     pub grazing_threshold: f64,
     /// A contact is accepted when the distance is in [0, tol].
     pub contact_tolerance: f64,
+    /// Above this, the stepping uses a cheap lower bound on the distance
+    /// (bounding spheres, support planes, oriented boxes) instead of the
+    /// exact distance.
+    pub exact_below: f64,
     /// The distance kernels' options.
     pub distance: DistanceOptions,
 }
@@ -41,9 +46,21 @@ impl Default for PredictorOptions {
         Self {
             grazing_threshold: 1e-4,
             contact_tolerance: 1e-10,
+            exact_below: 0.0,
             distance: DistanceOptions::default(),
         }
     }
+}
+
+/// How a search for a contact ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Search {
+    /// The bodies touch at this time.
+    Contact(f64),
+    /// They stay apart up to the horizon.
+    Apart,
+    /// Out of budget: apart up to this time at least.
+    Unfinished(f64),
 }
 
 /// A body's shape and rotation, for prediction: (shape, orientation now,
@@ -81,14 +98,37 @@ impl Predictor {
     /// pair already overlapping).
     pub fn contact_time(
         &self,
-        (shape_a, q_a, w_a): Rotor,
-        (shape_b, q_b, w_b): Rotor,
+        a: Rotor,
+        b: Rotor,
         d: &V3,
         dv: &V3,
         horizon: f64,
     ) -> Result<Option<f64>, String> {
-        if horizon <= 0.0 {
-            return Ok(None);
+        match self.search(a, b, d, dv, 0.0, horizon, u32::MAX)? {
+            Search::Contact(t) => Ok(Some(t)),
+            Search::Apart => Ok(None),
+            Search::Unfinished(_) => unreachable!("an unlimited search finishes"),
+        }
+    }
+
+    /// [`Predictor::contact_time`] from τ = `from` (the pair known to be
+    /// apart on [0, `from`)) with at most about `budget` distance
+    /// evaluations: a search that runs out says how far it got, so that it
+    /// can be resumed, perhaps with a shorter horizon, once cheaper pairs
+    /// have been searched.
+    #[allow(clippy::too_many_arguments)]
+    pub fn search(
+        &self,
+        (shape_a, q_a, w_a): Rotor,
+        (shape_b, q_b, w_b): Rotor,
+        d: &V3,
+        dv: &V3,
+        from: f64,
+        horizon: f64,
+        budget: u32,
+    ) -> Result<Search, String> {
+        if horizon <= from {
+            return Ok(Search::Apart);
         }
         let (la, lb) = (shape_a.bounding_radius(), shape_b.bounding_radius());
         // The bounding spheres' interval [t1, t2].
@@ -99,7 +139,7 @@ impl Predictor {
         let (t1, t2) = if c > 0.0 {
             let disc = b * b - v2 * c;
             if b >= 0.0 || disc < 0.0 {
-                return Ok(None);
+                return Ok(Search::Apart);
             }
             let root = disc.sqrt();
             (c / (-b + root), (-b + root) / v2)
@@ -108,26 +148,34 @@ impl Predictor {
         } else {
             (0.0, f64::INFINITY)
         };
+        let t1 = t1.max(from);
         let t2 = t2.min(horizon);
         if t1 > t2 {
-            return Ok(None);
+            return Ok(Search::Apart);
         }
-        // Eq. (32).
-        let rate_bound = dv.norm() + w_a.norm() * la + w_b.norm() * lb;
+        // Eq. (32), with the moment arm in place of the bounding radius: the
+        // distance changes at the normal velocity of the contact points, and
+        // a rotation moves a surface point along its normal by ω·(x × n).
+        let rate_bound =
+            dv.norm() + w_a.norm() * shape_a.moment_arm() + w_b.norm() * shape_b.moment_arm();
         if rate_bound == 0.0 {
-            return Ok(None);
+            return Ok(Search::Apart);
         }
         let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
         let eps = self.options.grazing_threshold * scale;
         let tol = self.options.contact_tolerance * scale;
-        let warm: Cell<Option<WarmStart>> = Cell::new(None);
-        let failure: Cell<Option<String>> = Cell::new(None);
-        let dist = |t: f64| -> f64 {
-            let rel = Relative::new(
+        let pose = |t: f64| {
+            Relative::new(
                 &(d + dv * t),
                 &orientation_after(q_a, w_a, t),
                 &orientation_after(q_b, w_b, t),
-            );
+            )
+        };
+        let warm: Cell<Option<WarmStart>> = Cell::new(None);
+        let failure: Cell<Option<String>> = Cell::new(None);
+        let last: Cell<Option<(f64, Contact)>> = Cell::new(None);
+        let dist = |t: f64| -> f64 {
+            let rel = pose(t);
             let start = warm.get();
             let contact = distance(
                 shape_a,
@@ -139,6 +187,7 @@ impl Predictor {
             if contact.warm_start.is_some() {
                 warm.set(contact.warm_start);
             }
+            last.set(Some((t, contact)));
             if !contact.distance.is_finite() {
                 failure.set(Some(format!("{:?} at τ = {t}", contact.status)));
                 return f64::NAN;
@@ -152,40 +201,92 @@ impl Predictor {
                 Ok(())
             }
         };
+        // Far from contact the cheap lower bound is enough to step with
+        // (a step d/ḋ_max is safe for any d below the distance).
+        let exact_below = self.options.exact_below * scale;
+        let step_distance = |t: f64| -> f64 {
+            let bound = distance_lower_bound(shape_a, shape_b, &pose(t));
+            if bound > exact_below { bound } else { dist(t) }
+        };
         let mut t = t1;
-        let mut d_t = dist(t);
+        let mut d_t = step_distance(t);
         failed(d_t)?;
-        if d_t < 0.0 {
+        // The speed at which the contact points close along the normal
+        // (ḋ = −closing), from the contact found at τ = t.
+        let closing_speed = |t: f64| -> f64 {
+            let contact = match last.get() {
+                Some((at, c)) if at == t => c,
+                _ => {
+                    dist(t);
+                    last.get().expect("just computed").1
+                }
+            };
+            let qa_t = orientation_after(q_a, w_a, t);
+            let normal = qa_t * contact.normal;
+            let arm_a = qa_t * (0.5 * (contact.point_a + contact.point_b));
+            let arm_b = arm_a - (d + dv * t);
+            -normal.dot(&(dv + w_b.cross(&arm_b) - w_a.cross(&arm_a)))
+        };
+        if d_t <= tol {
             if d_t < -tol.max(eps * 1e-3) {
                 return Err(format!("the pair overlaps by {:e} at τ = {t}", -d_t));
             }
-            // In contact by round-off: a collision now if the distance is
-            // shrinking, else follow it as it grows.
-            let probe = (tol / rate_bound).max(1e-12 * t.abs().max(1.0));
-            if dist(t + probe) < d_t {
-                return Ok(Some(t));
+            // In contact to round-off: a collision now if the contact points
+            // approach (after a collision they recede, so a pair is never
+            // made to collide twice at one time), else follow the pair.
+            if closing_speed(t) > 0.0 {
+                return Ok(Search::Contact(t));
             }
         }
-        let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Option<f64>, String> {
+        let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Search, String> {
             let (lo, f_lo, _, f_hi, _) = narrow_sign_change(&dist, lo, hi, tol, 200);
             failed(f_lo)?;
             failed(f_hi)?;
-            Ok(Some(lo))
+            Ok(Search::Contact(lo))
         };
+        let mut steps = 0u32;
         while t < t2 {
+            if steps >= budget {
+                return Ok(Search::Unfinished(t));
+            }
+            steps += 1;
             let step = if d_t > eps { d_t } else { eps } / rate_bound;
+            if d_t > eps && t + step >= t2 {
+                // Apart until t2: the distance cannot close within the step.
+                break;
+            }
             let t_next = (t + step).min(t2);
             if t_next <= t {
                 break;
             }
-            let d_next = dist(t_next);
+            let d_next = step_distance(t_next);
             failed(d_next)?;
             if d_next < 0.0 {
                 if d_t > 0.0 {
                     return narrow((t, d_t), (t_next, d_next));
                 }
-                // From a round-off contact straight into overlap.
-                return Ok(Some(t));
+                // From a receding round-off contact into overlap within one
+                // step: bisect for a time the pair is apart, then narrow.
+                let (mut lo, mut hi, mut d_hi) = (t, t_next, d_next);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    let d_mid = dist(mid);
+                    failed(d_mid)?;
+                    if d_mid > 0.0 {
+                        return narrow((mid, d_mid), (hi, d_hi));
+                    }
+                    if mid <= lo || mid >= hi {
+                        break;
+                    }
+                    if d_mid < 0.0 {
+                        hi = mid;
+                        d_hi = d_mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                // Overlapping from the start to round-off: touching now.
+                return Ok(Search::Contact(hi));
             }
             if d_t < eps && d_next < eps {
                 // A grazing contact may hide between t and t_next (step 6).
@@ -220,7 +321,7 @@ impl Predictor {
             t = t_next;
             d_t = d_next;
         }
-        Ok(None)
+        Ok(Search::Apart)
     }
 }
 

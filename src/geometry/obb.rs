@@ -105,9 +105,33 @@ pub fn max_axis_separation(
     r: &Matrix3<f64>,
     t: &Vector3<f64>,
 ) -> (f64, Vector3<f64>) {
+    let (sep, axis, _) = max_axis_separation_with_feature(a, b, r, t);
+    (sep, axis)
+}
+
+/// Which kind of axis separates two boxes most.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeparatingFeature {
+    /// The normal of A's face across axis `i` of A.
+    FaceA(usize),
+    /// The normal of B's face across axis `j` of B.
+    FaceB(usize),
+    /// The cross product of A's edge direction `i` and B's `j`.
+    Edges(usize, usize),
+}
+
+/// [`max_axis_separation`], also saying which axis it is (the contact
+/// features of touching boxes: a face of A, a face of B, or two edges).
+pub fn max_axis_separation_with_feature(
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    r: &Matrix3<f64>,
+    t: &Vector3<f64>,
+) -> (f64, Vector3<f64>, SeparatingFeature) {
     let mut best = f64::NEG_INFINITY;
     let mut best_axis = Vector3::x();
-    let mut consider = |axis: Vector3<f64>| {
+    let mut best_feature = SeparatingFeature::FaceA(0);
+    let mut consider = |axis: Vector3<f64>, feature: SeparatingFeature| {
         let len = axis.norm();
         if len < 1e-9 {
             return; // parallel edges: the face axes cover this direction
@@ -121,20 +145,24 @@ pub fn max_axis_separation(
         if sep > best {
             best = sep;
             best_axis = if proj >= 0.0 { l } else { -l };
+            best_feature = feature;
         }
     };
     for i in 0..3 {
-        consider(Vector3::ith(i, 1.0));
+        consider(Vector3::ith(i, 1.0), SeparatingFeature::FaceA(i));
     }
     for j in 0..3 {
-        consider(r.column(j).into_owned());
+        consider(r.column(j).into_owned(), SeparatingFeature::FaceB(j));
     }
     for i in 0..3 {
         for j in 0..3 {
-            consider(Vector3::<f64>::ith(i, 1.0).cross(&r.column(j)));
+            consider(
+                Vector3::<f64>::ith(i, 1.0).cross(&r.column(j)),
+                SeparatingFeature::Edges(i, j),
+            );
         }
     }
-    (best, best_axis)
+    (best, best_axis, best_feature)
 }
 
 #[cfg(test)]

@@ -373,6 +373,26 @@ impl Shape {
         }
     }
 
+    /// An upper bound on |x × n(x)| over the surface (x from the centre, n
+    /// the unit normal there): the arm with which a rotation moves a surface
+    /// point along its normal, so that a body turning at ω changes its
+    /// distance to anything no faster than |ω| times this. Exact for
+    /// spheres (0), ellipsoids (largest minus smallest semi-axis) and
+    /// cuboids (√(a² + b²) of the two largest half-lengths: at a vertex x
+    /// any normal n of the cone there has x·n ≥ the smallest half-length);
+    /// the bounding radius for superellipsoids.
+    pub fn moment_arm(&self) -> f64 {
+        match self {
+            Shape::Sphere(_) => 0.0,
+            Shape::Ellipsoid(e) => e.semi_axes.max() - e.semi_axes.min(),
+            Shape::Cuboid(c) => {
+                let h = c.half_extents;
+                (h.norm_squared() - h.min() * h.min()).sqrt()
+            }
+            Shape::Superellipsoid(_) => self.bounding_radius(),
+        }
+    }
+
     /// Half-extents of the tightest box about the body centre, along the body
     /// axes, that holds the body (its oriented bounding box).
     pub fn obb_half_extents(&self) -> Vector3<f64> {
@@ -521,6 +541,44 @@ fn superellipsoid_bounding_radius(a: &Vector3<f64>, exponents: &Vector3<f64>) ->
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    /// The moment arm bounds |x × n| over the surface, sampled densely,
+    /// and is attained for ellipsoids (within the sampling).
+    #[test]
+    fn moment_arm_bounds_the_surface_and_is_tight_for_ellipsoids() {
+        use crate::geometry::implicit::SmoothSurface;
+        let shapes = [
+            "Sphere(radius: 0.7)",
+            "Ellipsoid(a: 1.3, b: 0.7, c: 0.4)",
+            "Ellipsoid(a: 0.2, b: 2.0, c: 2.0)",
+            "Superellipsoid(a: 1.0, b: 0.6, c: 0.3, exponents: (4.0, 4.0, 4.0))",
+            "Cuboid(a: 1.0, b: 0.6, c: 0.3)",
+        ];
+        let mut u = crate::test_support::uniform(11);
+        for text in shapes {
+            let shape: Shape = text.parse().unwrap();
+            let mut largest: f64 = 0.0;
+            for _ in 0..20_000 {
+                let dir = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+                // A surface point and its normal: the support point along
+                // `dir` has normal `dir`.
+                let x = shape.support(&dir);
+                let n = match &shape {
+                    Shape::Superellipsoid(q) => q.implicit(&x).gradient.normalize(),
+                    // At a vertex every direction of the octant is a normal.
+                    _ => dir.normalize(),
+                };
+                largest = largest.max(x.cross(&n).norm());
+            }
+            assert!(largest <= shape.moment_arm() + 1e-12, "{text}: {largest}");
+            if let Shape::Ellipsoid(_) | Shape::Sphere(_) | Shape::Cuboid(_) = shape {
+                assert!(
+                    largest > 0.97 * shape.moment_arm() - 1e-12,
+                    "{text}: {largest}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn invalid_sizes_are_errors() {

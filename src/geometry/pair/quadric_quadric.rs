@@ -30,30 +30,8 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
 /// maximum below 1 (F(λ*) ≤ F(λ) + |F′(λ)| · bracket width).
 pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> bool {
     let diff = mb - ma;
-    let eval = |l: f64| -> Option<(f64, f64, f64)> {
-        let c = ma * (1.0 - l) + mb * l;
-        let chol = c.cholesky()?;
-        let x = chol.solve(r);
-        let dx = diff * x;
-        let y = chol.solve(&dx);
-        let g = r.dot(&x);
-        let g1 = -x.dot(&dx);
-        let g2 = 2.0 * dx.dot(&y);
-        let w = l * (1.0 - l);
-        Some((
-            w * g,
-            (1.0 - 2.0 * l) * g + w * g1,
-            -2.0 * g + 2.0 * (1.0 - 2.0 * l) * g1 + w * g2,
-        ))
-    };
-    // Start at the sphere optimum λ = ρ_A/(ρ_A + ρ_B), ρ the radius along r.
-    let rho_a = r.dot(&(ma * r)).sqrt();
-    let rho_b = r.dot(&(mb * r)).sqrt();
-    let mut l = if rho_a + rho_b > 0.0 {
-        rho_a / (rho_a + rho_b)
-    } else {
-        0.5
-    };
+    let eval = |l: f64| contact_function(ma, mb, &diff, r, l);
+    let mut l = sphere_optimum(ma, mb, r);
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
     for _ in 0..200 {
         let Some((f, f1, f2)) = eval(l) else {
@@ -81,6 +59,73 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
         };
     }
     true
+}
+
+/// F(λ), F′(λ), F″(λ); `None` where C(λ) is singular.
+#[inline]
+fn contact_function(
+    ma: &Matrix3<f64>,
+    mb: &Matrix3<f64>,
+    diff: &Matrix3<f64>,
+    r: &Vector3<f64>,
+    l: f64,
+) -> Option<(f64, f64, f64)> {
+    let c = ma * (1.0 - l) + mb * l;
+    let chol = c.cholesky()?;
+    let x = chol.solve(r);
+    let dx = diff * x;
+    let y = chol.solve(&dx);
+    let g = r.dot(&x);
+    let g1 = -x.dot(&dx);
+    let g2 = 2.0 * dx.dot(&y);
+    let w = l * (1.0 - l);
+    Some((
+        w * g,
+        (1.0 - 2.0 * l) * g + w * g1,
+        -2.0 * g + 2.0 * (1.0 - 2.0 * l) * g1 + w * g2,
+    ))
+}
+
+/// The maximiser of F for two spheres of the radii along r,
+/// λ = ρ_A/(ρ_A + ρ_B): the start of the search.
+#[inline]
+fn sphere_optimum(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> f64 {
+    let rho_a = r.dot(&(ma * r)).sqrt();
+    let rho_b = r.dot(&(mb * r)).sqrt();
+    if rho_a + rho_b > 0.0 {
+        rho_a / (rho_a + rho_b)
+    } else {
+        0.5
+    }
+}
+
+/// A lower bound on the distance of two spheres/ellipsoids (frame: see the
+/// `pair` module docs), from the contact function: every F(λ) is at most
+/// μ² = max F, the factor by which both bodies must be scaled about their
+/// centres to touch; a body scaled by μ holds the body grown by (μ − 1)
+/// times its smallest semi-axis (it holds that ball about its centre), so
+/// the distance is at least (μ − 1)(s_A + s_B). A few Newton steps on F′
+/// from the sphere optimum (exact for spheres, and for ellipsoids side by
+/// side); negative when the bodies may overlap.
+pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> f64 {
+    let ma = shape_matrix(a);
+    let r = &rel.rotation;
+    let mb = r * shape_matrix(b) * r.transpose();
+    let t = &rel.translation;
+    let diff = mb - ma;
+    let mut l = sphere_optimum(&ma, &mb, t);
+    let mut best = 0.0f64;
+    for _ in 0..2 {
+        let Some((f, f1, f2)) = contact_function(&ma, &mb, &diff, t, l) else {
+            break;
+        };
+        best = best.max(f);
+        if f2 >= 0.0 {
+            break;
+        }
+        l = (l - f1 / f2).clamp(1e-6, 1.0 - 1e-6);
+    }
+    (best.sqrt() - 1.0) * (a.min_half_extent() + b.min_half_extent())
 }
 
 #[cfg(test)]

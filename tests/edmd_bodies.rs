@@ -1,0 +1,128 @@
+//! Event-driven dynamics of non-spherical hard bodies started from MC
+//! states: prolate and oblate ellipsoids (aspect 2 and 0.5) at φ = 0.50,
+//! superellipsoids (p = 4) at φ = 0.40, cubes at φ = 0.50 and a cuboid–sphere
+//! mixture. At every frame the state is rebuilt as an MC system, whose
+//! construction runs the MC overlap kernels (independent of the prediction),
+//! and energy and momentum are checked; at the end, the all-pairs test.
+//!
+//! The acceptance soak (10⁶ collisions per system) is behind `--ignored`:
+//! `cargo test --release --test edmd_bodies -- --ignored`.
+
+use hardbody::edmd::{Dynamics, DynamicsOptions};
+use hardbody::geometry::Shape;
+use hardbody::mc::compress::{CompressOptions, compress};
+use hardbody::mc::moves::MoveSizes;
+use hardbody::mc::{Species, System};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+
+fn species(shapes: &[&str]) -> Vec<Species> {
+    shapes
+        .iter()
+        .map(|s| Species {
+            name: s.to_string(),
+            shape: s.parse::<Shape>().unwrap(),
+            rotation: true,
+        })
+        .collect()
+}
+
+/// n³ bodies (species alternating) compressed by MC to `phi`.
+fn mc_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> System {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let count = shapes.len();
+    let mut system =
+        hardbody::mc::start::dilute_lattice(n, species(shapes), |i| (i % count) as u16, &mut rng)
+            .unwrap();
+    let sizes = MoveSizes {
+        translate: 0.3,
+        rotate: 0.3,
+        volume: 0.0,
+    };
+    compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
+    system
+}
+
+/// Runs at least `collisions` collisions in frames of `frame` time units,
+/// checking every frame; returns the energy drift.
+fn run(shapes: &[&str], n: usize, phi: f64, collisions: u64, frame: f64, seed: u64) -> f64 {
+    let system = mc_state(shapes, n, phi, seed);
+    let mut rng = Pcg64::seed_from_u64(seed + 1);
+    let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+    let e0 = md.kinetic_energy();
+    let momentum_scale = (md.len() as f64).sqrt();
+    let mut worst: f64 = 0.0;
+    let mut frames = 0;
+    let started = std::time::Instant::now();
+    while md.collisions() < collisions {
+        let next = md.time() + frame;
+        md.run_until(next)
+            .unwrap_or_else(|e| panic!("{shapes:?}: {e}"));
+        frames += 1;
+        if let Err(e) = md.to_system() {
+            panic!("{shapes:?} at t = {}: {e}", md.time());
+        }
+        let drift = (md.kinetic_energy() / e0 - 1.0).abs();
+        worst = worst.max(drift);
+        assert!(drift < 1e-9, "{shapes:?}: energy drift {drift:e}");
+        assert!(
+            md.momentum().norm() < 1e-10 * momentum_scale,
+            "{shapes:?}: momentum {}",
+            md.momentum()
+        );
+    }
+    let end = md.to_system().unwrap();
+    assert_eq!(end.first_overlap_all_pairs(), None, "{shapes:?}");
+    eprintln!(
+        "{shapes:?} phi {phi}: {} collisions, {frames} frames checked, energy drift {worst:.1e}, {:.0} us/collision",
+        md.collisions(),
+        started.elapsed().as_secs_f64() * 1e6 / md.collisions() as f64
+    );
+    worst
+}
+
+const PROLATE: &str = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)";
+const OBLATE: &str = "Ellipsoid(a: 0.5, b: 1.0, c: 1.0)";
+const SUPERELLIPSOID: &str = "Superellipsoid(a: 1.0, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))";
+const CUBE: &str = "Cuboid(a: 0.5, b: 0.5, c: 0.5)";
+const BALL: &str = "Sphere(radius: 0.4)";
+
+#[test]
+fn prolate_ellipsoids_at_0_50() {
+    run(&[PROLATE], 6, 0.50, 20_000, 0.05, 1);
+}
+
+#[test]
+fn oblate_ellipsoids_at_0_50() {
+    run(&[OBLATE], 6, 0.50, 20_000, 0.05, 2);
+}
+
+#[test]
+fn superellipsoids_at_0_40() {
+    run(&[SUPERELLIPSOID], 6, 0.40, 4_000, 0.05, 3);
+}
+
+#[test]
+fn cubes_at_0_50() {
+    run(&[CUBE], 6, 0.50, 20_000, 0.02, 4);
+}
+
+#[test]
+fn cuboid_sphere_mixture_at_0_45() {
+    run(&[CUBE, BALL], 6, 0.45, 20_000, 0.02, 5);
+}
+
+/// The acceptance soak: 10⁶ collisions per system, every frame checked.
+#[test]
+#[ignore = "soak: about an hour in release mode"]
+fn million_collision_soak() {
+    for (shapes, phi, frame) in [
+        (vec![PROLATE], 0.50, 0.5),
+        (vec![OBLATE], 0.50, 0.5),
+        (vec![SUPERELLIPSOID], 0.40, 0.5),
+        (vec![CUBE], 0.50, 0.2),
+        (vec![CUBE, BALL], 0.45, 0.2),
+    ] {
+        run(&shapes, 6, phi, 1_000_000, frame, 11);
+    }
+}
