@@ -114,7 +114,7 @@ fn cuboid_sphere_mixture_at_0_45() {
 
 /// The acceptance soak: 10⁶ collisions per system, every frame checked.
 #[test]
-#[ignore = "soak: about an hour in release mode"]
+#[ignore = "soak: about 1.5 hours in release mode"]
 fn million_collision_soak() {
     for (shapes, phi, frame) in [
         (vec![PROLATE], 0.50, 0.5),
