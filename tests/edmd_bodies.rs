@@ -6,7 +6,8 @@
 //! and energy and momentum are checked; at the end, the all-pairs test.
 //!
 //! The acceptance soak (10⁶ collisions per system) is behind `--ignored`:
-//! `cargo test --release --test edmd_bodies -- --ignored`.
+//! `cargo test --release --test edmd_bodies -- --ignored` (or one of them by
+//! name, e.g. `soak_cubes`).
 
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::geometry::Shape;
@@ -112,17 +113,35 @@ fn cuboid_sphere_mixture_at_0_45() {
     run(&[CUBE, BALL], 6, 0.45, 20_000, 0.02, 5);
 }
 
-/// The acceptance soak: 10⁶ collisions per system, every frame checked.
+// The acceptance soak: 10⁶ collisions per system, every frame checked
+// (about 5 minutes each on one core; the superellipsoids about an hour).
+
 #[test]
-#[ignore = "soak: about 1.5 hours in release mode"]
-fn million_collision_soak() {
-    for (shapes, phi, frame) in [
-        (vec![PROLATE], 0.50, 0.5),
-        (vec![OBLATE], 0.50, 0.5),
-        (vec![SUPERELLIPSOID], 0.40, 0.5),
-        (vec![CUBE], 0.50, 0.2),
-        (vec![CUBE, BALL], 0.45, 0.2),
-    ] {
-        run(&shapes, 6, phi, 1_000_000, frame, 11);
-    }
+#[ignore = "soak: about 5 minutes in release mode"]
+fn soak_prolate_ellipsoids() {
+    run(&[PROLATE], 6, 0.50, 1_000_000, 0.5, 11);
+}
+
+#[test]
+#[ignore = "soak: about 5 minutes in release mode"]
+fn soak_oblate_ellipsoids() {
+    run(&[OBLATE], 6, 0.50, 1_000_000, 0.5, 12);
+}
+
+#[test]
+#[ignore = "soak: about an hour in release mode"]
+fn soak_superellipsoids() {
+    run(&[SUPERELLIPSOID], 6, 0.40, 1_000_000, 0.5, 13);
+}
+
+#[test]
+#[ignore = "soak: about 3 minutes in release mode"]
+fn soak_cubes() {
+    run(&[CUBE], 6, 0.50, 1_000_000, 0.2, 14);
+}
+
+#[test]
+#[ignore = "soak: about 3 minutes in release mode"]
+fn soak_cuboid_sphere_mixture() {
+    run(&[CUBE, BALL], 6, 0.45, 1_000_000, 0.2, 15);
 }
