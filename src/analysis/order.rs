@@ -20,6 +20,28 @@ pub fn nematic_order(axes: impl IntoIterator<Item = Vector3<f64>>) -> Option<f64
     Some(SymmetricEigen::new(q).eigenvalues.max())
 }
 
+/// The body axis whose nematic order is meant for a shape: the one whose
+/// semi-axis (half-length) differs most from the mean of the other two (the
+/// symmetry axis of a spheroid, prolate or oblate). `None` for shapes
+/// without one (spheres, cubes, any body with three equal extents).
+pub fn molecular_axis(shape: &crate::geometry::Shape) -> Option<Vector3<f64>> {
+    let h = shape.obb_half_extents();
+    let (k, spread) = (0..3)
+        .map(|k| {
+            let others = 0.5 * (h[(k + 1) % 3] + h[(k + 2) % 3]);
+            (k, (h[k] - others).abs() / others)
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("three axes");
+    (spread > 1e-9).then(|| Vector3::ith(k, 1.0))
+}
+
+/// P₂(x) = (3x² − 1)/2, the second Legendre polynomial: ⟨P₂(u(0)·u(t))⟩
+/// is the orientational correlation C₂(t).
+pub fn legendre_p2(x: f64) -> f64 {
+    1.5 * x * x - 0.5
+}
+
 /// The cubic alignment of two orientations (rotation matrices): with
 /// R = R_aᵀ R_b, a = (1/3) Σₖₗ R_kl⁴ is 1 when the cubes' axes coincide (up
 /// to cubic symmetry) and 3/5 on average for random relative orientations;
@@ -55,6 +77,21 @@ pub fn local_cubic_order(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn molecular_axis_is_the_odd_one_out() {
+        let axis = |t: &str| molecular_axis(&t.parse().unwrap());
+        assert_eq!(
+            axis("Ellipsoid(a: 0.5, b: 2.0, c: 0.5)"),
+            Some(Vector3::y())
+        );
+        assert_eq!(
+            axis("Ellipsoid(a: 1.0, b: 1.0, c: 0.3)"),
+            Some(Vector3::z())
+        );
+        assert_eq!(axis("Sphere(radius: 1.0)"), None);
+        assert_eq!(axis("Cuboid(a: 1.0, b: 1.0, c: 1.0)"), None);
+    }
     use nalgebra::{Rotation3, Unit};
 
     #[test]

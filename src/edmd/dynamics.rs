@@ -11,6 +11,7 @@ use super::calendar::{Calendar, EventKind};
 use super::collision::{Kinetics, collide, collide_spheres};
 use super::motion::{orientation_after, position_after};
 use super::predict::{Predictor, PredictorOptions, Search};
+use crate::analysis::order::{legendre_p2, molecular_axis, nematic_order};
 use crate::geometry::pair::contact_sum;
 use crate::geometry::{Relative, Shape};
 use crate::mc::{McError, Particle, Species, System};
@@ -167,6 +168,9 @@ pub struct Sample {
     pub temperature: f64,
     /// φ.
     pub packing_fraction: f64,
+    /// S₂ of the molecular axes of the rotating anisotropic bodies; `None`
+    /// if there are none.
+    pub nematic_order: Option<f64>,
 }
 
 /// Event-driven molecular dynamics of hard bodies in a periodic box.
@@ -195,6 +199,15 @@ pub struct Dynamics {
     packing_fraction: f64,
     /// Whether any body rotates (else orientations are never touched).
     rotating: bool,
+    /// Per species: the body axis S₂ and C₂ follow (rotating anisotropic
+    /// species only).
+    molecular_axes: Vec<Option<V3>>,
+    /// Per body: the box lengths it has been wrapped by (unwrapped centre =
+    /// centre + image).
+    images: Vec<V3>,
+    /// Per body: unwrapped centre and lab-frame molecular axis at the
+    /// reference time of the MSD and C₂.
+    reference: Vec<(V3, Option<V3>)>,
     /// Scratch: searches put off until the cheap ones are done.
     deferred: Vec<(u32, f64)>,
     /// Events processed at the current instant (a guard against loops).
@@ -333,11 +346,26 @@ impl Dynamics {
             packing_fraction: system.packing_fraction(),
             rotating: rotors > 0,
             deferred: Vec::new(),
+            molecular_axes: Vec::new(),
+            images: vec![V3::zeros(); n],
+            reference: Vec::new(),
             events_at_now: 0,
             species,
             kinds,
             bodies,
         };
+        dynamics.molecular_axes = dynamics
+            .species
+            .iter()
+            .map(|s| {
+                if s.rotation {
+                    molecular_axis(&s.shape)
+                } else {
+                    None
+                }
+            })
+            .collect();
+        dynamics.set_reference();
         dynamics.schedule_everything()?;
         Ok(dynamics)
     }
@@ -418,6 +446,50 @@ impl Dynamics {
             .collect()
     }
 
+    /// The unwrapped centres and lab-frame molecular axes now.
+    fn trajectory_points(&self) -> impl Iterator<Item = (V3, Option<V3>)> + '_ {
+        self.bodies.iter().zip(&self.images).map(|(b, image)| {
+            let dt = self.now - b.time;
+            let centre = position_after(&b.position, &b.velocity, dt) + image;
+            let axis = self.molecular_axes[b.species as usize]
+                .map(|u| orientation_after(&b.orientation, &b.angular_velocity, dt) * u);
+            (centre, axis)
+        })
+    }
+
+    /// Makes the current time the origin of the mean-squared displacement
+    /// and the orientational correlation.
+    pub fn set_reference(&mut self) {
+        self.reference = self.trajectory_points().collect();
+    }
+
+    /// ⟨|r(t) − r(0)|²⟩ over the bodies, r unwrapped, since the reference
+    /// time (the start, or the last [`Dynamics::set_reference`]).
+    pub fn mean_squared_displacement(&self) -> f64 {
+        let sum: f64 = self
+            .trajectory_points()
+            .zip(&self.reference)
+            .map(|((r, _), (r0, _))| (r - r0).norm_squared())
+            .sum();
+        sum / self.bodies.len() as f64
+    }
+
+    /// C₂(t) = ⟨P₂(u(0)·u(t))⟩ of the molecular axes since the reference
+    /// time; `None` without rotating anisotropic bodies.
+    pub fn orientational_correlation(&self) -> Option<f64> {
+        let (sum, count) = self
+            .trajectory_points()
+            .zip(&self.reference)
+            .filter_map(|((_, u), (_, u0))| Some(legendre_p2(u?.dot(&(*u0)?))))
+            .fold((0.0, 0usize), |(s, c), p| (s + p, c + 1));
+        (count > 0).then(|| sum / count as f64)
+    }
+
+    /// S₂ of the molecular axes now.
+    pub fn nematic_order(&self) -> Option<f64> {
+        nematic_order(self.trajectory_points().filter_map(|(_, u)| u))
+    }
+
     /// Velocities and angular velocities (lab frame) at the current time.
     pub fn velocities(&self) -> Vec<(V3, V3)> {
         self.bodies
@@ -480,6 +552,7 @@ impl Dynamics {
             pressure,
             temperature: kt,
             packing_fraction: self.packing_fraction,
+            nematic_order: self.nematic_order(),
         }
     }
 
@@ -726,10 +799,12 @@ impl Dynamics {
             if c[axis] == dims[axis] {
                 c[axis] = 0;
                 self.bodies[i].position[axis] -= l;
+                self.images[i][axis] += l;
             }
         } else if c[axis] == 0 {
             c[axis] = dims[axis] - 1;
             self.bodies[i].position[axis] += l;
+            self.images[i][axis] -= l;
         } else {
             c[axis] -= 1;
         }

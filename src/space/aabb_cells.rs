@@ -37,7 +37,7 @@ impl AabbCells {
         centres: &[Vector3<f64>],
         half_extents: &[Vector3<f64>],
     ) -> Self {
-        let dims = [0, 1, 2].map(|k| ((lengths[k] / width).floor() as usize).max(1));
+        let dims = super::cell_grid(&lengths, width, centres.len());
         let cell_width = Vector3::new(
             lengths.x / dims[0] as f64,
             lengths.y / dims[1] as f64,

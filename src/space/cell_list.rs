@@ -27,7 +27,7 @@ pub struct CellList {
 impl CellList {
     /// Bins `positions` (in [−L/2, L/2)) into cells of width ≥ `range`.
     pub fn new(lengths: Vector3<f64>, range: f64, positions: &[Vector3<f64>]) -> Self {
-        let dims = [0, 1, 2].map(|k| ((lengths[k] / range).floor() as usize).max(1));
+        let dims = super::cell_grid(&lengths, range, positions.len());
         let count = dims[0] * dims[1] * dims[2];
         let mut neighbours = vec![0u32; 27 * count];
         let mut neighbour_counts = vec![0u8; count];
