@@ -9,45 +9,17 @@
 //! `cargo test --release --test edmd_bodies -- --ignored` (or one of them by
 //! name, e.g. `soak_cubes`).
 
+mod common;
+
+use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::geometry::Shape;
-use hardbody::mc::compress::{CompressOptions, compress};
-use hardbody::mc::moves::MoveSizes;
-use hardbody::mc::{Species, System};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-
-fn species(shapes: &[&str]) -> Vec<Species> {
-    shapes
-        .iter()
-        .map(|s| Species {
-            name: s.to_string(),
-            shape: s.parse::<Shape>().unwrap(),
-            rotation: true,
-        })
-        .collect()
-}
-
-/// n³ bodies (species alternating) compressed by MC to `phi`.
-fn mc_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> System {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let count = shapes.len();
-    let mut system =
-        hardbody::mc::start::dilute_lattice(n, species(shapes), |i| (i % count) as u16, &mut rng)
-            .unwrap();
-    let sizes = MoveSizes {
-        translate: 0.3,
-        rotate: 0.3,
-        volume: 0.0,
-    };
-    compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
-    system
-}
 
 /// Runs at least `collisions` collisions in frames of `frame` time units,
 /// checking every frame; returns the energy drift.
 fn run(shapes: &[&str], n: usize, phi: f64, collisions: u64, frame: f64, seed: u64) -> f64 {
-    let system = mc_state(shapes, n, phi, seed);
+    let system = compressed_state(shapes, n, phi, seed);
     let mut rng = Pcg64::seed_from_u64(seed + 1);
     let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
     let e0 = md.kinetic_energy();

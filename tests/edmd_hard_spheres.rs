@@ -3,30 +3,17 @@
 //! rate against Enskog with the Carnahan–Starling contact value, and energy
 //! and momentum conservation over 10⁶ collisions, starting from MC states.
 
+mod common;
+
+use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::geometry::Shape;
-use hardbody::mc::compress::{CompressOptions, compress};
-use hardbody::mc::moves::MoveSizes;
-use hardbody::mc::{Species, System};
+use hardbody::mc::System;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
 /// 512 spheres of diameter 1 compressed by MC to `phi`.
 fn mc_state(phi: f64, seed: u64) -> System {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let species = vec![Species {
-        name: "sphere".into(),
-        shape: "Sphere(radius: 0.5)".parse::<Shape>().unwrap(),
-        rotation: false,
-    }];
-    let mut system = hardbody::mc::start::dilute_lattice(8, species, |_| 0, &mut rng).unwrap();
-    let sizes = MoveSizes {
-        translate: 0.3,
-        rotate: 0.0,
-        volume: 0.0,
-    };
-    compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
-    system
+    compressed_state(&["Sphere(radius: 0.5)"], 8, phi, seed)
 }
 
 fn carnahan_starling(phi: f64) -> f64 {

@@ -5,34 +5,18 @@
 //! with a wrong contact point or normal still conserves energy and momentum,
 //! but not this.
 
+mod common;
+
+use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::geometry::Shape;
-use hardbody::mc::compress::{CompressOptions, compress};
+use hardbody::mc::System;
 use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
 use hardbody::mc::sdf::Sdf;
 use hardbody::mc::tuning::Tuner;
-use hardbody::mc::{Species, System};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use statrs::statistics::Statistics;
-
-fn compressed(shape: &str, phi: f64, seed: u64) -> System {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let species = vec![Species {
-        name: shape.into(),
-        shape: shape.parse::<Shape>().unwrap(),
-        rotation: true,
-    }];
-    let mut system = hardbody::mc::start::dilute_lattice(6, species, |_| 0, &mut rng).unwrap();
-    let sizes = MoveSizes {
-        translate: 0.3,
-        rotate: 0.3,
-        volume: 0.0,
-    };
-    compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
-    system
-}
 
 /// βP from MC in NVT by the SDF: mean and standard error over blocks.
 fn mc_sdf_pressure(mut system: System, seed: u64) -> (f64, f64) {
@@ -99,7 +83,7 @@ fn collision_virial_matches_the_sdf_pressure() {
     let results: Vec<((f64, f64), (f64, f64))> = cases
         .par_iter()
         .map(|&(shape, phi, seed)| {
-            let system = compressed(shape, phi, seed);
+            let system = compressed_state(&[shape], 6, phi, seed);
             let md = edmd_pressure(&system, seed + 10, 2000);
             let mc = mc_sdf_pressure(system, seed + 20);
             (md, mc)

@@ -262,3 +262,31 @@ pub fn reference_overlap(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
         _ => newton_oracle(a, b, rel),
     }
 }
+
+/// n³ bodies of the given shapes (species alternating by index), placed on
+/// a dilute lattice with random orientations and compressed by MC to `phi`:
+/// the starting state of the dynamics tests.
+pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardbody::mc::System {
+    use hardbody::mc::compress::{CompressOptions, compress};
+    use hardbody::mc::moves::MoveSizes;
+    use rand::SeedableRng;
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let species = shapes
+        .iter()
+        .map(|s| hardbody::mc::Species {
+            name: s.to_string(),
+            shape: s.parse::<Shape>().unwrap(),
+            rotation: true,
+        })
+        .collect();
+    let count = shapes.len();
+    let mut system =
+        hardbody::mc::start::dilute_lattice(n, species, |i| (i % count) as u16, &mut rng).unwrap();
+    let sizes = MoveSizes {
+        translate: 0.3,
+        rotate: 0.3,
+        volume: 0.0,
+    };
+    compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
+    system
+}
