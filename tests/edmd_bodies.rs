@@ -117,3 +117,75 @@ fn soak_cubes() {
 fn soak_cuboid_sphere_mixture() {
     run(&[CUBE, BALL], 6, 0.45, 1_000_000, 0.2, 15);
 }
+
+/// Prolate spheroids as true symmetric tops (I₁ = I₂ ≠ I₃), started with
+/// all the kinetic energy in translation: energy is conserved through free
+/// precession and collisions; the normal of a body of revolution always
+/// meets its axis, so no collision spins a body about its axis and that
+/// spin (here zero) is conserved; the collisions bring the rest to
+/// equipartition between translation (3N − 3 degrees of freedom) and the
+/// two tumbling rotations (2N).
+#[test]
+fn symmetric_tops_keep_their_spin_and_reach_equipartition() {
+    let system = compressed_state(&[PROLATE], 6, 0.40, 21);
+    let mut rng = Pcg64::seed_from_u64(22);
+    let options = DynamicsOptions {
+        true_inertia: true,
+        ..DynamicsOptions::default()
+    };
+    let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
+    let still: Vec<_> = md
+        .velocities()
+        .iter()
+        .map(|(v, _)| (v * std::f64::consts::SQRT_2, nalgebra::Vector3::zeros()))
+        .collect();
+    md.set_velocities(&still).unwrap();
+    let e0 = md.kinetic_energy();
+    assert_eq!(md.translational_kinetic_energy(), e0);
+    // About 50 collisions per body to relax, then blocks of 40 frames.
+    md.run_collisions(10_000).unwrap();
+    let mut blocks = Vec::new();
+    for _ in 0..10 {
+        let mut sum = 0.0;
+        for _ in 0..40 {
+            let next = md.time() + 0.05;
+            md.run_until(next).unwrap();
+            sum += md.translational_kinetic_energy() / md.kinetic_energy();
+            assert!((md.kinetic_energy() / e0 - 1.0).abs() < 1e-9);
+        }
+        blocks.push(sum / 40.0);
+    }
+    md.to_system().expect("no overlap");
+    let spin = md
+        .particles()
+        .iter()
+        .zip(md.velocities())
+        .map(|(p, (_, w))| w.dot(&(p.orientation * nalgebra::Vector3::x())).abs())
+        .fold(0.0, f64::max);
+    assert!(spin < 1e-9, "a body spins about its axis: {spin}");
+    let n = md.len() as f64;
+    let expected = (3.0 * n - 3.0) / (5.0 * n - 3.0);
+    let mean = blocks.iter().sum::<f64>() / blocks.len() as f64;
+    let se = (blocks.iter().map(|b| (b - mean).powi(2)).sum::<f64>() / 90.0).sqrt();
+    eprintln!(
+        "symmetric tops: translational share {mean:.4} ± {se:.4}, expected {expected:.4}, {} collisions",
+        md.collisions()
+    );
+    assert!(
+        (mean - expected).abs() < 4.0 * se + 0.005 && (mean - expected).abs() < 0.03,
+        "translational share {mean} ± {se} vs {expected}"
+    );
+}
+
+/// True inertia needs a body of revolution; a triaxial body is an error
+/// naming the species.
+#[test]
+fn true_inertia_of_a_triaxial_body_is_an_error() {
+    let system = compressed_state(&["Ellipsoid(a: 1.0, b: 0.7, c: 0.5)"], 3, 0.1, 23);
+    let options = DynamicsOptions {
+        true_inertia: true,
+        ..DynamicsOptions::default()
+    };
+    let err = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(1)).unwrap_err();
+    assert!(err.to_string().contains("body of revolution"), "{err}");
+}

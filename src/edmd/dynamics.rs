@@ -9,7 +9,7 @@ use rand_distr::StandardNormal;
 
 use super::calendar::{Calendar, EventKind};
 use super::collision::{Kinetics, collide, collide_spheres};
-use super::motion::{orientation_after, position_after};
+use super::motion::{Spin, position_after};
 use super::predict::{Predictor, PredictorOptions, Search};
 use crate::analysis::order::{legendre_p2, molecular_axis, nematic_order};
 use crate::geometry::pair::contact_sum;
@@ -72,6 +72,23 @@ pub enum EdmdError {
         /// See `i`.
         j: usize,
     },
+    /// True inertia was asked for a body that is not a body of revolution
+    /// (its free rotation has no closed form here).
+    #[error(
+        "species {species}: true inertia needs a body of revolution (two equal principal moments), got {moments:?}"
+    )]
+    NotATop {
+        /// The species.
+        species: String,
+        /// Its principal moments.
+        moments: [f64; 3],
+    },
+    /// Velocities given for a different number of bodies, not finite, or
+    /// spinning a body that does not rotate.
+    #[error(
+        "velocities must be finite, one pair per body ({0} bodies), and zero spin for bodies that do not rotate"
+    )]
+    BadVelocities(usize),
     /// The distance solver failed at a collision or a prediction.
     #[error("distance of particles {i} and {j} at t = {time} could not be computed: {why}")]
     Solver {
@@ -96,6 +113,10 @@ pub struct DynamicsOptions {
     pub masses: Vec<f64>,
     /// Collision prediction for non-spherical pairs.
     pub predictor: PredictorOptions,
+    /// Rotate bodies of revolution as symmetric tops with their true
+    /// principal moments; otherwise every body is a spherical top with the
+    /// mean moment (De Michele's choice, eqs. 4–6).
+    pub true_inertia: bool,
 }
 
 impl Default for DynamicsOptions {
@@ -104,6 +125,7 @@ impl Default for DynamicsOptions {
             temperature: 1.0,
             masses: Vec::new(),
             predictor: PredictorOptions::default(),
+            true_inertia: false,
         }
     }
 }
@@ -136,8 +158,55 @@ struct Body {
 struct Kind {
     shape: Shape,
     inverse_mass: f64,
-    /// Scalar moment of inertia of the spherical top, 1/I (0: no rotation).
-    inverse_inertia: f64,
+    /// Whether the species turns.
+    rotates: bool,
+    /// Principal moments of inertia along the body axes: all equal (the
+    /// mean of the body's) for a spherical top, the body's own for a
+    /// symmetric top.
+    moments: V3,
+    /// The body axis of the symmetric top (the odd moment).
+    top_axis: usize,
+}
+
+impl Kind {
+    /// The free rotation of a body of this kind with orientation `q` and
+    /// lab angular velocity `omega` (zero for kinds that do not turn).
+    #[inline]
+    fn spin(&self, q: &UnitQuaternion<f64>, omega: &V3) -> Spin {
+        if !self.rotates {
+            return Spin::constant(V3::zeros());
+        }
+        let k = self.top_axis;
+        let (i1, i3) = (self.moments[(k + 1) % 3], self.moments[k]);
+        if i1 == i3 {
+            return Spin::constant(*omega);
+        }
+        let axis = V3::ith(k, 1.0);
+        let e3 = q * axis;
+        let w3 = omega.dot(&e3);
+        Spin {
+            lab: omega + e3 * ((i3 / i1 - 1.0) * w3),
+            body: axis * (w3 * (1.0 - i3 / i1)),
+        }
+    }
+
+    /// I⁻¹ in the lab frame at orientation `q`.
+    fn inverse_inertia(&self, q: &UnitQuaternion<f64>) -> Matrix3<f64> {
+        if !self.rotates {
+            return Matrix3::zeros();
+        }
+        let r = q.to_rotation_matrix().into_inner();
+        r * Matrix3::from_diagonal(&self.moments.map(|m| 1.0 / m)) * r.transpose()
+    }
+
+    /// ½ ω·I ω.
+    fn rotational_energy(&self, q: &UnitQuaternion<f64>, omega: &V3) -> f64 {
+        if !self.rotates {
+            return 0.0;
+        }
+        let body = q.inverse_transform_vector(omega);
+        0.5 * body.component_mul(&body).dot(&self.moments)
+    }
 }
 
 /// Counters and sums over the interval since the last sample.
@@ -247,20 +316,33 @@ impl Dynamics {
                 masses: options.masses.clone(),
             });
         }
-        let kinds: Vec<Kind> = species
-            .iter()
-            .zip(&masses)
-            .map(|(s, &m)| Kind {
+        let mut kinds = Vec::with_capacity(species.len());
+        for (s, &m) in species.iter().zip(&masses) {
+            let principal = s.shape.inertia_tensor(m).diagonal();
+            let (moments, top_axis) = if options.true_inertia {
+                // A body of revolution: two equal moments; the third is the
+                // top's axis.
+                let equal = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.max(b);
+                match (0..3).find(|&k| equal(principal[(k + 1) % 3], principal[(k + 2) % 3])) {
+                    Some(k) => (principal, k),
+                    None => {
+                        return Err(EdmdError::NotATop {
+                            species: s.name.clone(),
+                            moments: principal.into(),
+                        });
+                    }
+                }
+            } else {
+                (V3::repeat(principal.sum() / 3.0), 2)
+            };
+            kinds.push(Kind {
                 shape: s.shape,
                 inverse_mass: 1.0 / m,
-                inverse_inertia: if s.rotation {
-                    // A spherical top: the mean principal moment.
-                    3.0 / s.shape.inertia_tensor(m).trace()
-                } else {
-                    0.0
-                },
-            })
-            .collect();
+                rotates: s.rotation,
+                moments,
+                top_axis,
+            });
+        }
         let ns = species.len();
         let contact_sums = (0..ns * ns)
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
@@ -278,8 +360,9 @@ impl Dynamics {
                     )
                 };
                 let velocity = gauss(rng) * (t * kind.inverse_mass).sqrt();
-                let angular_velocity = if kind.inverse_inertia > 0.0 {
-                    gauss(rng) * (t * kind.inverse_inertia).sqrt()
+                // Equipartition about each principal axis, then to the lab.
+                let angular_velocity = if kind.rotates {
+                    p.orientation * gauss(rng).component_mul(&kind.moments.map(|i| (t / i).sqrt()))
                 } else {
                     V3::zeros()
                 };
@@ -415,6 +498,43 @@ impl Dynamics {
             .sum()
     }
 
+    /// Replaces every body's velocity and angular velocity (lab frame), as
+    /// of the current time (restoring a saved state, or preparing one out
+    /// of equilibrium); angular velocities of bodies that do not rotate must
+    /// be zero. All events are predicted again.
+    pub fn set_velocities(&mut self, velocities: &[(V3, V3)]) -> Result<(), EdmdError> {
+        if velocities.len() != self.bodies.len()
+            || velocities.iter().enumerate().any(|(i, (v, w))| {
+                !(v.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()))
+                    || (!self.kinds[self.bodies[i].species as usize].rotates && *w != V3::zeros())
+            })
+        {
+            return Err(EdmdError::BadVelocities(self.bodies.len()));
+        }
+        for i in 0..self.bodies.len() {
+            self.advance(i);
+        }
+        self.accumulate_kinetic();
+        for (b, (v, w)) in self.bodies.iter_mut().zip(velocities) {
+            b.velocity = *v;
+            b.angular_velocity = *w;
+        }
+        self.kinetic_translational = self
+            .bodies
+            .iter()
+            .map(|b| 0.5 * b.velocity.norm_squared() / self.kinds[b.species as usize].inverse_mass)
+            .sum();
+        for i in 0..self.bodies.len() {
+            self.calendar.invalidate(i);
+        }
+        self.schedule_everything()
+    }
+
+    /// Translational kinetic energy.
+    pub fn translational_kinetic_energy(&self) -> f64 {
+        self.kinetic_translational
+    }
+
     /// Total momentum.
     pub fn momentum(&self) -> V3 {
         self.bodies
@@ -439,7 +559,9 @@ impl Dynamics {
                     position: self
                         .box_
                         .wrap(&position_after(&b.position, &b.velocity, dt)),
-                    orientation: orientation_after(&b.orientation, &b.angular_velocity, dt),
+                    orientation: self.kinds[b.species as usize]
+                        .spin(&b.orientation, &b.angular_velocity)
+                        .orientation_after(&b.orientation, dt),
                     species: b.species,
                 }
             })
@@ -451,8 +573,12 @@ impl Dynamics {
         self.bodies.iter().zip(&self.images).map(|(b, image)| {
             let dt = self.now - b.time;
             let centre = position_after(&b.position, &b.velocity, dt) + image;
-            let axis = self.molecular_axes[b.species as usize]
-                .map(|u| orientation_after(&b.orientation, &b.angular_velocity, dt) * u);
+            let axis = self.molecular_axes[b.species as usize].map(|u| {
+                self.kinds[b.species as usize]
+                    .spin(&b.orientation, &b.angular_velocity)
+                    .orientation_after(&b.orientation, dt)
+                    * u
+            });
             (centre, axis)
         })
     }
@@ -620,7 +746,9 @@ impl Dynamics {
         if dt != 0.0 {
             b.position = position_after(&b.position, &b.velocity, dt);
             if rotating && b.angular_velocity != V3::zeros() {
-                b.orientation = orientation_after(&b.orientation, &b.angular_velocity, dt);
+                let spin = self.kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
+                b.orientation = spin.orientation_after(&b.orientation, dt);
+                b.angular_velocity = spin.angular_velocity(&b.orientation);
             }
             b.time = now;
         }
@@ -742,6 +870,10 @@ impl Dynamics {
             // within round-off of a second one (a box face about to meet a
             // vertex beside the one touching), the pair overlaps an instant
             // later at the other. Take the contact from there.
+            let (spin_i, spin_j) = (
+                ki.spin(&bi.orientation, &bi.angular_velocity),
+                kj.spin(&bj.orientation, &bj.angular_velocity),
+            );
             let rate = (bj.velocity - bi.velocity).norm()
                 + bi.angular_velocity.norm() * ki.shape.moment_arm()
                 + bj.angular_velocity.norm() * kj.shape.moment_arm();
@@ -750,8 +882,8 @@ impl Dynamics {
             for _ in 0..40 {
                 let later = Relative::new(
                     &(d + (bj.velocity - bi.velocity) * delta),
-                    &orientation_after(&bi.orientation, &bi.angular_velocity, delta),
-                    &orientation_after(&bj.orientation, &bj.angular_velocity, delta),
+                    &spin_i.orientation_after(&bi.orientation, delta),
+                    &spin_j.orientation_after(&bj.orientation, delta),
                 );
                 let ahead = self.predictor.contact(&ki.shape, &kj.shape, &later);
                 if ahead.distance < 0.0 {
@@ -769,7 +901,7 @@ impl Dynamics {
             velocity: b.velocity,
             angular_velocity: b.angular_velocity,
             inverse_mass: k.inverse_mass,
-            inverse_inertia: Matrix3::identity() * k.inverse_inertia,
+            inverse_inertia: k.inverse_inertia(&b.orientation),
         };
         let mut ka = kinetics(&bi, ki);
         let mut kb = kinetics(&bj, kj);
@@ -941,15 +1073,18 @@ impl Dynamics {
                 None => Search::Apart,
             }
         } else {
-            let orientation_j = orientation_after(&bj.orientation, &bj.angular_velocity, dt_j);
+            // A free rotation's two parts are constants of the motion.
+            let spin_j = body_spin(&self.kinds, bj);
+            let orientation_j = spin_j.orientation_after(&bj.orientation, dt_j);
+            let spin_i = body_spin(&self.kinds, bi);
             let (ki, kj) = (
                 &self.kinds[bi.species as usize],
                 &self.kinds[bj.species as usize],
             );
             self.predictor
                 .search(
-                    (&ki.shape, &bi.orientation, &bi.angular_velocity),
-                    (&kj.shape, &orientation_j, &bj.angular_velocity),
+                    (&ki.shape, &bi.orientation, &spin_i),
+                    (&kj.shape, &orientation_j, &spin_j),
                     &d,
                     &dv,
                     from - self.now,
@@ -971,22 +1106,24 @@ impl Dynamics {
     }
 }
 
+/// A body's free rotation since its stored time.
+#[inline]
+fn body_spin(kinds: &[Kind], b: &Body) -> Spin {
+    kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity)
+}
+
 /// How many bodies rotate.
 fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
     bodies
         .iter()
-        .filter(|b| kinds[b.species as usize].inverse_inertia > 0.0)
+        .filter(|b| kinds[b.species as usize].rotates)
         .count()
 }
 
 /// Kinetic energy of one body (spherical top).
 fn body_energy(b: &Body, kinds: &[Kind]) -> f64 {
     let k = &kinds[b.species as usize];
-    let rot = if k.inverse_inertia > 0.0 {
-        0.5 * b.angular_velocity.norm_squared() / k.inverse_inertia
-    } else {
-        0.0
-    };
+    let rot = k.rotational_energy(&b.orientation, &b.angular_velocity);
     0.5 * b.velocity.norm_squared() / k.inverse_mass + rot
 }
 

@@ -17,7 +17,7 @@ use std::cell::Cell;
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::motion::orientation_after;
+use super::motion::Spin;
 use crate::geometry::pair::distance_lower_bound;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
 use crate::geometry::{Contact, DistanceOptions, Relative, Shape, WarmStart, distance};
@@ -64,8 +64,8 @@ pub enum Search {
 }
 
 /// A body's shape and rotation, for prediction: (shape, orientation now,
-/// lab-frame angular velocity).
-pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a V3);
+/// free rotation; |ω| is constant in it).
+pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
 
 /// Predicts contacts of general pairs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -156,8 +156,9 @@ impl Predictor {
         // Eq. (32), with the moment arm in place of the bounding radius: the
         // distance changes at the normal velocity of the contact points, and
         // a rotation moves a surface point along its normal by ω·(x × n).
-        let rate_bound =
-            dv.norm() + w_a.norm() * shape_a.moment_arm() + w_b.norm() * shape_b.moment_arm();
+        let rate_bound = dv.norm()
+            + w_a.angular_velocity(q_a).norm() * shape_a.moment_arm()
+            + w_b.angular_velocity(q_b).norm() * shape_b.moment_arm();
         if rate_bound == 0.0 {
             return Ok(Search::Apart);
         }
@@ -167,8 +168,8 @@ impl Predictor {
         let pose = |t: f64| {
             Relative::new(
                 &(d + dv * t),
-                &orientation_after(q_a, w_a, t),
-                &orientation_after(q_b, w_b, t),
+                &w_a.orientation_after(q_a, t),
+                &w_b.orientation_after(q_b, t),
             )
         };
         let warm: Cell<Option<WarmStart>> = Cell::new(None);
@@ -221,11 +222,13 @@ impl Predictor {
                     last.get().expect("just computed").1
                 }
             };
-            let qa_t = orientation_after(q_a, w_a, t);
+            let qa_t = w_a.orientation_after(q_a, t);
+            let qb_t = w_b.orientation_after(q_b, t);
             let normal = qa_t * contact.normal;
             let arm_a = qa_t * (0.5 * (contact.point_a + contact.point_b));
             let arm_b = arm_a - (d + dv * t);
-            -normal.dot(&(dv + w_b.cross(&arm_b) - w_a.cross(&arm_a)))
+            let (omega_a, omega_b) = (w_a.angular_velocity(&qa_t), w_b.angular_velocity(&qb_t));
+            -normal.dot(&(dv + omega_b.cross(&arm_b) - omega_a.cross(&arm_a)))
         };
         if d_t <= tol {
             if d_t < -tol.max(eps * 1e-3) {
@@ -341,7 +344,7 @@ mod tests {
         let p = Predictor::new(PredictorOptions::default());
         let s = ellipsoid(0.5, 0.5, 0.5);
         let q = UnitQuaternion::identity();
-        let w = V3::zeros();
+        let w = Spin::constant(V3::zeros());
         let mut u = crate::test_support::uniform(4);
         for _ in 0..200 {
             let d = V3::new(3.0, u() - 0.5, u() - 0.5);
@@ -366,9 +369,9 @@ mod tests {
         let rod = ellipsoid(2.0, 0.2, 0.2);
         let ball = ellipsoid(0.3, 0.3, 0.3);
         let qa = UnitQuaternion::identity();
-        let wa = V3::new(0.0, 0.0, 1.0);
+        let wa = Spin::constant(V3::new(0.0, 0.0, 1.0));
         let qb = UnitQuaternion::identity();
-        let wb = V3::zeros();
+        let wb = Spin::constant(V3::zeros());
         let d = V3::new(0.0, 1.5, 0.0);
         let dv = V3::zeros();
         let tc = p
@@ -376,7 +379,7 @@ mod tests {
             .unwrap()
             .expect("the rod sweeps through the ball");
         let dist = |t: f64| {
-            let rel = Relative::new(&d, &orientation_after(&qa, &wa, t), &qb);
+            let rel = Relative::new(&d, &wa.orientation_after(&qa, t), &qb);
             distance(&rod, &ball, &rel, &DistanceOptions::default(), None).distance
         };
         assert!(dist(tc) >= 0.0 && dist(tc) < 1e-9, "{}", dist(tc));
