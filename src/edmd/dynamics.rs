@@ -13,7 +13,7 @@ use super::motion::{Spin, position_after};
 use super::predict::{Predictor, PredictorOptions, Search};
 use crate::analysis::order::{legendre_p2, molecular_axis, nematic_order};
 use crate::geometry::pair::contact_sum;
-use crate::geometry::{Relative, Shape};
+use crate::geometry::{Relative, Shape, WarmStart};
 use crate::mc::{McError, Particle, Species, System};
 use crate::space::{CellList, PeriodicBox};
 
@@ -277,6 +277,9 @@ pub struct Dynamics {
     /// Per body: unwrapped centre and lab-frame molecular axis at the
     /// reference time of the MSD and C₂.
     reference: Vec<(V3, Option<V3>)>,
+    /// The distance solver's state at each scheduled collision's predicted
+    /// contact, by (first, second) body: the collision starts from it.
+    found: std::collections::HashMap<(u32, u32), WarmStart>,
     /// Scratch: searches put off until the cheap ones are done.
     deferred: Vec<(u32, f64)>,
     /// Events processed at the current instant (a guard against loops).
@@ -429,6 +432,7 @@ impl Dynamics {
             packing_fraction: system.packing_fraction(),
             rotating: rotors > 0,
             deferred: Vec::new(),
+            found: std::collections::HashMap::new(),
             molecular_axes: Vec::new(),
             images: vec![V3::zeros(); n],
             reference: Vec::new(),
@@ -820,8 +824,8 @@ impl Dynamics {
         // The pair itself last, within both horizons: a pair that has just
         // touched stays within ε_d for a while, where the search is slow.
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
-        if let Search::Contact(t) = self.predict_pair(i, j, self.now, horizon, u32::MAX)? {
-            self.calendar.schedule(t, EventKind::Collision, i, j);
+        if let (Search::Contact(t), warm) = self.predict_pair(i, j, self.now, horizon, u32::MAX)? {
+            self.schedule_collision(t, i, j, warm);
         }
         Ok(())
     }
@@ -836,7 +840,10 @@ impl Dynamics {
             &self.kinds[bj.species as usize],
         );
         let rel = Relative::new(d, &bi.orientation, &bj.orientation);
-        let contact = self.predictor.contact(&ki.shape, &kj.shape, &rel);
+        let warm = self.found.remove(&(i as u32, j as u32));
+        let contact = self
+            .predictor
+            .contact_from(&ki.shape, &kj.shape, &rel, warm.as_ref());
         if !contact.distance.is_finite() {
             return Err(EdmdError::Solver {
                 i,
@@ -1012,12 +1019,16 @@ impl Dynamics {
                 // or renewed its search (which covers this pair).
                 let horizon = horizon_i.min(self.bodies[j].horizon);
                 match self.predict_pair(i, j, self.now, horizon, CHEAP_SEARCH)? {
-                    Search::Contact(t) => {
+                    (Search::Contact(t), warm) => {
+                        // (Fields, not a method: the cell list is borrowed.)
                         self.calendar.schedule(t, EventKind::Collision, i, j);
+                        if let Some(w) = warm {
+                            self.found.insert((i as u32, j as u32), w);
+                        }
                         horizon_i = t;
                     }
-                    Search::Apart => {}
-                    Search::Unfinished(t) => deferred.push((j as u32, t)),
+                    (Search::Apart, _) => {}
+                    (Search::Unfinished(t), _) => deferred.push((j as u32, t)),
                 }
             }
         }
@@ -1033,20 +1044,29 @@ impl Dynamics {
             let j = j as usize;
             let horizon = horizon_i.min(self.bodies[j].horizon);
             match self.predict_pair(i, j, from, horizon, CHEAP_SEARCH)? {
-                Search::Contact(t) => {
-                    self.calendar.schedule(t, EventKind::Collision, i, j);
+                (Search::Contact(t), warm) => {
+                    self.schedule_collision(t, i, j, warm);
                     horizon_i = t;
                     deferred.swap_remove(k);
                 }
-                Search::Apart => {
+                (Search::Apart, _) => {
                     deferred.swap_remove(k);
                 }
-                Search::Unfinished(t) => deferred[k].1 = t,
+                (Search::Unfinished(t), _) => deferred[k].1 = t,
             }
         }
         self.deferred = deferred;
         self.bodies[i].horizon = horizon_i;
         Ok(())
+    }
+
+    /// Schedules the collision of `i` and `j` at `t`, keeping the solver
+    /// state at the predicted contact for it.
+    fn schedule_collision(&mut self, t: f64, i: usize, j: usize, warm: Option<WarmStart>) {
+        self.calendar.schedule(t, EventKind::Collision, i, j);
+        if let Some(w) = warm {
+            self.found.insert((i as u32, j as u32), w);
+        }
     }
 
     /// The contact time of bodies `i` (at the current time) and `j` if it
@@ -1059,7 +1079,7 @@ impl Dynamics {
         from: f64,
         horizon: f64,
         budget: u32,
-    ) -> Result<Search, EdmdError> {
+    ) -> Result<(Search, Option<WarmStart>), EdmdError> {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
         // B's centre now, relative to A's, and the relative velocity.
         let dt_j = self.now - bj.time;
@@ -1098,10 +1118,11 @@ impl Dynamics {
                     why,
                 })?
         };
+        let warm = self.predictor.take_found();
         Ok(match found {
-            Search::Contact(t) if self.now + t < horizon => Search::Contact(self.now + t),
-            Search::Contact(_) | Search::Apart => Search::Apart,
-            Search::Unfinished(t) => Search::Unfinished(self.now + t),
+            Search::Contact(t) if self.now + t < horizon => (Search::Contact(self.now + t), warm),
+            Search::Contact(_) | Search::Apart => (Search::Apart, None),
+            Search::Unfinished(t) => (Search::Unfinished(self.now + t), None),
         })
     }
 }

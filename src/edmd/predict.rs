@@ -68,15 +68,39 @@ pub enum Search {
 pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
 
 /// Predicts contacts of general pairs.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Predictor {
     options: PredictorOptions,
+    /// The distance solver's state at the last contact found (Newton's
+    /// points and multiplier), so that the collision is computed on the
+    /// same solution the prediction stopped at.
+    found: Cell<Option<WarmStart>>,
 }
 
 impl Predictor {
     /// A predictor with these options.
     pub fn new(options: PredictorOptions) -> Self {
-        Self { options }
+        Self {
+            options,
+            found: Cell::new(None),
+        }
+    }
+
+    /// The solver state at the contact the last search found (taken).
+    pub fn take_found(&self) -> Option<WarmStart> {
+        self.found.take()
+    }
+
+    /// The signed distance and contact of a pair at one pose, starting from
+    /// a previous solution of the same pair.
+    pub fn contact_from(
+        &self,
+        a: &Shape,
+        b: &Shape,
+        rel: &Relative,
+        warm: Option<&WarmStart>,
+    ) -> Contact {
+        distance(a, b, rel, &self.options.distance, warm)
     }
 
     /// Relative tolerance on the distance at a contact.
@@ -238,6 +262,7 @@ impl Predictor {
             // approach (after a collision they recede, so a pair is never
             // made to collide twice at one time), else follow the pair.
             if closing_speed(t) > 0.0 {
+                self.found.set(warm.get());
                 return Ok(Search::Contact(t));
             }
         }
@@ -245,6 +270,9 @@ impl Predictor {
             let (lo, f_lo, _, f_hi, _) = narrow_sign_change(&dist, lo, hi, tol, 200);
             failed(f_lo)?;
             failed(f_hi)?;
+            // The solution at lo (the last evaluation may have been at hi).
+            failed(dist(lo))?;
+            self.found.set(warm.get());
             Ok(Search::Contact(lo))
         };
         let mut steps = 0u32;
@@ -289,6 +317,7 @@ impl Predictor {
                     }
                 }
                 // Overlapping from the start to round-off: touching now.
+                self.found.set(None);
                 return Ok(Search::Contact(hi));
             }
             if d_t < eps && d_next < eps {
