@@ -254,6 +254,11 @@ impl Predictor {
             let (omega_a, omega_b) = (w_a.angular_velocity(&qa_t), w_b.angular_velocity(&qb_t));
             -normal.dot(&(dv + omega_b.cross(&arm_b) - omega_a.cross(&arm_a)))
         };
+        if d_t <= tol && d_t > 0.0 {
+            // A lower bound this small says nothing: look at the distance.
+            d_t = dist(t);
+            failed(d_t)?;
+        }
         if d_t <= tol {
             if d_t < -tol.max(eps * 1e-3) {
                 return Err(format!("the pair overlaps by {:e} at τ = {t}", -d_t));
@@ -267,6 +272,10 @@ impl Predictor {
             }
         }
         let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Search, String> {
+            // The lower end's value may be a lower bound on the distance
+            // (all the stepping needed); the root finder needs the distance.
+            let lo = (lo.0, dist(lo.0));
+            failed(lo.1)?;
             let (lo, f_lo, _, f_hi, _) = narrow_sign_change(&dist, lo, hi, tol, 200);
             failed(f_lo)?;
             failed(f_hi)?;
