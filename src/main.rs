@@ -107,13 +107,13 @@ fn bad_input(message: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(EXIT_BAD_INPUT)
 }
 
-/// The drivers do not exist yet: say so, and run what does exist on the
-/// default scene's shape instead of pretending to simulate.
+/// Scenes and stages do not exist yet: say so, and run what the command
+/// line can on the default scene's shape instead of pretending to simulate.
 fn run(scene: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> ExitCode {
     if let Some(scene) = scene {
         return bad_input(format!(
-            "cannot run {}: scenes, stages and the EDMD driver are not implemented in this version ({}); \
-             only `virial` and `bench` work",
+            "cannot run {}: scenes and stages are not implemented in this version ({}; the Monte Carlo and \
+             EDMD drivers exist only as a library); only `virial` and `bench` work",
             scene.display(),
             env!("CARGO_PKG_VERSION")
         ));
@@ -124,7 +124,7 @@ fn run(scene: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> ExitC
         );
     }
     println!(
-        "hardbody {}: scenes, stages and the EDMD driver are not implemented yet (the Monte Carlo core exists only as a library), so no scene was simulated \
+        "hardbody {}: scenes and stages are not implemented yet (the Monte Carlo and EDMD drivers exist only as a library), so no scene was simulated \
          and no log was written.",
         env!("CARGO_PKG_VERSION")
     );
