@@ -10,7 +10,7 @@ mod common;
 use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::mc::System;
-use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
+use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::sdf::Sdf;
 use hardbody::mc::tuning::Tuner;
 use rand::SeedableRng;
@@ -30,14 +30,7 @@ fn mc_sdf_pressure(mut system: System, seed: u64) -> (f64, f64) {
         target: 0.3,
         max_translate: 1.0,
     };
-    let mut window = Counts::default();
-    for s in 1..=3000 {
-        window += sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
-        if s % 50 == 0 {
-            tuner.update(&mut sizes, &window);
-            window = Counts::default();
-        }
-    }
+    tuner.equilibrate(&mut system, &mut sizes, &Ensemble::Nvt, 3000, 50, &mut rng);
     let mut blocks = Vec::new();
     for _ in 0..16 {
         let mut sdf = Sdf::new(0.02, 200);

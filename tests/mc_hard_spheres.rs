@@ -5,7 +5,7 @@
 use std::f64::consts::PI;
 
 use hardbody::geometry::Shape;
-use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
+use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::tuning::Tuner;
 use hardbody::mc::{Particle, Species, System};
 use hardbody::space::PeriodicBox;
@@ -94,14 +94,7 @@ fn npt_replica(beta_p: f64, seed: u64) -> (Vec<f64>, System) {
         target: 0.3,
         max_translate: 1.0,
     };
-    let mut window = Counts::default();
-    for s in 1..=6000 {
-        window += sweep(&mut system, &sizes, &ensemble, &mut rng);
-        if s % 50 == 0 {
-            tuner.update(&mut sizes, &window);
-            window = Counts::default();
-        }
-    }
+    tuner.equilibrate(&mut system, &mut sizes, &ensemble, 6000, 50, &mut rng);
     let mut samples = Vec::new();
     for _ in 0..25_000 {
         sweep(&mut system, &sizes, &ensemble, &mut rng);

@@ -6,7 +6,7 @@
 
 use hardbody::analysis::virial::random_rotation;
 use hardbody::geometry::Shape;
-use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
+use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::sdf::Sdf;
 use hardbody::mc::tuning::Tuner;
 use hardbody::mc::{Particle, Species, System};
@@ -57,14 +57,7 @@ fn sdf_in_npt(shape: &str, beta_p: f64, seed: u64) -> (f64, f64) {
         target: 0.3,
         max_translate: 1.0,
     };
-    let mut window = Counts::default();
-    for s in 1..=12000 {
-        window += sweep(&mut system, &sizes, &ensemble, &mut rng);
-        if s % 50 == 0 {
-            tuner.update(&mut sizes, &window);
-            window = Counts::default();
-        }
-    }
+    tuner.equilibrate(&mut system, &mut sizes, &ensemble, 12000, 50, &mut rng);
     let mut estimates = Vec::new();
     for _ in 0..20 {
         let mut sdf = Sdf::new(0.02, 200);

@@ -825,7 +825,7 @@ impl Dynamics {
         // touched stays within ε_d for a while, where the search is slow.
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
         if let (Search::Contact(t), warm) = self.predict_pair(i, j, self.now, horizon, u32::MAX)? {
-            self.schedule_collision(t, i, j, warm);
+            schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
         }
         Ok(())
     }
@@ -1020,11 +1020,8 @@ impl Dynamics {
                 let horizon = horizon_i.min(self.bodies[j].horizon);
                 match self.predict_pair(i, j, self.now, horizon, CHEAP_SEARCH)? {
                     (Search::Contact(t), warm) => {
-                        // (Fields, not a method: the cell list is borrowed.)
-                        self.calendar.schedule(t, EventKind::Collision, i, j);
-                        if let Some(w) = warm {
-                            self.found.insert((i as u32, j as u32), w);
-                        }
+                        // (The fields, not `self`: the cell list is borrowed.)
+                        schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
                         horizon_i = t;
                     }
                     (Search::Apart, _) => {}
@@ -1045,7 +1042,7 @@ impl Dynamics {
             let horizon = horizon_i.min(self.bodies[j].horizon);
             match self.predict_pair(i, j, from, horizon, CHEAP_SEARCH)? {
                 (Search::Contact(t), warm) => {
-                    self.schedule_collision(t, i, j, warm);
+                    schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
                     horizon_i = t;
                     deferred.swap_remove(k);
                 }
@@ -1058,15 +1055,6 @@ impl Dynamics {
         self.deferred = deferred;
         self.bodies[i].horizon = horizon_i;
         Ok(())
-    }
-
-    /// Schedules the collision of `i` and `j` at `t`, keeping the solver
-    /// state at the predicted contact for it.
-    fn schedule_collision(&mut self, t: f64, i: usize, j: usize, warm: Option<WarmStart>) {
-        self.calendar.schedule(t, EventKind::Collision, i, j);
-        if let Some(w) = warm {
-            self.found.insert((i as u32, j as u32), w);
-        }
     }
 
     /// The contact time of bodies `i` (at the current time) and `j` if it
@@ -1124,6 +1112,22 @@ impl Dynamics {
             Search::Contact(_) | Search::Apart => (Search::Apart, None),
             Search::Unfinished(t) => (Search::Unfinished(self.now + t), None),
         })
+    }
+}
+
+/// Schedules the collision of `i` and `j` at `t`, keeping the solver state
+/// at the predicted contact for it.
+fn schedule_collision(
+    calendar: &mut Calendar,
+    found: &mut std::collections::HashMap<(u32, u32), WarmStart>,
+    t: f64,
+    i: usize,
+    j: usize,
+    warm: Option<WarmStart>,
+) {
+    calendar.schedule(t, EventKind::Collision, i, j);
+    if let Some(w) = warm {
+        found.insert((i as u32, j as u32), w);
     }
 }
 

@@ -112,7 +112,7 @@ impl Predictor {
 
     /// The signed distance and contact of a pair at one pose.
     pub fn contact(&self, a: &Shape, b: &Shape, rel: &Relative) -> Contact {
-        distance(a, b, rel, &self.options.distance, None)
+        self.contact_from(a, b, rel, None)
     }
 
     /// The first time τ in [0, `horizon`] at which the bodies touch, their

@@ -2,7 +2,10 @@
 //! change clamped to ±20 % (as lumol does). Used during equilibration only:
 //! production keeps the sizes fixed so that sampling obeys detailed balance.
 
-use super::moves::{Count, Counts, MoveSizes};
+use rand::Rng;
+
+use super::System;
+use super::moves::{Count, Counts, Ensemble, MoveSizes, sweep};
 
 /// Tunes move sizes toward `target` acceptance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,5 +30,27 @@ impl Tuner {
         sizes.translate = (sizes.translate * factor(&window.translate)).min(self.max_translate);
         sizes.rotate = (sizes.rotate * factor(&window.rotate)).min(std::f64::consts::PI);
         sizes.volume = (sizes.volume * factor(&window.volume)).min(1.0);
+    }
+
+    /// Runs `sweeps` serial sweeps of `ensemble`, tuning `sizes` from the
+    /// counts of every `window` sweeps: the equilibration before sizes are
+    /// frozen for production.
+    pub fn equilibrate<R: Rng>(
+        &self,
+        system: &mut System,
+        sizes: &mut MoveSizes,
+        ensemble: &Ensemble,
+        sweeps: u64,
+        window: u64,
+        rng: &mut R,
+    ) {
+        let mut counts = Counts::default();
+        for s in 1..=sweeps {
+            counts += sweep(system, sizes, ensemble, rng);
+            if s % window == 0 {
+                self.update(sizes, &counts);
+                counts = Counts::default();
+            }
+        }
     }
 }
