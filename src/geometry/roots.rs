@@ -5,12 +5,16 @@ use nalgebra::Vector3;
 /// The t > 0 with Σᵢ cᵢ t^{qᵢ} = 1, for cᵢ ≥ 0 (not all zero) and qᵢ > 0.
 ///
 /// Newton's method in s = ln t on ψ(s) = Σ cᵢ e^{qᵢ s} − 1, which is convex
-/// and increasing; started where ψ ≥ 0 it converges monotonically.
+/// and increasing; started where ψ ≥ 0 it converges monotonically. The
+/// start is the smallest sᵢ = −ln cᵢ / qᵢ (where one term alone is 1, so
+/// ψ ≥ 0): the root lies below every sᵢ, and starting from the largest, as
+/// once done, a tiny cᵢ put the start so far out that 100 steps did not
+/// come back.
 pub fn solve_power_sum(c: &Vector3<f64>, q: &Vector3<f64>) -> f64 {
-    let mut s = f64::NEG_INFINITY;
+    let mut s = f64::INFINITY;
     for i in 0..3 {
         if c[i] > 0.0 {
-            s = s.max(-c[i].ln() / q[i]);
+            s = s.min(-c[i].ln() / q[i]);
         }
     }
     debug_assert!(s.is_finite(), "solve_power_sum needs some c > 0");
@@ -47,6 +51,12 @@ mod tests {
         let t = solve_power_sum(&c, &q);
         let sum: f64 = (0..3).map(|i| c[i] * t.powf(q[i])).sum();
         assert!((sum - 1.0).abs() < 1e-14);
+        // A direction almost along an axis: one c underflows towards 0
+        // (regression: the start used to follow the tiny c far out).
+        let c = Vector3::new(1.3e-65, 0.4, 1e-300);
+        let q = Vector3::new(4.0, 4.0, 6.0);
+        let t = solve_power_sum(&c, &q);
+        assert!((t - 0.4f64.powf(-0.25)).abs() < 1e-14, "{t}");
     }
 }
 
