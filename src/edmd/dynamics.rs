@@ -323,10 +323,7 @@ impl Dynamics {
         for (s, &m) in species.iter().zip(&masses) {
             let principal = s.shape.inertia_tensor(m).diagonal();
             let (moments, top_axis) = if options.true_inertia {
-                // A body of revolution: two equal moments; the third is the
-                // top's axis.
-                let equal = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.max(b);
-                match (0..3).find(|&k| equal(principal[(k + 1) % 3], principal[(k + 2) % 3])) {
+                match s.shape.symmetric_top_axis() {
                     Some(k) => (principal, k),
                     None => {
                         return Err(EdmdError::NotATop {

@@ -291,6 +291,37 @@ pub fn contact_sum(a: &Shape, b: &Shape) -> Option<f64> {
 
 pub use sphere_sphere::contact_time as sphere_contact_time;
 
+/// The kernels the dispatch uses for a pair of shapes: (overlap test,
+/// distance), named for the plan a scene prints. Kept beside [`overlap`]
+/// and [`distance`], whose `match` arms they mirror.
+pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
+    use Shape::*;
+    match (a, b) {
+        (Sphere(_), Sphere(_)) => ("centre distance", "closed form"),
+        (Cuboid(_), Sphere(_)) | (Sphere(_), Cuboid(_)) => {
+            ("OCSI (Tonti & Patti)", "OCSI closest point")
+        }
+        (Cuboid(_), Cuboid(_)) => (
+            "separating axes (15)",
+            "GJK; largest axis separation when overlapping",
+        ),
+        (Sphere(_) | Ellipsoid(_), Sphere(_) | Ellipsoid(_)) => (
+            "OBB, then Perram-Wertheim",
+            "Newton-Raphson (De Michele), GJK fallback",
+        ),
+        (Superellipsoid(_), Sphere(_) | Ellipsoid(_) | Superellipsoid(_))
+        | (Sphere(_) | Ellipsoid(_), Superellipsoid(_)) => (
+            "OBB, then GJK (Newton where GJK cannot decide)",
+            "Newton-Raphson (De Michele), GJK fallback",
+        ),
+        (Cuboid(_), Ellipsoid(_) | Superellipsoid(_))
+        | (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => (
+            "OBB, then GJK on support points",
+            "GJK/EPA on support points",
+        ),
+    }
+}
+
 /// The overlap test by GJK on support points alone, for any pair: the
 /// independent second method the tests compare the pair kernels with.
 pub fn overlap_by_gjk(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
