@@ -10,7 +10,10 @@ pub mod analysis;
 pub mod bench;
 pub mod edmd;
 pub mod geometry;
+pub mod log;
 pub mod mc;
+pub mod run;
+pub mod scene;
 pub mod space;
 
 /// Deterministic numbers for unit tests, without a dependency.

@@ -1,0 +1,348 @@
+//! The plan: what a scene simulates and what it leaves out, decided once
+//! from the scene, with the reason for each choice (`hardbody check`
+//! prints it). Nothing the plan leaves out costs time: only the pair kernels
+//! of species pairs present are ever called, bodies that cannot turn are
+//! never rotated, observables are computed only when switched on.
+
+use std::fmt;
+
+use super::{Ensemble, Scene, Stage, Start};
+use crate::analysis::order::molecular_axis;
+use crate::geometry::pair::{contact_sum, kernel_names};
+use crate::mc::{NeighbourPlan, Species};
+
+/// One species as simulated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeciesPlan {
+    /// The species as the drivers take it.
+    pub species: Species,
+    /// Number of particles.
+    pub count: usize,
+    /// Mass.
+    pub mass: f64,
+    /// Why it turns or not.
+    pub rotation_reason: &'static str,
+}
+
+/// The kernels of one pair of species.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairPlan {
+    /// Species indices (a ≤ b).
+    pub species: (usize, usize),
+    /// Overlap test (Monte Carlo).
+    pub overlap: &'static str,
+    /// Signed distance (EDMD collisions).
+    pub distance: &'static str,
+    /// Contact-time prediction (EDMD).
+    pub prediction: &'static str,
+}
+
+/// Everything the scene switches on, with reasons.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Species, in scene order.
+    pub species: Vec<SpeciesPlan>,
+    /// Every unordered pair of species present.
+    pub pairs: Vec<PairPlan>,
+    /// Monte Carlo neighbour structure.
+    pub mc_neighbours: NeighbourPlan,
+    /// S₂ in `/stats`: only when some species is anisotropic and turns.
+    pub nematic_order: bool,
+    /// Whether any stage is Monte Carlo / Dynamics.
+    pub has_mc: bool,
+    /// See `has_mc`.
+    pub has_dynamics: bool,
+    /// Whether any Dynamics stage asks for the MSD / C₂.
+    pub msd: bool,
+    /// See `msd`.
+    pub c2: bool,
+}
+
+impl Plan {
+    /// The plan of a validated scene.
+    pub fn of(scene: &Scene) -> Plan {
+        let species: Vec<SpeciesPlan> = scene
+            .mc_species()
+            .into_iter()
+            .zip(&scene.species)
+            .map(|(species, s)| {
+                let rotation_reason = if s.shape.is_sphere() {
+                    "a sphere: orientation is irrelevant, never rotated"
+                } else if !s.rotation {
+                    "rotation: false, orientations frozen"
+                } else {
+                    "anisotropic: rotation moves and free rotation"
+                };
+                SpeciesPlan {
+                    species,
+                    count: s.count,
+                    mass: s.mass,
+                    rotation_reason,
+                }
+            })
+            .collect();
+        let mut pairs = Vec::new();
+        for a in 0..species.len() {
+            for b in a..species.len() {
+                let (sa, sb) = (&species[a].species.shape, &species[b].species.shape);
+                let (overlap, distance) = kernel_names(sa, sb);
+                let prediction = if contact_sum(sa, sb).is_some() {
+                    "closed form (quadratic in time)"
+                } else {
+                    "bracketing on the distance with the rate bound, grazing search, safeguarded root"
+                };
+                pairs.push(PairPlan {
+                    species: (a, b),
+                    overlap,
+                    distance,
+                    prediction,
+                });
+            }
+        }
+        let mc_species: Vec<Species> = species.iter().map(|s| s.species.clone()).collect();
+        let nematic_order = species
+            .iter()
+            .any(|s| s.species.rotation && molecular_axis(&s.species.shape).is_some());
+        let has_mc = scene
+            .stages
+            .iter()
+            .any(|s| !matches!(s, Stage::Dynamics { .. }));
+        let has_dynamics = scene
+            .stages
+            .iter()
+            .any(|s| matches!(s, Stage::Dynamics { .. }));
+        let asks = |f: fn(&Stage) -> bool| scene.stages.iter().any(f);
+        Plan {
+            mc_neighbours: NeighbourPlan::for_species(&mc_species),
+            species,
+            pairs,
+            nematic_order,
+            has_mc,
+            has_dynamics,
+            msd: asks(|s| matches!(s, Stage::Dynamics { msd: true, .. })),
+            c2: asks(|s| matches!(s, Stage::Dynamics { c2: true, .. })),
+        }
+    }
+
+    /// The species as the drivers take them.
+    pub fn mc_species(&self) -> Vec<Species> {
+        self.species.iter().map(|s| s.species.clone()).collect()
+    }
+
+    /// Masses per species.
+    pub fn masses(&self) -> Vec<f64> {
+        self.species.iter().map(|s| s.mass).collect()
+    }
+}
+
+/// The plan and the stages of a scene, as `hardbody check` prints them.
+pub struct Report<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its plan.
+    pub plan: &'a Plan,
+}
+
+impl fmt::Display for Report<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (scene, plan) = (self.scene, self.plan);
+        let (x, y, z) = scene.box_lengths;
+        writeln!(
+            f,
+            "scene: {} particles of {} species in a periodic box {x} x {y} x {z} (packing fraction {:.4}), seed {}",
+            scene.particle_count(),
+            scene.species.len(),
+            scene.particle_volume() / (x * y * z),
+            scene.seed
+        )?;
+        writeln!(f, "species:")?;
+        for s in &plan.species {
+            writeln!(
+                f,
+                "  {} x{}: {} (mass {}); {}",
+                s.species.name, s.count, s.species.shape, s.mass, s.rotation_reason
+            )?;
+        }
+        writeln!(f, "pair kernels (only the pairs present):")?;
+        for p in &plan.pairs {
+            let (a, b) = p.species;
+            writeln!(
+                f,
+                "  {} / {}: overlap {}; distance {}",
+                plan.species[a].species.name, plan.species[b].species.name, p.overlap, p.distance
+            )?;
+            if plan.has_dynamics {
+                writeln!(f, "      contact time: {}", p.prediction)?;
+            }
+        }
+        writeln!(f, "effects:")?;
+        writeln!(
+            f,
+            "  walls: none, periodic in x, y, z (walls: [] in the scene)"
+        )?;
+        if plan.has_mc {
+            let n = &plan.mc_neighbours;
+            let why = match (n.elongated, n.size_asymmetric) {
+                (true, _) => "some species is elongated or flat",
+                (false, true) => "the species differ in size by more than 2:1",
+                _ => "near-isotropic species of similar size",
+            };
+            if n.aabb_cells {
+                writeln!(
+                    f,
+                    "  Monte Carlo neighbours: cells of width {:.4} holding bounding boxes ({why}), oriented-box pre-filter",
+                    n.aabb_width
+                )?;
+            } else {
+                writeln!(
+                    f,
+                    "  Monte Carlo neighbours: cells as wide as the interaction range, 27-cell stencil ({why})"
+                )?;
+            }
+        }
+        if plan.has_dynamics {
+            writeln!(
+                f,
+                "  dynamics neighbours: linked cells with cell-crossing events (oriented-box neighbour lists are not available in this version)"
+            )?;
+            let turning = plan.species.iter().any(|s| s.species.rotation);
+            writeln!(
+                f,
+                "  free rotation: {}",
+                if turning {
+                    "for the species that turn"
+                } else {
+                    "none (no species turns)"
+                }
+            )?;
+        }
+        writeln!(
+            f,
+            "  nematic order S2: {}",
+            if plan.nematic_order {
+                "on (an anisotropic species turns)"
+            } else {
+                "off (no anisotropic species turns)"
+            }
+        )?;
+        writeln!(
+            f,
+            "  mean-squared displacement: {}; C2(t): {}",
+            if plan.msd {
+                "on"
+            } else {
+                "off (msd: true asks)"
+            },
+            if plan.c2 { "on" } else { "off (c2: true asks)" }
+        )?;
+        writeln!(
+            f,
+            "start: {}",
+            match &scene.start {
+                Start::Lattice => "lattice filling the box, random orientations".to_string(),
+                Start::Random => "random insertion, random orientations".to_string(),
+                Start::Resume(p) => format!("the last state in {p}"),
+            }
+        )?;
+        writeln!(f, "stages:")?;
+        for (i, s) in scene.stages.iter().enumerate() {
+            let text = match s {
+                Stage::Compress {
+                    packing_fraction,
+                    max_sweeps,
+                } => format!(
+                    "compress to packing fraction {packing_fraction} (at most {} sweeps)",
+                    max_sweeps.unwrap_or(super::DEFAULT_COMPRESS_SWEEPS)
+                ),
+                Stage::MonteCarlo {
+                    ensemble,
+                    sweeps,
+                    tune_sweeps,
+                } => {
+                    let e = match ensemble {
+                        Ensemble::Nvt => {
+                            "NVT, pressure from the scale distribution function".to_string()
+                        }
+                        Ensemble::Npt {
+                            pressure,
+                            anisotropic,
+                        } => format!(
+                            "NPT at betaP = {pressure}, {} box moves",
+                            if *anisotropic {
+                                "per-axis"
+                            } else {
+                                "isotropic"
+                            }
+                        ),
+                    };
+                    format!(
+                        "Monte Carlo, {e}, {sweeps} sweeps (move sizes tuned over the first {}, then frozen)",
+                        tune_sweeps.unwrap_or(sweeps / 5)
+                    )
+                }
+                Stage::Dynamics {
+                    duration,
+                    temperature,
+                    true_inertia,
+                    ..
+                } => format!(
+                    "event-driven dynamics for t = {duration} at kT = {temperature}, {} tops",
+                    if *true_inertia {
+                        "symmetric (true inertia)"
+                    } else {
+                        "spherical"
+                    }
+                ),
+            };
+            writeln!(f, "  {i}: {text}")?;
+        }
+        write!(
+            f,
+            "log: {} (stats every {} sweeps, frames every {} sweeps in Monte Carlo stages)",
+            scene.log.path, scene.log.stats_every, scene.log.frames_every
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(species: &str) -> Scene {
+        Scene::parse(&format!(
+            "Scene(box: (20.0, 20.0, 20.0), species: [{species}], stages: [Dynamics(duration: 1.0)])"
+        ))
+        .unwrap()
+    }
+
+    #[test]
+    fn spheres_pay_for_no_rotation_and_no_order() {
+        let s = scene(r#"Species(name: "s", shape: Sphere(radius: 0.5), count: 10)"#);
+        let p = Plan::of(&s);
+        assert!(!p.species[0].species.rotation);
+        assert!(!p.nematic_order);
+        assert_eq!(p.pairs.len(), 1);
+        assert!(p.pairs[0].prediction.starts_with("closed form"));
+    }
+
+    #[test]
+    fn only_present_pairs_and_frozen_species() {
+        let s = scene(
+            r#"Species(name: "box", shape: Cuboid(a: 1.0, b: 1.0, c: 1.0), count: 4),
+               Species(name: "rod", shape: Ellipsoid(a: 1.0, b: 0.5, c: 0.5), count: 4, rotation: false)"#,
+        );
+        let p = Plan::of(&s);
+        assert_eq!(p.pairs.len(), 3);
+        assert!(p.species[0].species.rotation);
+        assert!(!p.species[1].species.rotation);
+        // Cubes have no molecular axis and the rods are frozen.
+        assert!(!p.nematic_order);
+        let text = Report {
+            scene: &s,
+            plan: &p,
+        }
+        .to_string();
+        assert!(text.contains("box / rod"), "{text}");
+        assert!(!text.contains("OCSI"), "{text}");
+    }
+}
