@@ -4,10 +4,18 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use clap::{Parser, Subcommand};
 use hardbody::analysis::virial::excluded_volume;
 use hardbody::bench::ocsi::{OcsiBenchConfig, run as run_ocsi, table as ocsi_table};
 use hardbody::geometry::Shape;
+use hardbody::log::read::read_log;
+use hardbody::run::{Progress, run_scene};
+use hardbody::scene::Scene;
+use hardbody::scene::plan::{Plan, Report};
+
+mod progress;
 
 /// Exit code for bad input (flags, shapes, scenes, logs).
 const EXIT_BAD_INPUT: u8 = 2;
@@ -27,16 +35,27 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run every stage of a scene (without SCENE: the built-in default scene).
+    /// Run every stage of a scene (without SCENE: the built-in default scene,
+    /// data/scenes/default.ron). Ctrl-C ends the run cleanly with a final frame.
     Run {
         /// Scene file (RON).
         scene: Option<PathBuf>,
-        /// Log file to write.
+        /// Log file to write (overrides the scene's log.path).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Random seed (overrides the scene's).
         #[arg(long)]
         seed: Option<u64>,
+    },
+    /// Validate a scene and print the plan: stages, pair kernels, effects and why.
+    Check {
+        /// Scene file (RON).
+        scene: PathBuf,
+    },
+    /// Print a log's channels, message counts, stages and last stats.
+    Inspect {
+        /// MCAP log written by `hardbody run`.
+        log: PathBuf,
     },
     /// Orientation-averaged excluded volume and second virial coefficient of two shapes.
     Virial {
@@ -80,6 +99,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Run { scene, out, seed } => run(scene, out, seed),
+        Command::Check { scene } => check(&scene),
+        Command::Inspect { log } => inspect(&log),
         Command::Virial {
             shape_a,
             shape_b,
@@ -107,38 +128,181 @@ fn bad_input(message: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(EXIT_BAD_INPUT)
 }
 
-/// Scenes and stages do not exist yet: say so, and run what the command
-/// line can on the default scene's shape instead of pretending to simulate.
-fn run(scene: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> ExitCode {
-    if let Some(scene) = scene {
-        return bad_input(format!(
-            "cannot run {}: scenes and stages are not implemented in this version ({}; the Monte Carlo and \
-             EDMD drivers exist only as a library); only `virial` and `bench` work",
-            scene.display(),
-            env!("CARGO_PKG_VERSION")
+/// Exit code of a run stopped by Ctrl-C (its log is complete up to there).
+const EXIT_INTERRUPTED: u8 = 130;
+
+/// The built-in default scene.
+const DEFAULT_SCENE: &str = include_str!("../data/scenes/default.ron");
+
+/// Reads and validates a scene file; the error names the file, the line
+/// and the field.
+fn load_scene(path: &std::path::Path) -> Result<(Scene, String), String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
+    let scene = Scene::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok((scene, text))
+}
+
+fn run(scene_path: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> ExitCode {
+    let (mut scene, text) = match &scene_path {
+        Some(p) => match load_scene(p) {
+            Ok(s) => s,
+            Err(e) => return bad_input(e),
+        },
+        None => (
+            Scene::parse(DEFAULT_SCENE).expect("the default scene is valid"),
+            DEFAULT_SCENE.to_string(),
+        ),
+    };
+    if let Some(seed) = seed {
+        scene.seed = seed;
+    }
+    let log_path = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));
+    if let Err(e) = check_writable(&log_path) {
+        return bad_input(e);
+    }
+    static STOP: AtomicBool = AtomicBool::new(false);
+    // A first Ctrl-C ends the run cleanly at the next sweep or output
+    // event; a second one exits at once.
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED as i32);
+        }
+    });
+    let name = scene_path
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| "the default scene".into());
+    eprintln!(
+        "hardbody {}: running {name} ({} particles, {} stages, seed {}), log {}",
+        env!("CARGO_PKG_VERSION"),
+        scene.particle_count(),
+        scene.stages.len(),
+        scene.seed,
+        log_path.display()
+    );
+    let mut progress: Box<dyn Progress> = if std::io::stderr().is_terminal() {
+        Box::new(progress::Bars::default())
+    } else {
+        Box::new(progress::Lines::default())
+    };
+    match run_scene(&scene, &text, &log_path, progress.as_mut(), &STOP) {
+        Ok(summary) => {
+            for line in &summary.stages {
+                say(line);
+            }
+            say(&format!("log written: {}", summary.log.display()));
+            if summary.interrupted {
+                eprintln!("hardbody: interrupted; the log is complete up to the last frame");
+                ExitCode::from(EXIT_INTERRUPTED)
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Err(e) if e.is_bad_input() => bad_input(e),
+        Err(e) => {
+            eprintln!("hardbody: {e}");
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
+}
+
+/// Prints a line on standard output, ignoring a closed pipe (`| head`).
+fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout(), "{line}");
+}
+
+/// The log's directory must exist and accept a new file.
+fn check_writable(path: &std::path::Path) -> Result<(), String> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!(
+            "log path {}: the directory {} does not exist",
+            path.display(),
+            dir.display()
         ));
     }
-    if out.is_some() {
-        return bad_input(
-            "--out: this version writes no log (scenes and logs are not implemented yet)",
-        );
+    if path.is_dir() {
+        return Err(format!("log path {} is a directory", path.display()));
     }
-    println!(
-        "hardbody {}: scenes and stages are not implemented yet (the Monte Carlo and EDMD drivers exist only as a library), so no scene was simulated \
-         and no log was written.",
-        env!("CARGO_PKG_VERSION")
-    );
-    println!(
-        "Ran instead: the excluded volume of two of the default scene's ellipsoids (a = 1.0, b = c = 0.5)."
-    );
-    let shape: Shape = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)"
-        .parse()
-        .expect("built-in shape");
-    let e = excluded_volume(&shape, &shape, 400_000, seed.unwrap_or(7));
-    println!(
-        "  excluded volume = {:.4} ± {:.4}, B2 = {:.4} ({} samples)",
-        e.excluded_volume, e.excluded_volume_error, e.b2, e.samples
-    );
+    let md = std::fs::metadata(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    if md.permissions().readonly() {
+        return Err(format!(
+            "log path {}: the directory {} is read-only",
+            path.display(),
+            dir.display()
+        ));
+    }
+    Ok(())
+}
+
+fn check(path: &std::path::Path) -> ExitCode {
+    let (scene, _) = match load_scene(path) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let plan = Plan::of(&scene);
+    say(&format!("{}: valid", path.display()));
+    say(&Report {
+        scene: &scene,
+        plan: &plan,
+    }
+    .to_string());
+    ExitCode::SUCCESS
+}
+
+fn inspect(path: &std::path::Path) -> ExitCode {
+    let contents = match read_log(path, false) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    say(&format!(
+        "{}: hardbody {} log{}",
+        path.display(),
+        contents
+            .metadata
+            .get("version")
+            .map(String::as_str)
+            .unwrap_or("?"),
+        if contents.truncated {
+            " (cut off: read up to its last complete record)"
+        } else {
+            ""
+        }
+    ));
+    say("channels:");
+    for (topic, count) in &contents.counts {
+        say(&format!("  {topic}: {count} messages"));
+    }
+    say("stages:");
+    let mut stages: Vec<(usize, String, usize, String)> = Vec::new();
+    for (_, s) in &contents.stats {
+        let progress = match (s.sweep, s.time) {
+            (Some(sweep), _) => format!("sweep {sweep}"),
+            (_, Some(t)) => format!("t = {t}"),
+            _ => String::new(),
+        };
+        match stages.last_mut() {
+            Some(last) if last.0 == s.stage_index => {
+                last.2 += 1;
+                last.3 = progress;
+            }
+            _ => stages.push((s.stage_index, s.stage.clone(), 1, progress)),
+        }
+    }
+    for (index, kind, count, progress) in &stages {
+        say(&format!(
+            "  {index} {kind}: {count} stats messages, last at {progress}"
+        ));
+    }
+    if let Some((_, last)) = contents.stats.last() {
+        say("last stats:");
+        say(&serde_json::to_string_pretty(last).expect("stats serialise"));
+    }
     ExitCode::SUCCESS
 }
 

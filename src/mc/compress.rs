@@ -6,6 +6,8 @@
 //! compression stops with the packing fraction reached. No overlap is ever
 //! created: every shrink is checked before it is kept.
 
+use std::ops::ControlFlow;
+
 use rand::Rng;
 
 use super::System;
@@ -67,6 +69,14 @@ pub enum CompressError {
         /// Sweeps done.
         sweeps: u64,
     },
+    /// Stopped from outside (an interrupted run).
+    #[error("stopped at packing fraction {reached:.4} after {sweeps} sweeps")]
+    Stopped {
+        /// Packing fraction reached.
+        reached: f64,
+        /// Sweeps done.
+        sweeps: u64,
+    },
     /// Ran out of sweeps.
     #[error("reached packing fraction {reached:.4} of {target} in the allowed {sweeps} sweeps")]
     OutOfSweeps {
@@ -96,9 +106,24 @@ pub struct CompressReport {
 /// the target (to rounding) and the state is overlap-free.
 pub fn compress<R: Rng>(
     system: &mut System,
+    sizes: MoveSizes,
+    opts: &CompressOptions,
+    rng: &mut R,
+) -> Result<CompressReport, CompressError> {
+    compress_observed(system, sizes, opts, rng, |_, _, _, _| {
+        ControlFlow::Continue(())
+    })
+}
+
+/// [`compress`], calling `observe(system, sweep, counts of that sweep,
+/// move sizes)` after every sweep (and its box shrink); a `Break` stops
+/// the compression with [`CompressError::Stopped`].
+pub fn compress_observed<R: Rng>(
+    system: &mut System,
     mut sizes: MoveSizes,
     opts: &CompressOptions,
     rng: &mut R,
+    mut observe: impl FnMut(&System, u64, &Counts, &MoveSizes) -> ControlFlow<()>,
 ) -> Result<CompressReport, CompressError> {
     if !(opts.target > 0.0 && opts.target < 1.0) {
         return Err(CompressError::BadTarget(opts.target));
@@ -135,7 +160,14 @@ pub fn compress<R: Rng>(
         let to_target = (phi / opts.target).cbrt();
         let factor = to_target.max(1.0 - step);
         let lengths = system.periodic_box().lengths() * factor;
-        if system.try_rescale(lengths) {
+        let shrunk = system.try_rescale(lengths);
+        if observe(system, s, &c, &sizes).is_break() {
+            return Err(CompressError::Stopped {
+                reached: system.packing_fraction(),
+                sweeps: s,
+            });
+        }
+        if shrunk {
             step = (step * 1.5).min(0.1);
             stalled = 0;
             if factor == to_target {

@@ -1,0 +1,355 @@
+//! MCAP logs (DESIGN.md contract): `/stats` (JSON), `/scene`
+//! (`foxglove.SceneUpdate`, protobuf, for the 3D panel) and `/state` (JSON,
+//! full precision), with the scene text and the program version in the
+//! metadata, in zstd chunks.
+//!
+//! Log time: Monte Carlo stages advance it by 1 ms per sweep, dynamics
+//! stages by 1 s per unit of simulated time; stages follow one another on
+//! that clock from 0. Messages carry these explicit times, never the wall
+//! clock, so a replay plays sweeps and simulated time at a steady pace.
+//!
+//! Safety: the log is written to `<path>.partial` and renamed over `<path>`
+//! only when the run completes, so a failed run never damages an existing
+//! file; each frame closes an MCAP chunk, so a killed run leaves a partial
+//! log readable up to its last frame.
+
+pub mod read;
+pub mod view;
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use foxglove::Encode;
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::Shape;
+use crate::mc::Species;
+
+/// Nanoseconds of log time per Monte Carlo sweep.
+pub const NS_PER_SWEEP: u64 = 1_000_000;
+/// Nanoseconds of log time per unit of simulated time.
+pub const NS_PER_TIME_UNIT: f64 = 1e9;
+/// The frame id of every `/scene` entity.
+pub const FRAME_ID: &str = "hardbody";
+
+/// What can go wrong writing or reading a log.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    /// The file system refused.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The MCAP layer refused.
+    #[error("{path}: {source}")]
+    Mcap {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: mcap::McapError,
+    },
+    /// The file is not a hardbody log, or lacks what was asked for.
+    #[error("{path}: {message}")]
+    Content {
+        /// The file.
+        path: PathBuf,
+        /// What is missing or wrong.
+        message: String,
+    },
+}
+
+/// One `/stats` message. Fields that a stage does not measure are null.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// `compress`, `monte_carlo` or `dynamics`.
+    pub stage: String,
+    /// Index of the stage in the scene.
+    pub stage_index: usize,
+    /// Sweeps done in the stage (Monte Carlo).
+    pub sweep: Option<u64>,
+    /// Simulated time in the stage (dynamics).
+    pub time: Option<f64>,
+    /// φ.
+    pub packing_fraction: f64,
+    /// βP: imposed (NPT), from the scale distribution function (NVT), from
+    /// the collision virial over the interval (dynamics); null otherwise.
+    pub pressure: Option<f64>,
+    /// Box edges.
+    #[serde(rename = "box")]
+    pub box_lengths: [f64; 3],
+    /// Acceptance of translations over the interval (Monte Carlo).
+    pub acceptance_translate: Option<f64>,
+    /// Acceptance of rotations over the interval (Monte Carlo).
+    pub acceptance_rotate: Option<f64>,
+    /// Acceptance of box moves over the interval (Monte Carlo, NPT).
+    pub acceptance_volume: Option<f64>,
+    /// Collisions since the stage began (dynamics).
+    pub collisions: Option<u64>,
+    /// kT from the kinetic energy (dynamics).
+    pub temperature: Option<f64>,
+    /// S₂ of the molecular axes; null without turning anisotropic bodies.
+    pub nematic_order: Option<f64>,
+    /// Mean-squared displacement since the stage began (on request).
+    pub msd: Option<f64>,
+    /// C₂(t) since the stage began (on request).
+    pub c2: Option<f64>,
+}
+
+/// A species as `/state` records it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpeciesRecord {
+    /// Name.
+    pub name: String,
+    /// Shape.
+    pub shape: Shape,
+    /// Whether it turns.
+    pub rotation: bool,
+}
+
+/// One `/state` message: the full-precision state (JSON numbers are
+/// written in shortest round-trip form, so reading gives back the same
+/// bits). Orientations are unit quaternions body → lab as [w, x, y, z].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StateRecord {
+    /// Index of the stage in the scene.
+    pub stage_index: usize,
+    /// `compress`, `monte_carlo` or `dynamics`.
+    pub stage: String,
+    /// Sweeps done in the stage (Monte Carlo).
+    pub sweep: Option<u64>,
+    /// Simulated time in the stage (dynamics).
+    pub time: Option<f64>,
+    /// Box edges.
+    #[serde(rename = "box")]
+    pub box_lengths: [f64; 3],
+    /// The species.
+    pub species: Vec<SpeciesRecord>,
+    /// Species index per particle.
+    pub species_of: Vec<u16>,
+    /// Centres.
+    pub positions: Vec<[f64; 3]>,
+    /// [w, x, y, z] per particle.
+    pub orientations: Vec<[f64; 4]>,
+    /// Velocities (dynamics only).
+    pub velocities: Option<Vec<[f64; 3]>>,
+    /// Angular velocities, lab frame (dynamics only).
+    pub angular_velocities: Option<Vec<[f64; 3]>>,
+}
+
+const STATS_SCHEMA: &str = r#"{
+  "type": "object",
+  "properties": {
+    "stage": {"type": "string"},
+    "stage_index": {"type": "integer"},
+    "sweep": {"type": ["integer", "null"]},
+    "time": {"type": ["number", "null"]},
+    "packing_fraction": {"type": "number"},
+    "pressure": {"type": ["number", "null"]},
+    "box": {"type": "array", "items": {"type": "number"}},
+    "acceptance_translate": {"type": ["number", "null"]},
+    "acceptance_rotate": {"type": ["number", "null"]},
+    "acceptance_volume": {"type": ["number", "null"]},
+    "collisions": {"type": ["integer", "null"]},
+    "temperature": {"type": ["number", "null"]},
+    "nematic_order": {"type": ["number", "null"]},
+    "msd": {"type": ["number", "null"]},
+    "c2": {"type": ["number", "null"]}
+  }
+}"#;
+
+const STATE_SCHEMA: &str = r#"{
+  "type": "object",
+  "description": "hardbody full-precision state; orientations are unit quaternions body->lab as [w, x, y, z]",
+  "properties": {
+    "stage_index": {"type": "integer"},
+    "stage": {"type": "string"},
+    "sweep": {"type": ["integer", "null"]},
+    "time": {"type": ["number", "null"]},
+    "box": {"type": "array", "items": {"type": "number"}},
+    "species": {"type": "array", "items": {"type": "object"}},
+    "species_of": {"type": "array", "items": {"type": "integer"}},
+    "positions": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
+    "orientations": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
+    "velocities": {"type": ["array", "null"]},
+    "angular_velocities": {"type": ["array", "null"]}
+  }
+}"#;
+
+/// Writes a log to `<path>.partial`; [`LogWriter::finish`] renames it.
+pub struct LogWriter {
+    writer: mcap::Writer<BufWriter<File>>,
+    path: PathBuf,
+    partial: PathBuf,
+    stats: u16,
+    scene: u16,
+    state: u16,
+    sequence: u32,
+    view: view::SceneView,
+}
+
+/// `<path>.partial`, where a log is written until its run completes.
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
+}
+
+impl LogWriter {
+    /// Starts a log for `path` (written to `<path>.partial`), recording in
+    /// the metadata the scene text as given (`scene`), the scene as run,
+    /// with command-line overrides and defaults filled in
+    /// (`scene_resolved`), and the program version.
+    pub fn create(
+        path: &Path,
+        scene_text: &str,
+        scene_resolved: &str,
+        species: &[Species],
+    ) -> Result<Self, LogError> {
+        let partial = partial_path(path);
+        let io = |source| LogError::Io {
+            path: partial.clone(),
+            source,
+        };
+        let file = File::create(&partial).map_err(io)?;
+        let mcap_err = |source| LogError::Mcap {
+            path: partial.clone(),
+            source,
+        };
+        let options = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(4 << 20))
+            .profile("")
+            .library(format!("hardbody {}", env!("CARGO_PKG_VERSION")));
+        let mut writer = options.create(BufWriter::new(file)).map_err(mcap_err)?;
+        let no_meta = BTreeMap::new();
+        let json_schema = |w: &mut mcap::Writer<_>, name: &str, text: &str| {
+            w.add_schema(name, "jsonschema", text.as_bytes())
+        };
+        let stats_schema =
+            json_schema(&mut writer, "hardbody.Stats", STATS_SCHEMA).map_err(mcap_err)?;
+        let state_schema =
+            json_schema(&mut writer, "hardbody.State", STATE_SCHEMA).map_err(mcap_err)?;
+        let scene_schema = foxglove::messages::SceneUpdate::get_schema()
+            .expect("foxglove publishes the SceneUpdate schema");
+        let scene_schema = writer
+            .add_schema(
+                &scene_schema.name,
+                &scene_schema.encoding,
+                &scene_schema.data,
+            )
+            .map_err(mcap_err)?;
+        let stats = writer
+            .add_channel(stats_schema, "/stats", "json", &no_meta)
+            .map_err(mcap_err)?;
+        let state = writer
+            .add_channel(state_schema, "/state", "json", &no_meta)
+            .map_err(mcap_err)?;
+        let scene = writer
+            .add_channel(scene_schema, "/scene", "protobuf", &no_meta)
+            .map_err(mcap_err)?;
+        let metadata = BTreeMap::from([
+            ("version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+            ("scene".to_string(), scene_text.to_string()),
+            ("scene_resolved".to_string(), scene_resolved.to_string()),
+            (
+                "log_time".to_string(),
+                format!(
+                    "{NS_PER_SWEEP} ns per Monte Carlo sweep, {NS_PER_TIME_UNIT} ns per unit of simulated time"
+                ),
+            ),
+        ]);
+        writer
+            .write_metadata(&mcap::records::Metadata {
+                name: "hardbody".into(),
+                metadata,
+            })
+            .map_err(mcap_err)?;
+        Ok(Self {
+            writer,
+            path: path.to_path_buf(),
+            partial,
+            stats,
+            scene,
+            state,
+            sequence: 0,
+            view: view::SceneView::new(species),
+        })
+    }
+
+    fn write(&mut self, channel: u16, log_time: u64, data: &[u8]) -> Result<(), LogError> {
+        self.sequence += 1;
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence: self.sequence,
+            log_time,
+            publish_time: log_time,
+        };
+        self.writer
+            .write_to_known_channel(&header, data)
+            .map_err(|source| LogError::Mcap {
+                path: self.partial.clone(),
+                source,
+            })
+    }
+
+    /// A `/stats` message at `log_time`.
+    pub fn stats(&mut self, log_time: u64, stats: &Stats) -> Result<(), LogError> {
+        let data = serde_json::to_vec(stats).expect("stats serialise");
+        self.write(self.stats, log_time, &data)
+    }
+
+    /// A frame at `log_time`: `/scene` for viewers and `/state` for
+    /// resuming; the chunk is closed so that the frame survives a crash.
+    pub fn frame(&mut self, log_time: u64, state: &StateRecord) -> Result<(), LogError> {
+        let update = self.view.update(log_time, state);
+        let mut buf = Vec::with_capacity(update.encoded_len().unwrap_or(1 << 16));
+        update
+            .encode(&mut buf)
+            .expect("a Vec grows to hold any message");
+        self.write(self.scene, log_time, &buf)?;
+        let data = serde_json::to_vec(state).expect("states serialise");
+        self.write(self.state, log_time, &data)?;
+        self.writer.flush().map_err(|source| LogError::Mcap {
+            path: self.partial.clone(),
+            source,
+        })
+    }
+
+    /// Completes the log and renames it to its path.
+    pub fn finish(self) -> Result<PathBuf, LogError> {
+        let (partial, path) = self.close()?;
+        std::fs::rename(&partial, &path).map_err(|source| LogError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        Ok(path)
+    }
+
+    /// Completes the log but leaves it at `<path>.partial` (a run that
+    /// failed: the file at `path`, if any, is left untouched).
+    pub fn abandon(self) -> Result<PathBuf, LogError> {
+        Ok(self.close()?.0)
+    }
+
+    /// Writes the summary and flushes the file; (partial path, path).
+    fn close(mut self) -> Result<(PathBuf, PathBuf), LogError> {
+        use std::io::Write;
+        self.writer.finish().map_err(|source| LogError::Mcap {
+            path: self.partial.clone(),
+            source,
+        })?;
+        let mut file = self.writer.into_inner();
+        file.flush()
+            .and_then(|_| file.get_ref().sync_all())
+            .map_err(|source| LogError::Io {
+                path: self.partial.clone(),
+                source,
+            })?;
+        Ok((self.partial, self.path))
+    }
+}

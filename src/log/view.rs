@@ -1,0 +1,311 @@
+//! `/scene`: the state drawn for Foxglove's 3D panel as one
+//! `foxglove.SceneUpdate` per frame. All particles are one entity
+//! (`particles`), so the panel instances them; the box is another (`box`,
+//! twelve edges). Spheres and ellipsoids are sphere primitives with
+//! per-axis size, cuboids cube primitives, superellipsoids triangle lists
+//! (one body-frame mesh per species, placed by each particle's pose).
+//! Colours are per species.
+
+use foxglove::messages::{
+    Color, CubePrimitive, LinePrimitive, Point3, Pose, Quaternion, SceneEntity, SceneUpdate,
+    SpherePrimitive, Timestamp, TriangleListPrimitive, Vector3 as FVector3, line_primitive,
+};
+use nalgebra::Vector3;
+
+use super::{FRAME_ID, StateRecord};
+use crate::geometry::Shape;
+use crate::geometry::roots::solve_power_sum;
+use crate::mc::Species;
+
+/// Distinct colours (Tableau 10), cycled over species.
+const PALETTE: [(f64, f64, f64); 10] = [
+    (0.122, 0.467, 0.706),
+    (1.000, 0.498, 0.055),
+    (0.173, 0.627, 0.173),
+    (0.839, 0.153, 0.157),
+    (0.580, 0.404, 0.741),
+    (0.549, 0.337, 0.294),
+    (0.890, 0.467, 0.761),
+    (0.498, 0.498, 0.498),
+    (0.737, 0.741, 0.133),
+    (0.090, 0.745, 0.812),
+];
+
+/// Latitude and longitude divisions of a superellipsoid mesh.
+const MESH_RINGS: usize = 10;
+const MESH_SECTORS: usize = 20;
+
+/// Per species: how it is drawn.
+#[derive(Debug, Clone)]
+struct Look {
+    shape: Shape,
+    color: Color,
+    /// Body-frame mesh (superellipsoids): points and triangle indices.
+    mesh: Option<(Vec<Point3>, Vec<u32>)>,
+}
+
+/// Builds `/scene` messages for a set of species.
+#[derive(Debug, Clone)]
+pub struct SceneView {
+    looks: Vec<Look>,
+}
+
+impl SceneView {
+    /// The looks of `species`, meshes made once.
+    pub fn new(species: &[Species]) -> Self {
+        let looks = species
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let (r, g, b) = PALETTE[i % PALETTE.len()];
+                Look {
+                    shape: s.shape,
+                    color: Color { r, g, b, a: 1.0 },
+                    mesh: matches!(s.shape, Shape::Superellipsoid(_))
+                        .then(|| superellipsoid_mesh(&s.shape)),
+                }
+            })
+            .collect();
+        Self { looks }
+    }
+
+    /// The scene update of a state at `log_time` (ns).
+    pub fn update(&self, log_time: u64, state: &StateRecord) -> SceneUpdate {
+        let timestamp = Some(Timestamp::new(
+            (log_time / 1_000_000_000) as u32,
+            (log_time % 1_000_000_000) as u32,
+        ));
+        let mut particles = SceneEntity {
+            timestamp,
+            frame_id: FRAME_ID.into(),
+            id: "particles".into(),
+            ..SceneEntity::default()
+        };
+        for ((p, q), &s) in state
+            .positions
+            .iter()
+            .zip(&state.orientations)
+            .zip(&state.species_of)
+        {
+            let look = &self.looks[s as usize];
+            let pose = Some(Pose {
+                position: Some(FVector3 {
+                    x: p[0],
+                    y: p[1],
+                    z: p[2],
+                }),
+                orientation: Some(Quaternion {
+                    x: q[1],
+                    y: q[2],
+                    z: q[3],
+                    w: q[0],
+                }),
+            });
+            let color = Some(look.color);
+            let size = |h: Vector3<f64>| {
+                Some(FVector3 {
+                    x: 2.0 * h.x,
+                    y: 2.0 * h.y,
+                    z: 2.0 * h.z,
+                })
+            };
+            match &look.shape {
+                Shape::Sphere(sp) => particles.spheres.push(SpherePrimitive {
+                    pose,
+                    size: size(Vector3::repeat(sp.radius())),
+                    color,
+                }),
+                Shape::Ellipsoid(e) => particles.spheres.push(SpherePrimitive {
+                    pose,
+                    size: size(e.semi_axes()),
+                    color,
+                }),
+                Shape::Cuboid(c) => particles.cubes.push(CubePrimitive {
+                    pose,
+                    size: size(c.half_extents()),
+                    color,
+                }),
+                Shape::Superellipsoid(_) => {
+                    let (points, indices) = look.mesh.clone().expect("made in new()");
+                    particles.triangles.push(TriangleListPrimitive {
+                        pose,
+                        points,
+                        color,
+                        colors: Vec::new(),
+                        indices,
+                    });
+                }
+            }
+        }
+        let [x, y, z] = state.box_lengths.map(|l| l / 2.0);
+        let corner = |i: usize| Point3 {
+            x: if i & 1 == 0 { -x } else { x },
+            y: if i & 2 == 0 { -y } else { y },
+            z: if i & 4 == 0 { -z } else { z },
+        };
+        // The twelve edges: corners differing in one bit.
+        let mut points = Vec::with_capacity(24);
+        for i in 0..8usize {
+            for bit in [1, 2, 4] {
+                if i & bit == 0 {
+                    points.push(corner(i));
+                    points.push(corner(i | bit));
+                }
+            }
+        }
+        let edges = SceneEntity {
+            timestamp,
+            frame_id: FRAME_ID.into(),
+            id: "box".into(),
+            lines: vec![LinePrimitive {
+                r#type: line_primitive::Type::LineList as i32,
+                pose: Some(Pose {
+                    position: Some(FVector3::default()),
+                    orientation: Some(Quaternion {
+                        x: 0.0,
+                        y: 0.0,
+                        z: 0.0,
+                        w: 1.0,
+                    }),
+                }),
+                thickness: 2.0,
+                scale_invariant: true,
+                points,
+                color: Some(Color {
+                    r: 0.6,
+                    g: 0.6,
+                    b: 0.6,
+                    a: 1.0,
+                }),
+                colors: Vec::new(),
+                indices: Vec::new(),
+            }],
+            ..SceneEntity::default()
+        };
+        SceneUpdate {
+            deletions: Vec::new(),
+            entities: vec![particles, edges],
+        }
+    }
+}
+
+/// A body-frame triangle mesh of a superellipsoid surface: directions on a
+/// latitude–longitude grid, each scaled to the surface (the t with
+/// Σ |t uᵢ / aᵢ|^{eᵢ} = 1).
+fn superellipsoid_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
+    let Shape::Superellipsoid(s) = shape else {
+        unreachable!("meshes are made for superellipsoids only")
+    };
+    let (axes, exps) = (s.semi_axes(), s.exponents());
+    let surface = |u: Vector3<f64>| {
+        let c = Vector3::from_fn(|i, _| (u[i] / axes[i]).abs().powf(exps[i]));
+        let t = solve_power_sum(&c, &exps);
+        Point3 {
+            x: t * u.x,
+            y: t * u.y,
+            z: t * u.z,
+        }
+    };
+    let mut points = vec![surface(Vector3::z())];
+    for ring in 1..MESH_RINGS {
+        let theta = std::f64::consts::PI * ring as f64 / MESH_RINGS as f64;
+        for sector in 0..MESH_SECTORS {
+            let phi = std::f64::consts::TAU * sector as f64 / MESH_SECTORS as f64;
+            points.push(surface(Vector3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            )));
+        }
+    }
+    points.push(surface(-Vector3::z()));
+    let south = (points.len() - 1) as u32;
+    let at =
+        |ring: usize, sector: usize| (1 + (ring - 1) * MESH_SECTORS + sector % MESH_SECTORS) as u32;
+    let mut indices = Vec::new();
+    for sector in 0..MESH_SECTORS {
+        indices.extend([0, at(1, sector), at(1, sector + 1)]);
+        indices.extend([
+            south,
+            at(MESH_RINGS - 1, sector + 1),
+            at(MESH_RINGS - 1, sector),
+        ]);
+    }
+    for ring in 1..MESH_RINGS - 1 {
+        for sector in 0..MESH_SECTORS {
+            let (a, b) = (at(ring, sector), at(ring, sector + 1));
+            let (c, d) = (at(ring + 1, sector), at(ring + 1, sector + 1));
+            indices.extend([a, c, b, b, c, d]);
+        }
+    }
+    (points, indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log::StateRecord;
+
+    #[test]
+    fn mesh_points_lie_on_the_surface() {
+        let shape: Shape = "Superellipsoid(a: 1.0, b: 0.7, c: 0.5, exponents: (4.0, 4.0, 6.0))"
+            .parse()
+            .unwrap();
+        let (points, indices) = superellipsoid_mesh(&shape);
+        assert_eq!(points.len(), 2 + (MESH_RINGS - 1) * MESH_SECTORS);
+        assert_eq!(indices.len() % 3, 0);
+        assert!(indices.iter().all(|&i| (i as usize) < points.len()));
+        let Shape::Superellipsoid(s) = shape else {
+            unreachable!()
+        };
+        let (a, e) = (s.semi_axes(), s.exponents());
+        for p in points {
+            let v = [p.x, p.y, p.z];
+            let f: f64 = (0..3).map(|i| (v[i] / a[i]).abs().powf(e[i])).sum();
+            assert!((f - 1.0).abs() < 1e-9, "{f}");
+        }
+    }
+
+    #[test]
+    fn one_entity_holds_every_particle_with_its_pose() {
+        let species: Vec<Species> = [
+            "Ellipsoid(a: 1.0, b: 0.5, c: 0.25)",
+            "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
+        ]
+        .iter()
+        .map(|t| Species {
+            name: t.to_string(),
+            shape: t.parse().unwrap(),
+            rotation: true,
+        })
+        .collect();
+        let state = StateRecord {
+            stage_index: 0,
+            stage: "compress".into(),
+            sweep: Some(0),
+            time: None,
+            box_lengths: [10.0, 10.0, 10.0],
+            species: Vec::new(),
+            species_of: vec![0, 1, 0],
+            positions: vec![[1.0, 2.0, 3.0], [0.0, 0.0, 0.0], [-1.0, -2.0, -3.0]],
+            orientations: vec![
+                [0.5, 0.5, 0.5, 0.5],
+                [1.0, 0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+            ],
+            velocities: None,
+            angular_velocities: None,
+        };
+        let u = SceneView::new(&species).update(1_500_000_000, &state);
+        assert_eq!(u.entities.len(), 2);
+        let p = &u.entities[0];
+        assert_eq!((p.spheres.len(), p.cubes.len()), (2, 1));
+        let s = p.spheres[0];
+        assert_eq!(s.size.unwrap().z, 0.5);
+        // [w, x, y, z] → Foxglove's {x, y, z, w}.
+        let q = s.pose.unwrap().orientation.unwrap();
+        assert_eq!((q.w, q.x), (0.5, 0.5));
+        assert_eq!(u.entities[1].lines[0].points.len(), 24);
+        assert_eq!(p.timestamp, Some(Timestamp::new(1, 500_000_000)));
+    }
+}

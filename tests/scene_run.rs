@@ -1,0 +1,363 @@
+//! Scenes end to end: the good and bad scene files, the parser under random
+//! mutation, a run through every kind of stage with its log read back, the
+//! hand-off between stages, failures that leave existing files alone,
+//! interruption, a log cut off mid-write, and the log decoded by the
+//! standard Python readers.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use hardbody::log::read::read_log;
+use hardbody::log::{StateRecord, partial_path};
+use hardbody::run::{RunError, Silent, run_scene, system_from_record};
+use hardbody::scene::plan::Plan;
+use hardbody::scene::{Scene, SceneError};
+use rand::{Rng, SeedableRng};
+
+/// A fresh directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hardbody-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn scene_files(dir: &str) -> Vec<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_shipped_scene_is_valid() {
+    let files = scene_files("data/scenes");
+    assert!(files.iter().any(|p| p.ends_with("default.ron")));
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        if let Err(e) = Scene::parse(&text) {
+            panic!("{}: {e}", path.display());
+        }
+    }
+}
+
+#[test]
+fn every_bad_scene_gives_its_message() {
+    let files = scene_files("data/scenes/bad");
+    assert!(files.len() >= 10);
+    let mut wrong = Vec::new();
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let expect = text
+            .lines()
+            .next()
+            .and_then(|l| l.strip_prefix("// expect: "))
+            .unwrap_or_else(|| panic!("{}: first line must be // expect: ...", path.display()));
+        match Scene::parse(&text) {
+            Ok(_) => wrong.push(format!("{}: accepted", path.display())),
+            Err(e) if !e.to_string().contains(expect) => wrong.push(format!(
+                "{}: got \"{e}\", expected it to contain \"{expect}\"",
+                path.display()
+            )),
+            Err(_) => {}
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+#[test]
+fn the_parser_survives_random_mutation() {
+    let good: Vec<String> = scene_files("data/scenes")
+        .iter()
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .collect();
+    let alphabet = b"(),:[]{}\"0123456789.-+eE_abcxyzSphereNvt \n/*";
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
+    let (mut rejected, mut accepted) = (0, 0);
+    for case in 0..4000 {
+        let mut bytes = good[case % good.len()].clone().into_bytes();
+        for _ in 0..rng.gen_range(1..4) {
+            let at = rng.gen_range(0..bytes.len());
+            match rng.gen_range(0..3) {
+                0 => {
+                    bytes.remove(at);
+                }
+                1 => bytes.insert(at, alphabet[rng.gen_range(0..alphabet.len())]),
+                _ => bytes[at] = alphabet[rng.gen_range(0..alphabet.len())],
+            }
+        }
+        let Ok(text) = String::from_utf8(bytes) else {
+            continue;
+        };
+        // No panic; an error always says where.
+        match Scene::parse(&text) {
+            Ok(_) => accepted += 1,
+            Err(SceneError::Syntax { line, .. }) => {
+                assert!(line >= 1);
+                rejected += 1;
+            }
+            Err(SceneError::Invalid { field, .. }) => {
+                assert!(!field.is_empty());
+                rejected += 1;
+            }
+        }
+    }
+    // Most mutations break the scene; some (in comments, digits) do not.
+    assert!(rejected > 1000 && accepted > 10, "{rejected} / {accepted}");
+}
+
+const SMALL: &str = r#"Scene(
+    seed: 5,
+    box: (9.0, 9.0, 9.0),
+    species: [
+        Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 48),
+        Species(name: "ball", shape: Sphere(radius: 0.4), count: 16),
+    ],
+    stages: [
+        Compress(packing_fraction: 0.30),
+        MonteCarlo(ensemble: Npt(pressure: 2.0), sweeps: 100),
+        MonteCarlo(ensemble: Nvt, sweeps: 100),
+        Dynamics(duration: 0.5, stats_every: 0.1, frames_every: 0.25, msd: true, c2: true),
+    ],
+    log: Log(path: "unused.mcap", stats_every: 20, frames_every: 50),
+)"#;
+
+fn bits(s: &StateRecord) -> Vec<u64> {
+    s.positions
+        .iter()
+        .flatten()
+        .chain(s.orientations.iter().flatten())
+        .chain(s.box_lengths.iter())
+        .map(|x| x.to_bits())
+        .collect()
+}
+
+#[test]
+fn a_scene_runs_every_stage_and_its_log_reads_back() {
+    let dir = scratch("run");
+    let path = dir.join("small.mcap");
+    let scene = Scene::parse(SMALL).unwrap();
+    let stop = AtomicBool::new(false);
+    let summary = run_scene(&scene, SMALL, &path, &mut Silent, &stop).unwrap();
+    assert_eq!(summary.log, path);
+    assert_eq!(summary.stages.len(), 4);
+    assert!(!summary.interrupted);
+    assert!(!partial_path(&path).exists(), "the partial log was renamed");
+
+    let log = read_log(&path, true).unwrap();
+    assert!(!log.truncated);
+    assert_eq!(log.scene_text(), Some(SMALL));
+    assert_eq!(
+        Scene::parse(&log.metadata["scene_resolved"]).unwrap(),
+        scene
+    );
+    // Stats: every stage, with the fields its kind measures.
+    for (index, kind) in ["compress", "monte_carlo", "monte_carlo", "dynamics"]
+        .iter()
+        .enumerate()
+    {
+        let stats: Vec<_> = log
+            .stats
+            .iter()
+            .filter(|(_, s)| s.stage_index == index)
+            .map(|(_, s)| s)
+            .collect();
+        assert!(!stats.is_empty(), "stage {index}");
+        assert!(stats.iter().all(|s| s.stage == *kind));
+        let last = stats.last().unwrap();
+        assert!(last.nematic_order.is_some(), "rods turn: S2 is measured");
+        match index {
+            0 => assert!((last.packing_fraction - 0.30).abs() < 1e-9),
+            1 => assert_eq!(last.pressure, Some(2.0)),
+            2 => assert!(last.pressure.is_some_and(|p| p > 0.0), "SDF pressure"),
+            _ => {
+                assert_eq!(last.time, Some(0.5));
+                assert!(last.collisions.unwrap() > 0);
+                assert!((last.temperature.unwrap() - 1.0).abs() < 1e-9);
+                assert!(last.msd.unwrap() > 0.0 && last.c2.unwrap() < 1.0);
+                assert_eq!(stats.len(), 5);
+            }
+        }
+    }
+    // Log times never go back.
+    assert!(log.stats.windows(2).all(|w| w[0].0 <= w[1].0));
+    // Every frame is a valid, overlap-free state by an all-pairs check.
+    let plan = Plan::of(&scene);
+    assert!(log.states.len() >= 8);
+    for (_, s) in &log.states {
+        let system = system_from_record(s, &plan).unwrap();
+        assert_eq!(system.first_overlap_all_pairs(), None);
+    }
+    // Hand-off: each stage starts from exactly the state the previous one
+    // ended with (the stage's first frame against the last frame before).
+    for index in 1..4 {
+        let first = log
+            .states
+            .iter()
+            .position(|(_, s)| s.stage_index == index)
+            .unwrap();
+        let (before, after) = (&log.states[first - 1].1, &log.states[first].1);
+        assert_eq!(before.stage_index, index - 1);
+        assert_eq!(bits(before), bits(after), "hand-off into stage {index}");
+    }
+    let dynamics: Vec<_> = log
+        .states
+        .iter()
+        .filter(|(_, s)| s.stage == "dynamics")
+        .collect();
+    assert!(dynamics.iter().all(|(_, s)| s.velocities.is_some()));
+}
+
+#[test]
+fn a_failing_run_leaves_an_existing_log_alone() {
+    let dir = scratch("fail");
+    let path = dir.join("precious.mcap");
+    std::fs::write(&path, b"an earlier result").unwrap();
+    // Five sweeps cannot compress 64 rods from 0.04 to 0.5.
+    let text = SMALL.replace(
+        "Compress(packing_fraction: 0.30)",
+        "Compress(packing_fraction: 0.50, max_sweeps: 5)",
+    );
+    let scene = Scene::parse(&text).unwrap();
+    let err = run_scene(&scene, &text, &path, &mut Silent, &AtomicBool::new(false)).unwrap_err();
+    match &err {
+        RunError::Stage { index, partial, .. } => {
+            assert_eq!(*index, 0);
+            assert_eq!(*partial, partial_path(&path));
+            // The partial log is complete and readable.
+            let log = read_log(partial, false).unwrap();
+            assert!(!log.truncated);
+            assert!(log.last_state.is_some());
+        }
+        other => panic!("{other}"),
+    }
+    assert!(!err.is_bad_input());
+    assert!(err.to_string().contains("5 sweeps"), "{err}");
+    assert_eq!(std::fs::read(&path).unwrap(), b"an earlier result");
+}
+
+#[test]
+fn a_stopped_run_ends_cleanly_with_a_frame() {
+    let dir = scratch("stop");
+    let path = dir.join("stopped.mcap");
+    let scene = Scene::parse(SMALL).unwrap();
+    let stop = AtomicBool::new(true);
+    let summary = run_scene(&scene, SMALL, &path, &mut Silent, &stop).unwrap();
+    assert!(summary.interrupted);
+    assert_eq!(summary.stages.len(), 1);
+    let log = read_log(&path, true).unwrap();
+    assert!(!log.truncated);
+    // The start frame and the frame where it stopped.
+    assert_eq!(log.states.len(), 2);
+    assert_eq!(log.states[1].1.sweep, Some(1));
+}
+
+#[test]
+fn a_log_cut_off_mid_write_reads_up_to_its_last_frame() {
+    let dir = scratch("cut");
+    let path = dir.join("whole.mcap");
+    let scene = Scene::parse(SMALL).unwrap();
+    run_scene(&scene, SMALL, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let whole = read_log(&path, true).unwrap();
+    let mut frames_seen = Vec::new();
+    for fraction in [0.3, 0.6, 0.9] {
+        let cut = dir.join(format!("cut-{fraction}.mcap"));
+        std::fs::write(&cut, &bytes[..(bytes.len() as f64 * fraction) as usize]).unwrap();
+        let log = read_log(&cut, true).unwrap();
+        assert!(log.truncated);
+        assert_eq!(log.scene_text(), Some(SMALL));
+        // What it has is a prefix of the whole log.
+        assert!(!log.states.is_empty());
+        for ((t, s), (tw, sw)) in log.states.iter().zip(&whole.states) {
+            assert_eq!((t, bits(s)), (tw, bits(sw)));
+        }
+        frames_seen.push(log.states.len());
+    }
+    assert!(
+        frames_seen.windows(2).all(|w| w[0] <= w[1]),
+        "{frames_seen:?}"
+    );
+}
+
+/// Imports the Python readers, installing them with pip if they are missing
+/// (so that `cargo test` alone sets up what it needs).
+fn python_with_readers() -> bool {
+    let has = || {
+        std::process::Command::new("python3")
+            .args([
+                "-c",
+                "import mcap.reader, foxglove_schemas_protobuf.SceneUpdate_pb2",
+            ])
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if has() {
+        return true;
+    }
+    let _ = std::process::Command::new("python3")
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "mcap==1.6.0",
+            "foxglove-schemas-protobuf==0.4.0",
+        ])
+        .status();
+    has()
+}
+
+#[test]
+fn the_python_mcap_reader_decodes_every_channel() {
+    assert!(
+        python_with_readers(),
+        "python3 with the mcap and foxglove-schemas-protobuf packages is needed (pip install mcap foxglove-schemas-protobuf)"
+    );
+    let dir = scratch("python");
+    for (name, species) in [
+        (
+            "mixed",
+            r#"Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 20),
+               Species(name: "brick", shape: Cuboid(a: 0.5, b: 0.3, c: 0.3), count: 20),
+               Species(name: "ball", shape: Sphere(radius: 0.4), count: 20),
+               Species(name: "blob", shape: Superellipsoid(a: 0.5, b: 0.4, c: 0.4, exponents: (4.0, 4.0, 4.0)), count: 20)"#,
+        ),
+        (
+            "single",
+            r#"Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.25), count: 27)"#,
+        ),
+    ] {
+        let text = format!(
+            "Scene(box: (9.0, 9.0, 9.0), species: [{species}], stages: [MonteCarlo(ensemble: Nvt, sweeps: 40), Dynamics(duration: 0.05)], log: Log(stats_every: 10, frames_every: 20))"
+        );
+        let scene = Scene::parse(&text).unwrap();
+        let path = dir.join(format!("{name}.mcap"));
+        run_scene(&scene, &text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/read_log.py");
+        let out = std::process::Command::new("python3")
+            .arg(&script)
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let log = read_log(&path, false).unwrap();
+        for (topic, count) in &log.counts {
+            assert_eq!(
+                report["messages"][topic].as_u64(),
+                Some(*count),
+                "{name} {topic}"
+            );
+        }
+    }
+}
