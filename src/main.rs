@@ -93,6 +93,8 @@ enum Suite {
     Ocsi,
     /// Monte Carlo trial moves per second by shape at packing fraction 0.5.
     Mc,
+    /// Hard-sphere dynamics through the full scene path against the library directly.
+    Scene,
 }
 
 fn main() -> ExitCode {
@@ -111,6 +113,7 @@ fn main() -> ExitCode {
         Command::Bench { suite, quick, json } => match suite {
             Suite::Ocsi => bench_ocsi(quick, json),
             Suite::Mc => bench_mc(quick, json),
+            Suite::Scene => bench_scene(quick, json),
         },
     }
 }
@@ -419,6 +422,35 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
                 "| {} | {} | {:.3} | {} | {:.1} |",
                 r.shape, r.n, r.packing_fraction, r.sweeps, r.seconds
             );
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+fn bench_scene(quick: bool, json: bool) -> ExitCode {
+    let rows = match hardbody::bench::scene::run(quick) {
+        Ok(rows) => rows,
+        Err(e) => {
+            eprintln!("hardbody: scene benchmark failed: {e}");
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    if json {
+        print_json(&rows);
+    } else {
+        say("| path | shape | N | phi | collisions | us/collision (median) | ratio to direct |");
+        say("|---|---|---|---|---|---|---|");
+        for r in &rows {
+            say(&format!(
+                "| {} | {} | {} | {:.2} | {} | {:.3} | {:.3} |",
+                r.algorithm,
+                r.shape,
+                r.n,
+                r.packing_fraction,
+                r.collisions,
+                r.us_per_collision,
+                r.ratio_to_direct
+            ));
         }
     }
     ExitCode::SUCCESS

@@ -2,3 +2,4 @@
 
 pub mod mc;
 pub mod ocsi;
+pub mod scene;

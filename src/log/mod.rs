@@ -25,7 +25,10 @@ use foxglove::Encode;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::Shape;
-use crate::mc::Species;
+use nalgebra::Vector3;
+
+use crate::mc::{Particle, Species};
+use crate::space::PeriodicBox;
 
 /// Nanoseconds of log time per Monte Carlo sweep.
 pub const NS_PER_SWEEP: u64 = 1_000_000;
@@ -139,6 +142,48 @@ pub struct StateRecord {
     pub velocities: Option<Vec<[f64; 3]>>,
     /// Angular velocities, lab frame (dynamics only).
     pub angular_velocities: Option<Vec<[f64; 3]>>,
+}
+
+impl StateRecord {
+    /// The box, species, positions and orientations (no velocities), as
+    /// stage 0 `start`; set the stage fields with struct update syntax.
+    pub fn of_particles(box_: &PeriodicBox, species: &[Species], particles: &[Particle]) -> Self {
+        StateRecord {
+            stage_index: 0,
+            stage: "start".into(),
+            sweep: None,
+            time: None,
+            box_lengths: box_.lengths().into(),
+            species: species
+                .iter()
+                .map(|s| SpeciesRecord {
+                    name: s.name.clone(),
+                    shape: s.shape,
+                    rotation: s.rotation,
+                })
+                .collect(),
+            species_of: particles.iter().map(|p| p.species).collect(),
+            positions: particles.iter().map(|p| p.position.into()).collect(),
+            orientations: particles
+                .iter()
+                .map(|p| {
+                    let q = p.orientation.quaternion();
+                    [q.w, q.i, q.j, q.k]
+                })
+                .collect(),
+            velocities: None,
+            angular_velocities: None,
+        }
+    }
+
+    /// With velocities and lab-frame angular velocities.
+    pub fn with_velocities(self, velocities: &[(Vector3<f64>, Vector3<f64>)]) -> Self {
+        StateRecord {
+            velocities: Some(velocities.iter().map(|(v, _)| (*v).into()).collect()),
+            angular_velocities: Some(velocities.iter().map(|(_, w)| (*w).into()).collect()),
+            ..self
+        }
+    }
 }
 
 const STATS_SCHEMA: &str = r#"{

@@ -20,9 +20,7 @@ use crate::analysis::order::{molecular_axis, nematic_order};
 use crate::edmd::dynamics::{Dynamics, DynamicsOptions, EdmdError};
 use crate::edmd::predict::PredictorOptions;
 use crate::log::read::read_log;
-use crate::log::{
-    LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT, SpeciesRecord, StateRecord, Stats,
-};
+use crate::log::{LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT, StateRecord, Stats};
 use crate::mc::compress::{CompressError, CompressOptions, compress_observed};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
 use crate::mc::sdf::Sdf;
@@ -409,22 +407,12 @@ impl Runner<'_> {
     }
 
     fn record_system(&self, system: &System, index: usize, sweep: Option<u64>) -> StateRecord {
-        let stage = self
-            .scene
-            .stages
-            .get(index)
-            .map(Stage::kind)
-            .unwrap_or("start");
-        record(
-            system.periodic_box(),
-            system.species(),
-            system.particles(),
-            None,
-            index,
-            stage,
+        StateRecord {
+            stage_index: index,
+            stage: self.scene.stages[index].kind().into(),
             sweep,
-            None,
-        )
+            ..StateRecord::of_particles(system.periodic_box(), system.species(), system.particles())
+        }
     }
 
     fn mc_stats(
@@ -839,55 +827,16 @@ impl Runner<'_> {
     }
 
     fn record_dynamics(&self, dynamics: &Dynamics, index: usize, time: f64) -> StateRecord {
-        let species: Vec<_> = self.plan.mc_species();
-        record(
-            dynamics.periodic_box(),
-            &species,
-            &dynamics.particles(),
-            Some(&dynamics.velocities()),
-            index,
-            "dynamics",
-            None,
-            Some(time),
-        )
-    }
-}
-
-#[allow(clippy::too_many_arguments)]
-fn record(
-    box_: &PeriodicBox,
-    species: &[crate::mc::Species],
-    particles: &[Particle],
-    velocities: Option<&[(Vector3<f64>, Vector3<f64>)]>,
-    index: usize,
-    stage: &str,
-    sweep: Option<u64>,
-    time: Option<f64>,
-) -> StateRecord {
-    StateRecord {
-        stage_index: index,
-        stage: stage.into(),
-        sweep,
-        time,
-        box_lengths: box_.lengths().into(),
-        species: species
-            .iter()
-            .map(|s| SpeciesRecord {
-                name: s.name.clone(),
-                shape: s.shape,
-                rotation: s.rotation,
-            })
-            .collect(),
-        species_of: particles.iter().map(|p| p.species).collect(),
-        positions: particles.iter().map(|p| p.position.into()).collect(),
-        orientations: particles
-            .iter()
-            .map(|p| {
-                let q = p.orientation.quaternion();
-                [q.w, q.i, q.j, q.k]
-            })
-            .collect(),
-        velocities: velocities.map(|v| v.iter().map(|(v, _)| (*v).into()).collect()),
-        angular_velocities: velocities.map(|v| v.iter().map(|(_, w)| (*w).into()).collect()),
+        StateRecord {
+            stage_index: index,
+            stage: "dynamics".into(),
+            time: Some(time),
+            ..StateRecord::of_particles(
+                dynamics.periodic_box(),
+                &self.plan.mc_species(),
+                &dynamics.particles(),
+            )
+            .with_velocities(&dynamics.velocities())
+        }
     }
 }
