@@ -11,7 +11,7 @@ use hardbody::analysis::virial::excluded_volume;
 use hardbody::bench::ocsi::{OcsiBenchConfig, run as run_ocsi, table as ocsi_table};
 use hardbody::geometry::Shape;
 use hardbody::log::read::read_log;
-use hardbody::run::{Progress, run_scene};
+use hardbody::run::{Progress, RunError, RunSummary, resume_run, run_scene};
 use hardbody::scene::Scene;
 use hardbody::scene::plan::{Plan, Report};
 
@@ -46,6 +46,13 @@ enum Command {
         /// Random seed (overrides the scene's).
         #[arg(long)]
         seed: Option<u64>,
+        /// Continue the run logged in LOG (stopped, or cut off by a crash)
+        /// from its last frame: the rest of its stage and the stages after it,
+        /// bit for bit as if never interrupted. With SCENE, run that scene's
+        /// stages from that frame instead. The log goes to --out, else to LOG
+        /// (without a .partial suffix).
+        #[arg(long, value_name = "LOG")]
+        resume: Option<PathBuf>,
     },
     /// Validate a scene and print the plan: stages, pair kernels, effects and why.
     Check {
@@ -100,7 +107,12 @@ enum Suite {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Run { scene, out, seed } => run(scene, out, seed),
+        Command::Run {
+            scene,
+            out,
+            seed,
+            resume,
+        } => run(scene, out, seed, resume),
         Command::Check { scene } => check(&scene),
         Command::Inspect { log } => inspect(&log),
         Command::Virial {
@@ -146,7 +158,15 @@ fn load_scene(path: &std::path::Path) -> Result<(Scene, String), String> {
     Ok((scene, text))
 }
 
-fn run(scene_path: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> ExitCode {
+fn run(
+    scene_path: Option<PathBuf>,
+    out: Option<PathBuf>,
+    seed: Option<u64>,
+    resume: Option<PathBuf>,
+) -> ExitCode {
+    if let (Some(log), None) = (&resume, &scene_path) {
+        return resume_log(log, out, seed);
+    }
     let (mut scene, text) = match &scene_path {
         Some(p) => match load_scene(p) {
             Ok(s) => s,
@@ -160,18 +180,14 @@ fn run(scene_path: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> 
     if let Some(seed) = seed {
         scene.seed = seed;
     }
+    if let Some(log) = &resume {
+        scene.start = hardbody::scene::Start::Resume(log.display().to_string());
+    }
     let log_path = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));
     if let Err(e) = check_writable(&log_path) {
         return bad_input(e);
     }
-    static STOP: AtomicBool = AtomicBool::new(false);
-    // A first Ctrl-C ends the run cleanly at the next sweep or output
-    // event; a second one exits at once.
-    let _ = ctrlc::set_handler(|| {
-        if STOP.swap(true, Ordering::SeqCst) {
-            std::process::exit(EXIT_INTERRUPTED as i32);
-        }
-    });
+    handle_ctrl_c();
     let name = scene_path
         .as_ref()
         .map(|p| p.display().to_string())
@@ -184,12 +200,60 @@ fn run(scene_path: Option<PathBuf>, out: Option<PathBuf>, seed: Option<u64>) -> 
         scene.seed,
         log_path.display()
     );
-    let mut progress: Box<dyn Progress> = if std::io::stderr().is_terminal() {
+    let mut progress = progress_display();
+    finish_run(run_scene(
+        &scene,
+        &text,
+        &log_path,
+        progress.as_mut(),
+        &STOP,
+    ))
+}
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// A first Ctrl-C ends the run cleanly at the next sweep or output event;
+/// a second one exits at once.
+fn handle_ctrl_c() {
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED as i32);
+        }
+    });
+}
+
+fn progress_display() -> Box<dyn Progress> {
+    if std::io::stderr().is_terminal() {
         Box::new(progress::Bars::default())
     } else {
         Box::new(progress::Lines::default())
-    };
-    match run_scene(&scene, &text, &log_path, progress.as_mut(), &STOP) {
+    }
+}
+
+fn resume_log(log: &std::path::Path, out: Option<PathBuf>, seed: Option<u64>) -> ExitCode {
+    if seed.is_some() {
+        return bad_input("--seed: a resumed run keeps the seed of the run it continues");
+    }
+    let out = out.unwrap_or_else(|| {
+        let text = log.display().to_string();
+        PathBuf::from(text.strip_suffix(".partial").unwrap_or(&text))
+    });
+    if let Err(e) = check_writable(&out) {
+        return bad_input(e);
+    }
+    handle_ctrl_c();
+    eprintln!(
+        "hardbody {}: resuming {} from its last frame, log {}",
+        env!("CARGO_PKG_VERSION"),
+        log.display(),
+        out.display()
+    );
+    let mut progress = progress_display();
+    finish_run(resume_run(log, &out, progress.as_mut(), &STOP))
+}
+
+fn finish_run(result: Result<RunSummary, RunError>) -> ExitCode {
+    match result {
         Ok(summary) => {
             for line in &summary.stages {
                 say(line);

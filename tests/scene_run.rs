@@ -361,3 +361,126 @@ fn the_python_mcap_reader_decodes_every_channel() {
         }
     }
 }
+
+#[test]
+fn a_run_resumed_from_a_cut_log_continues_bit_for_bit() {
+    let dir = scratch("resume");
+    let path = dir.join("whole.mcap");
+    let scene = Scene::parse(SMALL).unwrap();
+    run_scene(&scene, SMALL, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let whole = read_log(&path, true).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let mut stages_resumed = std::collections::BTreeSet::new();
+    for fraction in [0.15, 0.35, 0.5, 0.65, 0.8, 0.95] {
+        let cut = dir.join(format!("cut-{fraction}.mcap.partial"));
+        std::fs::write(&cut, &bytes[..(bytes.len() as f64 * fraction) as usize]).unwrap();
+        let from = read_log(&cut, false).unwrap().last_state.unwrap().1;
+        stages_resumed.insert(from.stage_index);
+        let out = dir.join(format!("resumed-{fraction}.mcap"));
+        let summary = hardbody::run::resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false))
+            .unwrap_or_else(|e| panic!("{fraction}: {e}"));
+        assert!(!summary.interrupted);
+        let resumed = read_log(&out, true).unwrap();
+        assert_eq!(resumed.scene_text(), Some(SMALL));
+        // Every frame, those copied and those computed again, is the
+        // uninterrupted run's, at the same log time, bit for bit.
+        assert_eq!(resumed.states.len(), whole.states.len(), "{fraction}");
+        for (k, ((t, s), (tw, sw))) in resumed.states.iter().zip(&whole.states).enumerate() {
+            assert_eq!(t, tw, "{fraction}: frame {k}");
+            assert!(
+                bits(s) == bits(sw),
+                "{fraction}: frame {k} (stage {}) differs",
+                s.stage_index
+            );
+            let v = |s: &StateRecord| {
+                s.velocities
+                    .iter()
+                    .flatten()
+                    .flatten()
+                    .map(|x| x.to_bits())
+                    .collect::<Vec<_>>()
+            };
+            assert!(v(s) == v(sw), "{fraction}: velocities of frame {k} differ");
+        }
+    }
+    // The cuts fall in every kind of stage.
+    assert!(stages_resumed.len() >= 3, "{stages_resumed:?}");
+}
+
+#[test]
+fn a_killed_run_resumes_from_its_partial_log() {
+    let exe = env!("CARGO_BIN_EXE_hardbody");
+    let dir = scratch("kill");
+    let text = r#"Scene(
+        seed: 9,
+        box: (9.0, 9.0, 9.0),
+        species: [Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 64)],
+        stages: [
+            Compress(packing_fraction: 0.35),
+            Dynamics(duration: 20.0, stats_every: 0.5, frames_every: 0.5),
+        ],
+    )"#;
+    let scene_file = dir.join("kill.ron");
+    std::fs::write(&scene_file, text).unwrap();
+    let killed = dir.join("killed.mcap");
+    let partial = partial_path(&killed);
+    let mut child = std::process::Command::new(exe)
+        .args([
+            "run",
+            scene_file.to_str().unwrap(),
+            "--out",
+            killed.to_str().unwrap(),
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Kill it (SIGKILL) once a few dynamics frames are on disk.
+    let clock = std::time::Instant::now();
+    loop {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        if let Ok(log) = read_log(&partial, true)
+            && log
+                .states
+                .iter()
+                .filter(|(_, s)| s.stage == "dynamics")
+                .count()
+                >= 4
+        {
+            break;
+        }
+        assert!(
+            clock.elapsed().as_secs() < 120,
+            "no frames after two minutes"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it was killed"
+        );
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!killed.exists(), "a killed run leaves only the partial log");
+    let status = std::process::Command::new(exe)
+        .args(["run", "--resume", partial.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    // The same scene uninterrupted.
+    let whole = dir.join("whole.mcap");
+    let scene = Scene::parse(text).unwrap();
+    run_scene(&scene, text, &whole, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let (a, b) = (
+        read_log(&killed, true).unwrap(),
+        read_log(&whole, true).unwrap(),
+    );
+    assert!(!a.truncated);
+    assert_eq!(a.states.len(), b.states.len());
+    let (last_a, last_b) = (&a.states.last().unwrap().1, &b.states.last().unwrap().1);
+    assert_eq!(last_a.time, Some(20.0));
+    assert!(
+        bits(last_a) == bits(last_b),
+        "the resumed run ends elsewhere"
+    );
+}

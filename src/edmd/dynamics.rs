@@ -284,6 +284,8 @@ pub struct Dynamics {
     deferred: Vec<(u32, f64)>,
     /// Events processed at the current instant (a guard against loops).
     events_at_now: u64,
+    /// The options it was built with (to rebuild itself).
+    options: DynamicsOptions,
 }
 
 /// Steps a pair's contact search may take before it is put off behind the
@@ -308,45 +310,7 @@ impl Dynamics {
             return Err(EdmdError::TooFewParticles(n));
         }
         let species = system.species().to_vec();
-        let masses = if options.masses.is_empty() {
-            vec![1.0; species.len()]
-        } else {
-            options.masses.clone()
-        };
-        if masses.len() != species.len() || masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
-            return Err(EdmdError::BadMasses {
-                species: species.len(),
-                masses: options.masses.clone(),
-            });
-        }
-        let mut kinds = Vec::with_capacity(species.len());
-        for (s, &m) in species.iter().zip(&masses) {
-            let principal = s.shape.inertia_tensor(m).diagonal();
-            let (moments, top_axis) = if options.true_inertia {
-                match s.shape.symmetric_top_axis() {
-                    Some(k) => (principal, k),
-                    None => {
-                        return Err(EdmdError::NotATop {
-                            species: s.name.clone(),
-                            moments: principal.into(),
-                        });
-                    }
-                }
-            } else {
-                (V3::repeat(principal.sum() / 3.0), 2)
-            };
-            kinds.push(Kind {
-                shape: s.shape,
-                inverse_mass: 1.0 / m,
-                rotates: s.rotation,
-                moments,
-                top_axis,
-            });
-        }
-        let ns = species.len();
-        let contact_sums = (0..ns * ns)
-            .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
-            .collect();
+        let kinds = kinds_for(&species, options)?;
         let mut bodies: Vec<Body> = system
             .particles()
             .iter()
@@ -399,6 +363,106 @@ impl Dynamics {
             b.velocity *= scale;
             b.angular_velocity *= scale;
         }
+        Self::assemble(system, species, kinds, bodies, dof, rotors > 0, options)
+    }
+
+    /// The dynamics of `system` with velocities and angular velocities
+    /// (lab frame) given, at simulated time `time` after `collisions`
+    /// collisions: what a frame of a log holds. Building from the state
+    /// [`Dynamics::resynchronize`] leaves gives the same dynamics bit for
+    /// bit.
+    pub fn from_parts(
+        system: &System,
+        velocities: &[(V3, V3)],
+        options: &DynamicsOptions,
+        time: f64,
+        collisions: u64,
+    ) -> Result<Self, EdmdError> {
+        let n = system.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let species = system.species().to_vec();
+        let kinds = kinds_for(&species, options)?;
+        if velocities.len() != n
+            || velocities
+                .iter()
+                .zip(system.particles())
+                .any(|((v, w), p)| {
+                    !(v.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()))
+                        || (!kinds[p.species as usize].rotates && *w != V3::zeros())
+                })
+        {
+            return Err(EdmdError::BadVelocities(n));
+        }
+        let bodies: Vec<Body> = system
+            .particles()
+            .iter()
+            .zip(velocities)
+            .map(|(p, (v, w))| Body {
+                position: p.position,
+                velocity: *v,
+                time: 0.0,
+                orientation: p.orientation,
+                angular_velocity: *w,
+                species: p.species,
+                crossing_time: f64::INFINITY,
+                horizon: f64::INFINITY,
+            })
+            .collect();
+        let rotors = kinds_rotating(&bodies, &kinds);
+        let dof = 3.0 * n as f64 - 3.0 + 3.0 * rotors as f64;
+        let mut dynamics =
+            Self::assemble(system, species, kinds, bodies, dof, rotors > 0, options)?;
+        dynamics.origin = time;
+        dynamics.collisions = collisions;
+        Ok(dynamics)
+    }
+
+    /// Advances every body to now and predicts every event again from that
+    /// state, as [`Dynamics::from_parts`] would from a frame written now:
+    /// a run that does this at each frame and a run resumed from any of
+    /// those frames follow the same trajectory bit for bit. Observables
+    /// (the interval's sums, MSD and C₂ references) carry over.
+    pub fn resynchronize(&mut self) -> Result<(), EdmdError> {
+        let system = self.to_system()?;
+        let unwrapped: Vec<V3> = self.trajectory_points().map(|(r, _)| r).collect();
+        let mut next = Self::from_parts(
+            &system,
+            &self.velocities(),
+            &self.options,
+            self.time(),
+            self.collisions,
+        )?;
+        next.interval = Interval {
+            start: self.interval.start - self.now,
+            ke_since: self.interval.ke_since - self.now,
+            ..self.interval
+        };
+        for ((image, r), b) in next.images.iter_mut().zip(&unwrapped).zip(&next.bodies) {
+            *image = r - b.position;
+        }
+        next.reference = std::mem::take(&mut self.reference);
+        *self = next;
+        Ok(())
+    }
+
+    /// Everything but the velocities: cells, calendar, first predictions.
+    #[allow(clippy::too_many_arguments)]
+    fn assemble(
+        system: &System,
+        species: Vec<Species>,
+        kinds: Vec<Kind>,
+        bodies: Vec<Body>,
+        dof: f64,
+        rotating: bool,
+        options: &DynamicsOptions,
+    ) -> Result<Self, EdmdError> {
+        let n = bodies.len();
+        let ns = species.len();
+        let contact_sums: Vec<Option<f64>> = (0..ns * ns)
+            .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
+            .collect();
         let box_ = *system.periodic_box();
         let range = 2.0
             * kinds
@@ -427,7 +491,8 @@ impl Dynamics {
             kinetic_translational,
             degrees_of_freedom: dof,
             packing_fraction: system.packing_fraction(),
-            rotating: rotors > 0,
+            rotating,
+            options: options.clone(),
             deferred: Vec::new(),
             found: std::collections::HashMap::new(),
             molecular_axes: Vec::new(),
@@ -1140,6 +1205,46 @@ fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
         .iter()
         .filter(|b| kinds[b.species as usize].rotates)
         .count()
+}
+
+/// The per-species dynamics data, checked against the options.
+fn kinds_for(species: &[Species], options: &DynamicsOptions) -> Result<Vec<Kind>, EdmdError> {
+    let masses = if options.masses.is_empty() {
+        vec![1.0; species.len()]
+    } else {
+        options.masses.clone()
+    };
+    if masses.len() != species.len() || masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
+        return Err(EdmdError::BadMasses {
+            species: species.len(),
+            masses: options.masses.clone(),
+        });
+    }
+    let mut kinds = Vec::with_capacity(species.len());
+    for (s, &m) in species.iter().zip(&masses) {
+        let principal = s.shape.inertia_tensor(m).diagonal();
+        let (moments, top_axis) = if options.true_inertia {
+            match s.shape.symmetric_top_axis() {
+                Some(k) => (principal, k),
+                None => {
+                    return Err(EdmdError::NotATop {
+                        species: s.name.clone(),
+                        moments: principal.into(),
+                    });
+                }
+            }
+        } else {
+            (V3::repeat(principal.sum() / 3.0), 2)
+        };
+        kinds.push(Kind {
+            shape: s.shape,
+            inverse_mass: 1.0 / m,
+            rotates: s.rotation,
+            moments,
+            top_axis,
+        });
+    }
+    Ok(kinds)
 }
 
 /// Kinetic energy of one body (spherical top).

@@ -27,6 +27,10 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::Shape;
 use nalgebra::Vector3;
 
+use rand_pcg::Pcg64;
+
+use crate::mc::compress::CompressorState;
+use crate::mc::moves::{Counts, MoveSizes};
 use crate::mc::{Particle, Species};
 use crate::space::PeriodicBox;
 
@@ -142,6 +146,56 @@ pub struct StateRecord {
     pub velocities: Option<Vec<[f64; 3]>>,
     /// Angular velocities, lab frame (dynamics only).
     pub angular_velocities: Option<Vec<[f64; 3]>>,
+    /// What continuing the stage exactly from this frame needs besides the
+    /// state (absent in states written by other tools).
+    #[serde(default)]
+    pub resume: Option<ResumeInfo>,
+}
+
+/// A stage's progress at a frame: with the state, enough to continue the
+/// run bit for bit (`hardbody run --resume`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResumeInfo {
+    /// Log time at which the stage began (ns).
+    pub stage_clock: u64,
+    /// Whether the stage was complete at this frame.
+    pub stage_complete: bool,
+    /// Sweeps done in the stage (Monte Carlo).
+    pub sweep: u64,
+    /// The translation cap of the stage's move-size tuning (Monte Carlo).
+    pub max_translate: f64,
+    /// Monte Carlo move sizes.
+    pub sizes: MoveSizes,
+    /// The stage's random stream after this frame's sweep (Monte Carlo).
+    pub rng: Option<Pcg64>,
+    /// Move counts since the last `/stats` message.
+    pub window: Counts,
+    /// Move counts since the last move-size update (Monte Carlo).
+    pub tune_window: Counts,
+    /// The compression's own state (Compress stages).
+    pub compress: Option<CompressorState>,
+    /// The dynamics' progress (Dynamics stages).
+    pub dynamics: Option<DynamicsProgress>,
+}
+
+/// See [`ResumeInfo`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DynamicsProgress {
+    /// Absolute simulated time of the frame (the stage's own clock starts
+    /// at `start_time`).
+    pub time: f64,
+    /// Absolute simulated time at which the stage began.
+    pub start_time: f64,
+    /// Collisions since the dynamics began, at the frame.
+    pub collisions: u64,
+    /// Collisions when the stage began.
+    pub start_collisions: u64,
+    /// Index of the next `/stats` message and frame of the stage.
+    pub next_stats: u64,
+    /// See `next_stats`.
+    pub next_frame: u64,
+    /// kT of the stage.
+    pub temperature: f64,
 }
 
 impl StateRecord {
@@ -173,6 +227,7 @@ impl StateRecord {
                 .collect(),
             velocities: None,
             angular_velocities: None,
+            resume: None,
         }
     }
 
@@ -340,6 +395,23 @@ impl LogWriter {
                 path: self.partial.clone(),
                 source,
             })
+    }
+
+    /// A message copied from another log (the part of an interrupted run
+    /// that a resumed run keeps).
+    pub fn copy(&mut self, topic: &str, log_time: u64, data: &[u8]) -> Result<(), LogError> {
+        let channel = match topic {
+            "/stats" => self.stats,
+            "/scene" => self.scene,
+            "/state" => self.state,
+            other => {
+                return Err(LogError::Content {
+                    path: self.partial.clone(),
+                    message: format!("cannot copy a message of unknown topic {other}"),
+                });
+            }
+        };
+        self.write(channel, log_time, data)
     }
 
     /// A `/stats` message at `log_time`.

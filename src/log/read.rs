@@ -107,3 +107,25 @@ pub fn read_log(path: &Path, all_states: bool) -> Result<LogContents, LogError> 
     }
     Ok(contents)
 }
+
+/// One message as stored: topic, log time, bytes.
+pub type RawMessage = (String, u64, Vec<u8>);
+
+/// Every complete message of `path`, in file order (what a resumed run
+/// copies from the interrupted one).
+pub fn read_messages(path: &Path) -> Result<Vec<RawMessage>, LogError> {
+    let buf = std::fs::read(path).map_err(|source| LogError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let stream =
+        mcap::MessageStream::new_with_options(&buf, mcap::read::Options::IgnoreEndMagic.into())
+            .map_err(|e| LogError::Content {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?;
+    Ok(stream
+        .map_while(Result::ok)
+        .map(|m| (m.channel.topic.clone(), m.log_time, m.data.into_owned()))
+        .collect())
+}

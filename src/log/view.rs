@@ -295,6 +295,7 @@ mod tests {
             ],
             velocities: None,
             angular_velocities: None,
+            resume: None,
         };
         let u = SceneView::new(&species).update(1_500_000_000, &state);
         assert_eq!(u.entities.len(), 2);

@@ -6,9 +6,8 @@
 //! compression stops with the packing fraction reached. No overlap is ever
 //! created: every shrink is checked before it is kept.
 
-use std::ops::ControlFlow;
-
 use rand::Rng;
+use serde::{Deserialize, Serialize};
 
 use super::System;
 use super::moves::{Counts, Ensemble, MoveSizes, sweep};
@@ -69,14 +68,6 @@ pub enum CompressError {
         /// Sweeps done.
         sweeps: u64,
     },
-    /// Stopped from outside (an interrupted run).
-    #[error("stopped at packing fraction {reached:.4} after {sweeps} sweeps")]
-    Stopped {
-        /// Packing fraction reached.
-        reached: f64,
-        /// Sweeps done.
-        sweeps: u64,
-    },
     /// Ran out of sweeps.
     #[error("reached packing fraction {reached:.4} of {target} in the allowed {sweeps} sweeps")]
     OutOfSweeps {
@@ -110,80 +101,143 @@ pub fn compress<R: Rng>(
     opts: &CompressOptions,
     rng: &mut R,
 ) -> Result<CompressReport, CompressError> {
-    compress_observed(system, sizes, opts, rng, |_, _, _, _| {
-        ControlFlow::Continue(())
-    })
+    let mut c = Compressor::new(system, sizes, opts)?;
+    loop {
+        if let Some(report) = c.sweep(system, rng)? {
+            return Ok(report);
+        }
+    }
 }
 
-/// [`compress`], calling `observe(system, sweep, counts of that sweep,
-/// move sizes)` after every sweep (and its box shrink); a `Break` stops
-/// the compression with [`CompressError::Stopped`].
-pub fn compress_observed<R: Rng>(
-    system: &mut System,
-    mut sizes: MoveSizes,
-    opts: &CompressOptions,
-    rng: &mut R,
-    mut observe: impl FnMut(&System, u64, &Counts, &MoveSizes) -> ControlFlow<()>,
-) -> Result<CompressReport, CompressError> {
-    if !(opts.target > 0.0 && opts.target < 1.0) {
-        return Err(CompressError::BadTarget(opts.target));
+/// Everything a compression carries from sweep to sweep besides the
+/// system and the random stream: with them, enough to resume it exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CompressorState {
+    /// Sweeps done.
+    pub sweeps: u64,
+    /// Move sizes now.
+    pub sizes: MoveSizes,
+    /// Relative shrink tried next.
+    pub step: f64,
+    /// Sweeps in a row without progress.
+    pub stalled: u64,
+    /// Counts since the last move-size update.
+    pub window: Counts,
+    /// Counts over the whole compression.
+    pub counts: Counts,
+    /// Largest translation the tuner allows (half the starting box's
+    /// shortest edge, kept so that a resumed compression tunes as the
+    /// original did).
+    pub max_translate: f64,
+}
+
+/// A compression one sweep at a time (see [`compress`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Compressor {
+    opts: CompressOptions,
+    tuner: Tuner,
+    state: CompressorState,
+}
+
+impl Compressor {
+    /// Checks the options against the system.
+    pub fn new(
+        system: &System,
+        sizes: MoveSizes,
+        opts: &CompressOptions,
+    ) -> Result<Self, CompressError> {
+        if !(opts.target > 0.0 && opts.target < 1.0) {
+            return Err(CompressError::BadTarget(opts.target));
+        }
+        let start = system.packing_fraction();
+        if opts.target < start {
+            return Err(CompressError::TargetBelowStart {
+                target: opts.target,
+                start,
+            });
+        }
+        if sizes.translate.is_nan() || sizes.translate <= 0.0 {
+            return Err(CompressError::ZeroMoveSize(sizes.translate));
+        }
+        Ok(Self::resume(
+            opts,
+            CompressorState {
+                sweeps: 0,
+                sizes,
+                step: opts.initial_step,
+                stalled: 0,
+                window: Counts::default(),
+                counts: Counts::default(),
+                max_translate: system.periodic_box().lengths().min() / 2.0,
+            },
+        ))
     }
-    let start = system.packing_fraction();
-    if opts.target < start {
-        return Err(CompressError::TargetBelowStart {
-            target: opts.target,
-            start,
-        });
+
+    /// Continues a compression from a saved state.
+    pub fn resume(opts: &CompressOptions, state: CompressorState) -> Self {
+        Self {
+            opts: *opts,
+            tuner: Tuner {
+                target: 0.3,
+                max_translate: state.max_translate,
+            },
+            state,
+        }
     }
-    if sizes.translate.is_nan() || sizes.translate <= 0.0 {
-        return Err(CompressError::ZeroMoveSize(sizes.translate));
+
+    /// The state to save (with the system and the random stream).
+    pub fn state(&self) -> &CompressorState {
+        &self.state
     }
-    let tuner = Tuner {
-        target: 0.3,
-        max_translate: system.periodic_box().lengths().min() / 2.0,
-    };
-    let mut step = opts.initial_step;
-    let mut stalled = 0;
-    let mut counts = Counts::default();
-    let mut window = Counts::default();
-    for s in 1..=opts.max_sweeps {
-        let c = sweep(system, &sizes, &Ensemble::Nvt, rng);
-        counts += c;
-        window += c;
-        if s % 20 == 0 {
-            tuner.update(&mut sizes, &window);
-            window = Counts::default();
+
+    /// One sweep of moves, then the largest box shrink that leaves no
+    /// overlap; `Some` report when the target is reached.
+    pub fn sweep<R: Rng>(
+        &mut self,
+        system: &mut System,
+        rng: &mut R,
+    ) -> Result<Option<CompressReport>, CompressError> {
+        let st = &mut self.state;
+        let opts = &self.opts;
+        if st.sweeps >= opts.max_sweeps {
+            return Err(CompressError::OutOfSweeps {
+                reached: system.packing_fraction(),
+                target: opts.target,
+                sweeps: opts.max_sweeps,
+            });
+        }
+        st.sweeps += 1;
+        let s = st.sweeps;
+        let c = sweep(system, &st.sizes, &Ensemble::Nvt, rng);
+        st.counts += c;
+        st.window += c;
+        if s.is_multiple_of(20) {
+            self.tuner.update(&mut st.sizes, &st.window);
+            st.window = Counts::default();
         }
         // The edge factor that lands exactly on the target, and the factor
         // of the current step; take whichever shrinks less.
         let phi = system.packing_fraction();
         let to_target = (phi / opts.target).cbrt();
-        let factor = to_target.max(1.0 - step);
+        let factor = to_target.max(1.0 - st.step);
         let lengths = system.periodic_box().lengths() * factor;
-        let shrunk = system.try_rescale(lengths);
-        if observe(system, s, &c, &sizes).is_break() {
-            return Err(CompressError::Stopped {
-                reached: system.packing_fraction(),
-                sweeps: s,
-            });
-        }
-        if shrunk {
-            step = (step * 1.5).min(0.1);
-            stalled = 0;
+        if system.try_rescale(lengths) {
+            st.step = (st.step * 1.5).min(0.1);
+            st.stalled = 0;
             if factor == to_target {
-                return Ok(CompressReport {
+                return Ok(Some(CompressReport {
                     sweeps: s,
                     packing_fraction: system.packing_fraction(),
-                    counts,
-                    sizes,
-                });
+                    counts: st.counts,
+                    sizes: st.sizes,
+                }));
             }
         } else {
-            step *= 0.5;
-            if step < opts.min_step {
-                step = opts.min_step;
-                stalled += 1;
-                if stalled >= opts.patience {
+            st.step *= 0.5;
+            if st.step < opts.min_step {
+                st.step = opts.min_step;
+                st.stalled += 1;
+                if st.stalled >= opts.patience {
                     return Err(CompressError::Jammed {
                         reached: phi,
                         target: opts.target,
@@ -192,10 +246,6 @@ pub fn compress_observed<R: Rng>(
                 }
             }
         }
+        Ok(None)
     }
-    Err(CompressError::OutOfSweeps {
-        reached: system.packing_fraction(),
-        target: opts.target,
-        sweeps: opts.max_sweeps,
-    })
 }

@@ -10,7 +10,7 @@ use rand_distr::StandardNormal;
 use super::System;
 
 /// Attempts and acceptances of one kind of move; counts add.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Count {
     /// Moves tried.
     pub tried: u64,
@@ -40,7 +40,7 @@ impl Add for Count {
 }
 
 /// Counters of every move kind.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Counts {
     /// Translations.
     pub translate: Count,
@@ -68,7 +68,7 @@ impl AddAssign for Counts {
 }
 
 /// Move sizes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MoveSizes {
     /// Side of the cube a translation is drawn from.
     pub translate: f64,

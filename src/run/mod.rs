@@ -7,7 +7,6 @@
 //! (velocities rescaled if the temperature changes); a Monte Carlo stage
 //! after dynamics takes the final positions and orientations.
 
-use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -19,9 +18,12 @@ use rand_pcg::Pcg64;
 use crate::analysis::order::{molecular_axis, nematic_order};
 use crate::edmd::dynamics::{Dynamics, DynamicsOptions, EdmdError};
 use crate::edmd::predict::PredictorOptions;
-use crate::log::read::read_log;
-use crate::log::{LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT, StateRecord, Stats};
-use crate::mc::compress::{CompressError, CompressOptions, compress_observed};
+use crate::log::read::{RawMessage, read_log, read_messages};
+use crate::log::{
+    DynamicsProgress, LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT, ResumeInfo, StateRecord,
+    Stats,
+};
+use crate::mc::compress::{CompressOptions, Compressor, CompressorState};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
 use crate::mc::sdf::Sdf;
 use crate::mc::start::{StartError, lattice, random_insertion};
@@ -123,10 +125,71 @@ pub fn run_scene(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<RunSummary, RunError> {
+    run_with(scene, scene_text, log_path, progress, stop, None)
+}
+
+/// Where a resumed run picks up: the last frame of a log and the messages
+/// before it.
+struct ResumePoint {
+    record: StateRecord,
+    info: ResumeInfo,
+    log_time: u64,
+    prefix: Vec<RawMessage>,
+}
+
+/// Continues the run logged in `log` (complete, stopped, or cut off by a
+/// crash) from its last frame: the rest of the stage that frame is in and
+/// the stages after it, as the log's own scene records them. The new log,
+/// at `out`, holds the old one's messages up to that frame and then the
+/// continuation, which is the same bit for bit as the uninterrupted run.
+pub fn resume_run(
+    log: &Path,
+    out: &Path,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<RunSummary, RunError> {
+    let bad = |m: String| RunError::Resume(format!("{}: {m}", log.display()));
+    let contents = read_log(log, false).map_err(|e| RunError::Resume(e.to_string()))?;
+    let text = contents
+        .metadata
+        .get("scene")
+        .ok_or_else(|| bad("no scene in the log's metadata".into()))?
+        .clone();
+    let resolved = contents
+        .metadata
+        .get("scene_resolved")
+        .ok_or_else(|| bad("no resolved scene in the log's metadata".into()))?;
+    let scene = Scene::parse(resolved).map_err(|e| bad(format!("its scene: {e}")))?;
+    let (log_time, record) = contents
+        .last_state
+        .ok_or_else(|| bad("no complete frame to resume from".into()))?;
+    let info = record
+        .resume
+        .clone()
+        .ok_or_else(|| bad("its last frame carries no resume information".into()))?;
+    let prefix: Vec<RawMessage> = read_messages(log)
+        .map_err(|e| RunError::Resume(e.to_string()))?
+        .into_iter()
+        .filter(|(_, t, _)| *t <= log_time)
+        .collect();
+    let point = ResumePoint {
+        record,
+        info,
+        log_time,
+        prefix,
+    };
+    run_with(&scene, &text, out, progress, stop, Some(point))
+}
+
+fn run_with(
+    scene: &Scene,
+    scene_text: &str,
+    log_path: &Path,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+    from: Option<ResumePoint>,
+) -> Result<RunSummary, RunError> {
     let plan = Plan::of(scene);
-    let mut rng = Pcg64::seed_from_u64(scene.seed);
-    let system = start_state(scene, &plan, &mut rng)?;
-    let mut log = LogWriter::create(log_path, scene_text, &scene.to_ron(), &plan.mc_species())?;
     let mut runner = Runner {
         scene,
         plan,
@@ -134,14 +197,58 @@ pub fn run_scene(
         sizes: initial_sizes(scene),
         stop,
     };
-    let mut phase = Phase::Mc(system);
+    let (mut phase, first_stage, mut resume) = match &from {
+        None => {
+            let mut rng = Pcg64::seed_from_u64(scene.seed);
+            (
+                Phase::Mc(start_state(scene, &runner.plan, &mut rng)?),
+                0,
+                None,
+            )
+        }
+        Some(point) => {
+            let index = point.record.stage_index;
+            let system =
+                system_from_record(&point.record, &runner.plan).map_err(RunError::Resume)?;
+            let phase = runner
+                .resumed_phase(system, &point.record, &point.info, index)
+                .map_err(RunError::Resume)?;
+            runner.sizes = point.info.sizes;
+            if point.info.stage_complete {
+                runner.clock = point.log_time;
+                (phase, index + 1, None)
+            } else {
+                runner.clock = point.info.stage_clock;
+                (phase, index, Some(point.info.clone()))
+            }
+        }
+    };
+    let mut log = LogWriter::create(
+        log_path,
+        scene_text,
+        &scene.to_ron(),
+        &runner.plan.mc_species(),
+    )?;
+    if let Some(point) = &from {
+        for (topic, time, data) in &point.prefix {
+            log.copy(topic, *time, data)?;
+        }
+    }
     let mut lines = Vec::new();
     let mut interrupted = false;
-    for (index, stage) in scene.stages.iter().enumerate() {
+    for (index, stage) in scene.stages.iter().enumerate().skip(first_stage) {
         progress.stage(index, scene.stages.len(), &describe(stage), ticks(stage));
         let mut rng = stage_rng(scene.seed, index);
         let started = Instant::now();
-        let outcome = runner.run_stage(index, stage, phase, &mut log, progress, &mut rng);
+        let outcome = runner.run_stage(
+            index,
+            stage,
+            phase,
+            resume.take(),
+            &mut log,
+            progress,
+            &mut rng,
+        );
         match outcome {
             Ok((next, line, stopped)) => {
                 let line = format!("{line} ({:.1} s)", started.elapsed().as_secs_f64());
@@ -325,27 +432,69 @@ impl Runner<'_> {
         self.stop.load(Ordering::Relaxed)
     }
 
+    /// The phase a logged frame continues: the system, or for a dynamics
+    /// frame the dynamics rebuilt from it.
+    fn resumed_phase(
+        &self,
+        system: System,
+        record: &StateRecord,
+        info: &ResumeInfo,
+        index: usize,
+    ) -> Result<Phase, String> {
+        let Some(d) = info.dynamics else {
+            return Ok(Phase::Mc(system));
+        };
+        let Some(Stage::Dynamics { true_inertia, .. }) = self.scene.stages.get(index) else {
+            return Err(format!(
+                "frame of stage {index} has dynamics, the scene's stage does not"
+            ));
+        };
+        let (Some(v), Some(w)) = (&record.velocities, &record.angular_velocities) else {
+            return Err("a dynamics frame without velocities".into());
+        };
+        let velocities: Vec<_> = v
+            .iter()
+            .zip(w)
+            .map(|(v, w)| (Vector3::from(*v), Vector3::from(*w)))
+            .collect();
+        let options = self.dynamics_options(d.temperature, *true_inertia);
+        let dynamics = Dynamics::from_parts(&system, &velocities, &options, d.time, d.collisions)
+            .map_err(|e| e.to_string())?;
+        Ok(Phase::Dynamics {
+            dynamics: Box::new(dynamics),
+            temperature: d.temperature,
+            true_inertia: *true_inertia,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
     fn run_stage(
         &mut self,
         index: usize,
         stage: &Stage,
         phase: Phase,
+        resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
         rng: &mut Pcg64,
     ) -> StageResult {
+        if let Some(r) = &resume
+            && let Some(saved) = &r.rng
+        {
+            *rng = saved.clone();
+        }
         match stage {
             Stage::Compress {
                 packing_fraction,
                 max_sweeps,
             } => {
                 let system = self.to_system(phase)?;
-                self.start_frame(log, &self.record_system(&system, index, Some(0)))?;
                 self.compress(
                     index,
                     system,
                     *packing_fraction,
                     *max_sweeps,
+                    resume,
                     log,
                     progress,
                     rng,
@@ -357,11 +506,14 @@ impl Runner<'_> {
                 tune_sweeps,
             } => {
                 let system = self.to_system(phase)?;
-                self.start_frame(log, &self.record_system(&system, index, Some(0)))?;
                 let tune = tune_sweeps.unwrap_or(sweeps / 5);
-                self.monte_carlo(index, system, ensemble, *sweeps, tune, log, progress, rng)
+                self.monte_carlo(
+                    index, system, ensemble, *sweeps, tune, resume, log, progress, rng,
+                )
             }
-            Stage::Dynamics { .. } => self.dynamics(index, stage, phase, log, progress, rng),
+            Stage::Dynamics { .. } => {
+                self.dynamics(index, stage, phase, resume, log, progress, rng)
+            }
         }
     }
 
@@ -406,12 +558,46 @@ impl Runner<'_> {
         )
     }
 
-    fn record_system(&self, system: &System, index: usize, sweep: Option<u64>) -> StateRecord {
+    /// A Monte Carlo frame with what resuming from it needs.
+    fn record_system(
+        &self,
+        system: &System,
+        index: usize,
+        sweep: u64,
+        resume: ResumeInfo,
+    ) -> StateRecord {
         StateRecord {
             stage_index: index,
             stage: self.scene.stages[index].kind().into(),
-            sweep,
+            sweep: Some(sweep),
+            resume: Some(resume),
             ..StateRecord::of_particles(system.periodic_box(), system.species(), system.particles())
+        }
+    }
+
+    /// Resume information of a Monte Carlo stage.
+    #[allow(clippy::too_many_arguments)]
+    fn mc_resume(
+        &self,
+        rng: &Pcg64,
+        sweep: u64,
+        window: Counts,
+        tune_window: Counts,
+        compress: Option<CompressorState>,
+        max_translate: f64,
+        complete: bool,
+    ) -> ResumeInfo {
+        ResumeInfo {
+            stage_clock: self.clock,
+            stage_complete: complete,
+            sweep,
+            max_translate,
+            sizes: compress.map(|c| c.sizes).unwrap_or(self.sizes),
+            rng: Some(rng.clone()),
+            window,
+            tune_window,
+            compress,
+            dynamics: None,
         }
     }
 
@@ -450,6 +636,7 @@ impl Runner<'_> {
         mut system: System,
         target: f64,
         max_sweeps: Option<u64>,
+        resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
         rng: &mut Pcg64,
@@ -458,77 +645,111 @@ impl Runner<'_> {
             max_sweeps: max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS),
             ..CompressOptions::to(target)
         };
+        let write_error = |e: LogError| format!("writing the log: {e}");
+        let (mut compressor, mut window) = match resume {
+            Some(ResumeInfo {
+                compress: Some(state),
+                window,
+                ..
+            }) => (Compressor::resume(&opts, state), window),
+            Some(_) => return Err("a compression frame without the compression's state".into()),
+            None => {
+                let c = Compressor::new(&system, self.sizes, &opts).map_err(|e| e.to_string())?;
+                let info = self.mc_resume(
+                    rng,
+                    0,
+                    Counts::default(),
+                    Counts::default(),
+                    Some(*c.state()),
+                    0.0,
+                    false,
+                );
+                self.start_frame(log, &self.record_system(&system, index, 0, info))?;
+                (c, Counts::default())
+            }
+        };
         let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
-        let mut window = Counts::default();
-        let mut log_error: Option<LogError> = None;
-        let mut last_sizes = self.sizes;
-        let clock = self.clock;
-        let result = compress_observed(
-            &mut system,
-            self.sizes,
-            &opts,
-            rng,
-            |system, s, c, sizes| {
-                window += *c;
-                last_sizes = *sizes;
-                let time = clock + s * NS_PER_SWEEP;
-                let mut write = || -> Result<(), LogError> {
-                    if s.is_multiple_of(stats_every) {
-                        log.stats(time, &self.mc_stats(index, system, s, &window, None))?;
-                        progress.tick(s, &format!("phi {:.4}", system.packing_fraction()));
-                        window = Counts::default();
-                    }
-                    if s.is_multiple_of(frames_every) {
-                        log.frame(time, &self.record_system(system, index, Some(s)))?;
-                    }
-                    Ok(())
-                };
-                if let Err(e) = write() {
-                    log_error = Some(e);
-                    return ControlFlow::Break(());
-                }
-                if self.stopped() {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
-                }
-            },
-        );
-        if let Some(e) = log_error {
-            return Err(format!("writing the log: {e}"));
-        }
-        let (sweeps, stopped, line) = match result {
+        let before = compressor.state().counts;
+        let mut last_counts = before;
+        let outcome = loop {
+            let step = compressor.sweep(&mut system, rng);
+            let state = *compressor.state();
+            window += diff(state.counts, last_counts);
+            last_counts = state.counts;
+            let s = state.sweeps;
+            let time = self.clock + s * NS_PER_SWEEP;
+            match step {
+                Ok(None) => {}
+                Ok(Some(report)) => break Ok(report),
+                Err(e) => break Err(e),
+            }
+            if s.is_multiple_of(stats_every) {
+                log.stats(time, &self.mc_stats(index, &system, s, &window, None))
+                    .map_err(write_error)?;
+                progress.tick(s, &format!("phi {:.4}", system.packing_fraction()));
+                window = Counts::default();
+            }
+            let stop = self.stopped();
+            if s.is_multiple_of(frames_every) || stop {
+                let info =
+                    self.mc_resume(rng, s, window, Counts::default(), Some(state), 0.0, false);
+                log.frame(time, &self.record_system(&system, index, s, info))
+                    .map_err(write_error)?;
+            }
+            if stop {
+                self.sizes = state.sizes;
+                self.clock = time;
+                let line = format!(
+                    "interrupted at packing fraction {:.4} after {s} sweeps",
+                    system.packing_fraction()
+                );
+                return Ok((Phase::Mc(system), line, true));
+            }
+        };
+        match outcome {
             Ok(report) => {
                 self.sizes = report.sizes;
-                (
-                    report.sweeps,
-                    false,
-                    format!(
-                        "reached packing fraction {:.4} in {} sweeps",
-                        report.packing_fraction, report.sweeps
-                    ),
-                )
-            }
-            Err(CompressError::Stopped { reached, sweeps }) => {
-                self.sizes = last_sizes;
-                (
-                    sweeps,
+                let state = *compressor.state();
+                let info = self.mc_resume(
+                    rng,
+                    state.sweeps,
+                    window,
+                    Counts::default(),
+                    Some(state),
+                    0.0,
                     true,
-                    format!("interrupted at packing fraction {reached:.4} after {sweeps} sweeps"),
-                )
+                );
+                self.end_mc_stage(index, &system, report.sweeps, &window, None, info, log)?;
+                let line = format!(
+                    "reached packing fraction {:.4} in {} sweeps",
+                    report.packing_fraction, report.sweeps
+                );
+                Ok((Phase::Mc(system), line, false))
             }
             Err(e) => {
                 // Log the state reached (overlap-free) before failing.
-                let _ = log.frame(self.clock, &self.record_system(&system, index, None));
-                return Err(e.to_string());
+                let s = compressor.state().sweeps;
+                let info = self.mc_resume(
+                    rng,
+                    s,
+                    window,
+                    Counts::default(),
+                    Some(*compressor.state()),
+                    0.0,
+                    false,
+                );
+                let _ = log.frame(
+                    self.clock + s * NS_PER_SWEEP,
+                    &self.record_system(&system, index, s, info),
+                );
+                Err(e.to_string())
             }
-        };
-        self.end_mc_stage(index, &system, sweeps, &window, None, log)?;
-        Ok((Phase::Mc(system), line, stopped))
+        }
     }
 
     /// The last stats and frame of a Monte Carlo stage, and the clock
     /// moved past it.
+    #[allow(clippy::too_many_arguments)]
     fn end_mc_stage(
         &mut self,
         index: usize,
@@ -536,6 +757,7 @@ impl Runner<'_> {
         sweeps: u64,
         window: &Counts,
         pressure: Option<f64>,
+        info: ResumeInfo,
         log: &mut LogWriter,
     ) -> Result<(), String> {
         let time = self.clock + sweeps * NS_PER_SWEEP;
@@ -546,10 +768,8 @@ impl Runner<'_> {
                     &self.mc_stats(index, system, sweeps, window, pressure),
                 )?;
             }
-            if !sweeps.is_multiple_of(self.scene.log.frames_every) {
-                log.frame(time, &self.record_system(system, index, Some(sweeps)))?;
-            }
-            Ok(())
+            // Always: this frame says the stage is complete.
+            log.frame(time, &self.record_system(system, index, sweeps, info))
         };
         write(log).map_err(|e| format!("writing the log: {e}"))?;
         self.clock = time;
@@ -564,6 +784,7 @@ impl Runner<'_> {
         ensemble: &Ensemble,
         sweeps: u64,
         tune: u64,
+        resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
         rng: &mut Pcg64,
@@ -578,21 +799,38 @@ impl Runner<'_> {
                 anisotropic,
             },
         };
+        let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
+        let write_error = |e: LogError| format!("writing the log: {e}");
+        let (first, mut window, mut tune_window, max_translate) = match &resume {
+            Some(r) => (r.sweep, r.window, r.tune_window, r.max_translate),
+            None => {
+                let max_translate = system.periodic_box().lengths().min() / 2.0;
+                let info = self.mc_resume(
+                    rng,
+                    0,
+                    Counts::default(),
+                    Counts::default(),
+                    None,
+                    max_translate,
+                    false,
+                );
+                self.start_frame(log, &self.record_system(&system, index, 0, info))?;
+                (0, Counts::default(), Counts::default(), max_translate)
+            }
+        };
+        // The tuner's cap is fixed by the box the stage starts in.
         let tuner = Tuner {
             target: 0.3,
-            max_translate: system.periodic_box().lengths().min() / 2.0,
+            max_translate,
         };
-        let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
         // NVT: pressure from the scale distribution function, sampled ten
         // times per stats interval.
         let sdf_every = (stats_every / 10).max(1);
         let mut sdf = matches!(ensemble, Ensemble::Nvt).then(|| Sdf::new(0.02, 200));
-        let mut window = Counts::default();
-        let mut tune_window = Counts::default();
-        let mut done = 0;
+        let mut done = first;
         let mut stopped = false;
         let mut pressure = None;
-        for s in 1..=sweeps {
+        for s in first + 1..=sweeps {
             let c = sweep(&mut system, &self.sizes, &mc_ensemble, rng);
             window += c;
             tune_window += c;
@@ -607,11 +845,11 @@ impl Runner<'_> {
                 sdf.add(&system);
             }
             done = s;
+            let time = self.clock + s * NS_PER_SWEEP;
             if s.is_multiple_of(stats_every) {
                 pressure = self.interval_pressure(ensemble, &mut sdf);
-                let time = self.clock + s * NS_PER_SWEEP;
                 log.stats(time, &self.mc_stats(index, &system, s, &window, pressure))
-                    .map_err(|e| format!("writing the log: {e}"))?;
+                    .map_err(write_error)?;
                 progress.tick(
                     s,
                     &format!(
@@ -622,20 +860,28 @@ impl Runner<'_> {
                 );
                 window = Counts::default();
             }
-            if s.is_multiple_of(frames_every) {
-                let time = self.clock + s * NS_PER_SWEEP;
-                log.frame(time, &self.record_system(&system, index, Some(s)))
-                    .map_err(|e| format!("writing the log: {e}"))?;
+            stopped = self.stopped();
+            if s == sweeps {
+                break;
             }
-            if self.stopped() {
-                stopped = true;
+            if s.is_multiple_of(frames_every) || stopped {
+                let info = self.mc_resume(rng, s, window, tune_window, None, max_translate, false);
+                log.frame(time, &self.record_system(&system, index, s, info))
+                    .map_err(write_error)?;
+            }
+            if stopped {
                 break;
             }
         }
-        if !done.is_multiple_of(stats_every) {
-            pressure = self.interval_pressure(ensemble, &mut sdf);
+        if stopped && done < sweeps {
+            self.clock += done * NS_PER_SWEEP;
+        } else {
+            if !done.is_multiple_of(stats_every) {
+                pressure = self.interval_pressure(ensemble, &mut sdf);
+            }
+            let info = self.mc_resume(rng, done, window, tune_window, None, max_translate, true);
+            self.end_mc_stage(index, &system, done, &window, pressure, info, log)?;
         }
-        self.end_mc_stage(index, &system, done, &window, pressure, log)?;
         let line = format!(
             "{done} sweeps, packing fraction {:.4}{}{}",
             system.packing_fraction(),
@@ -644,7 +890,7 @@ impl Runner<'_> {
                 .unwrap_or_default(),
             if stopped { ", interrupted" } else { "" }
         );
-        Ok((Phase::Mc(system), line, stopped))
+        Ok((Phase::Mc(system), line, stopped && done < sweeps))
     }
 
     /// βP over the interval: the imposed value in NPT, the SDF estimate in
@@ -661,11 +907,13 @@ impl Runner<'_> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn dynamics(
         &mut self,
         index: usize,
         stage: &Stage,
         phase: Phase,
+        resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
         rng: &mut Pcg64,
@@ -683,6 +931,7 @@ impl Runner<'_> {
             unreachable!("called for dynamics stages")
         };
         let fail = |e: EdmdError| e.to_string();
+        let write_error = |e: LogError| format!("writing the log: {e}");
         let mut dynamics = match phase {
             Phase::Dynamics {
                 mut dynamics,
@@ -702,34 +951,44 @@ impl Runner<'_> {
             }
             other => {
                 let system = self.to_system(other)?;
-                let options = DynamicsOptions {
-                    temperature,
-                    masses: self.plan.masses(),
-                    predictor: self.predictor_options(),
-                    true_inertia,
-                };
+                let options = self.dynamics_options(temperature, true_inertia);
                 Box::new(Dynamics::from_state(&system, &options, rng).map_err(fail)?)
             }
         };
-        let t0 = dynamics.time();
-        let c0 = dynamics.collisions();
-        self.start_frame(log, &self.record_dynamics(&dynamics, index, 0.0))?;
+        let progress_at = match resume.as_ref().and_then(|r| r.dynamics) {
+            Some(p) => p,
+            None => {
+                let p = DynamicsProgress {
+                    time: dynamics.time(),
+                    start_time: dynamics.time(),
+                    collisions: dynamics.collisions(),
+                    start_collisions: dynamics.collisions(),
+                    next_stats: 1,
+                    next_frame: 1,
+                    temperature,
+                };
+                dynamics.resynchronize().map_err(fail)?;
+                self.start_frame(log, &self.record_dynamics(&dynamics, index, p, false))?;
+                p
+            }
+        };
+        let (t0, c0) = (progress_at.start_time, progress_at.start_collisions);
+        let (mut k_stats, mut k_frames) = (progress_at.next_stats, progress_at.next_frame);
         dynamics.sample();
         if msd || c2 {
+            // After a resume the references restart at the resumed frame.
             dynamics.set_reference();
         }
         let stats_dt = stats_every.unwrap_or(duration / 100.0);
         let frames_dt = frames_every.unwrap_or(duration / 20.0);
-        let (mut k_stats, mut k_frames) = (1u64, 1u64);
-        let mut stopped = false;
+        let mut stopped;
         let mut last_pressure = None;
         loop {
             let next_stats = (k_stats as f64 * stats_dt).min(duration);
             let next_frame = (k_frames as f64 * frames_dt).min(duration);
             let next = next_stats.min(next_frame);
             dynamics.run_until(t0 + next).map_err(fail)?;
-            let elapsed = next;
-            let time = self.clock + (elapsed * NS_PER_TIME_UNIT).round() as u64;
+            let time = self.clock + (next * NS_PER_TIME_UNIT).round() as u64;
             let end = next >= duration;
             if next_stats <= next || end {
                 let sample = dynamics.sample();
@@ -738,7 +997,7 @@ impl Runner<'_> {
                     stage: "dynamics".into(),
                     stage_index: index,
                     sweep: None,
-                    time: Some(elapsed),
+                    time: Some(next),
                     packing_fraction: sample.packing_fraction,
                     pressure: sample.pressure,
                     box_lengths: dynamics.periodic_box().lengths().into(),
@@ -759,10 +1018,9 @@ impl Runner<'_> {
                         None
                     },
                 };
-                log.stats(time, &stats)
-                    .map_err(|e| format!("writing the log: {e}"))?;
+                log.stats(time, &stats).map_err(write_error)?;
                 progress.tick(
-                    (elapsed * 1000.0) as u64,
+                    (next * 1000.0) as u64,
                     &format!(
                         "{} collisions, betaP {}",
                         sample.collisions - c0,
@@ -774,26 +1032,32 @@ impl Runner<'_> {
                 );
                 k_stats += 1;
             }
-            if next_frame <= next || end {
-                log.frame(time, &self.record_dynamics(&dynamics, index, elapsed))
-                    .map_err(|e| format!("writing the log: {e}"))?;
-                k_frames += 1;
-            }
-            if end {
-                break;
-            }
-            if self.stopped() {
-                stopped = true;
-                if next_frame > next {
-                    log.frame(time, &self.record_dynamics(&dynamics, index, elapsed))
-                        .map_err(|e| format!("writing the log: {e}"))?;
+            stopped = !end && self.stopped();
+            if next_frame <= next || end || stopped {
+                if next_frame <= next {
+                    k_frames += 1;
                 }
-                self.clock = time;
+                // Every frame is a point the run can be resumed from bit
+                // for bit: predictions restart from it in both runs.
+                dynamics.resynchronize().map_err(fail)?;
+                let p = DynamicsProgress {
+                    time: dynamics.time(),
+                    collisions: dynamics.collisions(),
+                    next_stats: k_stats,
+                    next_frame: k_frames,
+                    ..progress_at
+                };
+                log.frame(time, &self.record_dynamics(&dynamics, index, p, end))
+                    .map_err(write_error)?;
+            }
+            if end || stopped {
+                self.clock = if end {
+                    self.clock + (duration * NS_PER_TIME_UNIT).round() as u64
+                } else {
+                    time
+                };
                 break;
             }
-        }
-        if !stopped {
-            self.clock += (duration * NS_PER_TIME_UNIT).round() as u64;
         }
         let collisions = dynamics.collisions() - c0;
         let line = format!(
@@ -815,6 +1079,15 @@ impl Runner<'_> {
         ))
     }
 
+    fn dynamics_options(&self, temperature: f64, true_inertia: bool) -> DynamicsOptions {
+        DynamicsOptions {
+            temperature,
+            masses: self.plan.masses(),
+            predictor: self.predictor_options(),
+            true_inertia,
+        }
+    }
+
     fn predictor_options(&self) -> PredictorOptions {
         let a = &self.scene.accuracy;
         let mut p = PredictorOptions {
@@ -826,11 +1099,29 @@ impl Runner<'_> {
         p
     }
 
-    fn record_dynamics(&self, dynamics: &Dynamics, index: usize, time: f64) -> StateRecord {
+    fn record_dynamics(
+        &self,
+        dynamics: &Dynamics,
+        index: usize,
+        progress: DynamicsProgress,
+        complete: bool,
+    ) -> StateRecord {
         StateRecord {
             stage_index: index,
             stage: "dynamics".into(),
-            time: Some(time),
+            time: Some(progress.time - progress.start_time),
+            resume: Some(ResumeInfo {
+                stage_clock: self.clock,
+                stage_complete: complete,
+                sweep: 0,
+                max_translate: 0.0,
+                sizes: self.sizes,
+                rng: None,
+                window: Counts::default(),
+                tune_window: Counts::default(),
+                compress: None,
+                dynamics: Some(progress),
+            }),
             ..StateRecord::of_particles(
                 dynamics.periodic_box(),
                 &self.plan.mc_species(),
@@ -838,5 +1129,18 @@ impl Runner<'_> {
             )
             .with_velocities(&dynamics.velocities())
         }
+    }
+}
+
+/// Counts of `now` minus those of `before`.
+fn diff(now: Counts, before: Counts) -> Counts {
+    let d = |a: Count, b: Count| Count {
+        tried: a.tried - b.tried,
+        accepted: a.accepted - b.accepted,
+    };
+    Counts {
+        translate: d(now.translate, before.translate),
+        rotate: d(now.rotate, before.rotate),
+        volume: d(now.volume, before.volume),
     }
 }
