@@ -59,6 +59,14 @@ enum Command {
         /// Scene file (RON).
         scene: PathBuf,
     },
+    /// Export a log's frames to another format (GSD for OVITO, freud, HOOMD-blue).
+    Export {
+        /// MCAP log written by `hardbody run`.
+        log: PathBuf,
+        /// Write the frames as a GSD file in HOOMD's schema, with particle shapes.
+        #[arg(long, value_name = "OUT.gsd")]
+        gsd: PathBuf,
+    },
     /// Print a log's channels, message counts, stages and last stats.
     Inspect {
         /// MCAP log written by `hardbody run`.
@@ -115,6 +123,7 @@ fn main() -> ExitCode {
         } => run(scene, out, seed, resume),
         Command::Check { scene } => check(&scene),
         Command::Inspect { log } => inspect(&log),
+        Command::Export { log, gsd } => export(&log, &gsd),
         Command::Virial {
             shape_a,
             shape_b,
@@ -518,4 +527,21 @@ fn bench_scene(quick: bool, json: bool) -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
+    let contents = match read_log(log, true) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    if let Err(e) = check_writable(out) {
+        return bad_input(e);
+    }
+    match hardbody::log::gsd::export(&contents.states, out) {
+        Ok(frames) => {
+            say(&format!("{frames} frames written to {}", out.display()));
+            ExitCode::SUCCESS
+        }
+        Err(e) => bad_input(e),
+    }
 }

@@ -291,7 +291,7 @@ fn python_with_readers() -> bool {
         std::process::Command::new("python3")
             .args([
                 "-c",
-                "import mcap.reader, foxglove_schemas_protobuf.SceneUpdate_pb2",
+                "import mcap.reader, foxglove_schemas_protobuf.SceneUpdate_pb2, gsd.hoomd",
             ])
             .status()
             .is_ok_and(|s| s.success())
@@ -308,16 +308,17 @@ fn python_with_readers() -> bool {
             "--disable-pip-version-check",
             "mcap==1.6.0",
             "foxglove-schemas-protobuf==0.4.0",
+            "gsd==5.0.1",
         ])
         .status();
     has()
 }
 
 #[test]
-fn the_python_mcap_reader_decodes_every_channel() {
+fn the_python_readers_decode_every_channel_and_the_gsd_export() {
     assert!(
         python_with_readers(),
-        "python3 with the mcap and foxglove-schemas-protobuf packages is needed (pip install mcap foxglove-schemas-protobuf)"
+        "python3 with the mcap, foxglove-schemas-protobuf and gsd packages is needed (pip install mcap foxglove-schemas-protobuf gsd)"
     );
     let dir = scratch("python");
     for (name, species) in [
@@ -351,7 +352,7 @@ fn the_python_mcap_reader_decodes_every_channel() {
             String::from_utf8_lossy(&out.stderr)
         );
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        let log = read_log(&path, false).unwrap();
+        let log = read_log(&path, true).unwrap();
         for (topic, count) in &log.counts {
             assert_eq!(
                 report["messages"][topic].as_u64(),
@@ -359,6 +360,33 @@ fn the_python_mcap_reader_decodes_every_channel() {
                 "{name} {topic}"
             );
         }
+        // The GSD export, read back by the gsd package against the log.
+        let gsd = dir.join(format!("{name}.gsd"));
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .args([
+                "export",
+                path.to_str().unwrap(),
+                "--gsd",
+                gsd.to_str().unwrap(),
+            ])
+            .stdout(std::process::Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/read_gsd.py");
+        let out = std::process::Command::new("python3")
+            .arg(&script)
+            .arg(&path)
+            .arg(&gsd)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(report["frames"].as_u64(), Some(log.states.len() as u64));
     }
 }
 

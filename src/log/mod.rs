@@ -13,6 +13,7 @@
 //! file; each frame closes an MCAP chunk, so a killed run leaves a partial
 //! log readable up to its last frame.
 
+pub mod gsd;
 pub mod read;
 pub mod view;
 

@@ -192,7 +192,7 @@ impl SceneView {
 /// A body-frame triangle mesh of a superellipsoid surface: directions on a
 /// latitude–longitude grid, each scaled to the surface (the t with
 /// Σ |t uᵢ / aᵢ|^{eᵢ} = 1).
-fn superellipsoid_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
+pub(crate) fn superellipsoid_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
     let Shape::Superellipsoid(s) = shape else {
         unreachable!("meshes are made for superellipsoids only")
     };
