@@ -21,6 +21,17 @@ pub enum EventKind {
         /// Leaving through the face at the larger coordinate.
         up: bool,
     },
+    /// Particle `i` touches the hard wall normal to `axis`, at the larger
+    /// coordinate if `up`.
+    Wall {
+        /// 0, 1 or 2.
+        axis: u8,
+        /// The wall at +L/2.
+        up: bool,
+    },
+    /// The search for particle `i`'s next wall contact stopped here
+    /// (a turning body near a wall) and goes on from here.
+    WallSearch,
 }
 
 /// A predicted event.

@@ -13,6 +13,7 @@ use super::motion::{Spin, position_after};
 use super::predict::{Predictor, PredictorOptions, Search};
 use crate::analysis::order::{legendre_p2, molecular_axis, nematic_order};
 use crate::geometry::pair::contact_sum;
+use crate::geometry::roots::{brent_minimize, narrow_sign_change};
 use crate::geometry::{Relative, Shape, WarmStart};
 use crate::mc::{McError, Particle, Species, System};
 use crate::space::{CellList, PeriodicBox};
@@ -219,6 +220,8 @@ struct Interval {
     /// ∫ (translational kinetic energy) dt, up to `ke_since`.
     ke_integral: f64,
     ke_since: f64,
+    /// Impulse taken by the two walls of each axis.
+    wall_impulse: [f64; 3],
 }
 
 /// Observables over the interval since the previous sample.
@@ -288,6 +291,17 @@ pub struct Dynamics {
     options: DynamicsOptions,
 }
 
+/// The outcome of a search for a body's next wall contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum WallContact {
+    /// It touches the wall normal to `axis` (+L/2 if `up`) at `time`.
+    At { time: f64, axis: usize, up: bool },
+    /// No contact before the end of the search.
+    None,
+    /// The search stopped here without deciding.
+    SearchedTo(f64),
+}
+
 /// Steps a pair's contact search may take before it is put off behind the
 /// other pairs of the same body.
 const CHEAP_SEARCH: u32 = 16;
@@ -353,7 +367,7 @@ impl Dynamics {
             .sum();
         let drift = momentum / total_mass;
         let rotors = kinds_rotating(&bodies, &kinds);
-        let dof = 3.0 * n as f64 - 3.0 + 3.0 * rotors as f64;
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
         for b in &mut bodies {
             b.velocity -= drift;
         }
@@ -411,7 +425,7 @@ impl Dynamics {
             })
             .collect();
         let rotors = kinds_rotating(&bodies, &kinds);
-        let dof = 3.0 * n as f64 - 3.0 + 3.0 * rotors as f64;
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
         let mut dynamics =
             Self::assemble(system, species, kinds, bodies, dof, rotors > 0, options)?;
         dynamics.origin = time;
@@ -729,8 +743,19 @@ impl Dynamics {
         let dt = self.now - iv.start;
         let kt = 2.0 * self.kinetic_energy() / self.degrees_of_freedom;
         let pressure = (dt > 0.0).then(|| {
-            let pv = (2.0 / 3.0) * iv.ke_integral / dt + iv.virial / (3.0 * dt);
-            pv / (self.box_.volume() * kt)
+            if self.box_.has_walls() {
+                // The force per area the walls take, over the walled axes.
+                let walls = self.box_.walls();
+                let l = self.box_.lengths();
+                let (sum, count) = (0..3).filter(|&k| walls[k]).fold((0.0, 0.0), |(s, c), k| {
+                    let area = self.box_.volume() / l[k];
+                    (s + iv.wall_impulse[k] / (2.0 * dt * area), c + 1.0)
+                });
+                sum / count / kt
+            } else {
+                let pv = (2.0 / 3.0) * iv.ke_integral / dt + iv.virial / (3.0 * dt);
+                pv / (self.box_.volume() * kt)
+            }
         });
         self.interval = Interval {
             start: self.now,
@@ -794,6 +819,14 @@ impl Dynamics {
             }
             EventKind::Collision => self.collide(e.i as usize, e.j as usize)?,
             EventKind::CellCrossing { axis, up } => self.cross(e.i as usize, axis as usize, up)?,
+            EventKind::Wall { axis, up } => self.hit_wall(e.i as usize, axis as usize, up)?,
+            EventKind::WallSearch => {
+                let i = e.i as usize;
+                self.advance(i);
+                self.calendar.invalidate(i);
+                self.schedule_crossing(i);
+                self.schedule_collisions(i, None, false)?;
+            }
         }
         self.events_since_rebase += 1;
         if self.events_since_rebase > 64 * self.bodies.len() as u64 {
@@ -1039,6 +1072,29 @@ impl Dynamics {
             }
         }
         let time = b.time + best.0;
+        if self.box_.has_walls() {
+            match self.wall_contact(i, time) {
+                WallContact::At { time: t, axis, up } => {
+                    self.bodies[i].crossing_time = t;
+                    self.calendar.schedule(
+                        t,
+                        EventKind::Wall {
+                            axis: axis as u8,
+                            up,
+                        },
+                        i,
+                        i,
+                    );
+                    return;
+                }
+                WallContact::SearchedTo(t) if t < time => {
+                    self.bodies[i].crossing_time = t;
+                    self.calendar.schedule(t, EventKind::WallSearch, i, i);
+                    return;
+                }
+                _ => {}
+            }
+        }
         self.bodies[i].crossing_time = time;
         if time.is_finite() {
             self.calendar.schedule(
@@ -1051,6 +1107,154 @@ impl Dynamics {
                 i,
             );
         }
+    }
+
+    /// The gap between body `i` at absolute time `t` (relative to the
+    /// origin) and the nearest wall: min over walled axes of
+    /// L/2 − |rₖ| − hₖ(R), with the axis and side.
+    fn wall_gap_at(&self, i: usize, t: f64) -> (f64, usize, bool) {
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let dt = t - b.time;
+        let r = position_after(&b.position, &b.velocity, dt);
+        let q = kind
+            .spin(&b.orientation, &b.angular_velocity)
+            .orientation_after(&b.orientation, dt);
+        let h = kind
+            .shape
+            .lab_half_extents(&q.to_rotation_matrix().into_inner());
+        let half = self.box_.lengths() * 0.5;
+        let walls = self.box_.walls();
+        (0..3)
+            .filter(|&k| walls[k])
+            .map(|k| (half[k] - r[k].abs() - h[k], k, r[k] > 0.0))
+            .fold(
+                (f64::INFINITY, 0, true),
+                |m, x| if x.0 < m.0 { x } else { m },
+            )
+    }
+
+    /// Body `i`'s next wall contact before `t_end`: in closed form for a
+    /// body that does not turn; otherwise by bracketing the gap with steps
+    /// it cannot close faster than (|v| + |ω| × moment arm), a search for
+    /// grazing minima below ε_d, and the safeguarded root finder. Gives up
+    /// after a fixed number of steps (to be renewed from there).
+    fn wall_contact(&self, i: usize, t_end: f64) -> WallContact {
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let half = self.box_.lengths() * 0.5;
+        let walls = self.box_.walls();
+        if !kind.rotates || b.angular_velocity == V3::zeros() {
+            let h = kind
+                .shape
+                .lab_half_extents(&b.orientation.to_rotation_matrix().into_inner());
+            let mut best = WallContact::None;
+            let mut best_t = t_end;
+            for k in (0..3).filter(|&k| walls[k]) {
+                let v = b.velocity[k];
+                if v == 0.0 {
+                    continue;
+                }
+                let up = v > 0.0;
+                let gap = half[k] - h[k] - if up { b.position[k] } else { -b.position[k] };
+                let t = b.time + (gap / v.abs()).max(0.0);
+                if t < best_t {
+                    best_t = t;
+                    best = WallContact::At {
+                        time: t,
+                        axis: k,
+                        up,
+                    };
+                }
+            }
+            return best;
+        }
+        let opts = self.predictor.options();
+        let scale = kind.shape.min_half_extent();
+        let tol = opts.contact_tolerance * scale;
+        let eps = opts.grazing_threshold * scale;
+        let speed = (0..3)
+            .filter(|&k| walls[k])
+            .map(|k| b.velocity[k].abs())
+            .fold(0.0, f64::max);
+        let rate = speed + b.angular_velocity.norm() * kind.shape.moment_arm();
+        let gap = |t: f64| self.wall_gap_at(i, t).0;
+        let contact = |lo: f64| {
+            let (_, axis, up) = self.wall_gap_at(i, lo);
+            WallContact::At { time: lo, axis, up }
+        };
+        let (mut t, mut g) = (b.time, gap(b.time));
+        for _ in 0..64 {
+            let t1 = (t + g.max(eps) / rate).min(t_end);
+            let g1 = gap(t1);
+            if g1 < 0.0 {
+                if g <= 0.0 {
+                    return contact(t);
+                }
+                let (lo, ..) = narrow_sign_change(gap, (t, g), (t1, g1), tol, 200);
+                return contact(lo);
+            }
+            if g.min(g1) < eps {
+                // A grazing approach: is there a dip below zero in between?
+                let (x, gx, _) = brent_minimize(gap, t, t1, 1e-12 * (t1 - t).max(1e-300), 60);
+                if gx < 0.0 && g > 0.0 {
+                    let (lo, ..) = narrow_sign_change(gap, (t, g), (x, gx), tol, 200);
+                    return contact(lo);
+                }
+            }
+            if t1 >= t_end {
+                return WallContact::None;
+            }
+            (t, g) = (t1, g1);
+        }
+        WallContact::SearchedTo(t)
+    }
+
+    /// Body `i` meets the wall normal to `axis` (at +L/2 if `up`): an
+    /// elastic impulse against an immovable wall at the body's extreme
+    /// point (collision::collide with an infinite-mass partner).
+    fn hit_wall(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
+        self.advance(i);
+        let b = self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let normal = V3::ith(axis, if up { 1.0 } else { -1.0 });
+        let arm = b.orientation
+            * kind
+                .shape
+                .support(&b.orientation.inverse_transform_vector(&normal));
+        let gap = 0.5 * self.box_.lengths()[axis] - (b.position[axis] + arm[axis]) * normal[axis];
+        let scale = kind.shape.min_half_extent();
+        if gap.abs() > 1e3 * self.predictor.contact_tolerance() * scale {
+            return Err(EdmdError::ContactMismatch {
+                i,
+                j: i,
+                time: self.time(),
+                distance: gap,
+            });
+        }
+        let mut body = Kinetics {
+            velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
+            inverse_mass: kind.inverse_mass,
+            inverse_inertia: kind.inverse_inertia(&b.orientation),
+        };
+        let mut wall = Kinetics {
+            velocity: V3::zeros(),
+            angular_velocity: V3::zeros(),
+            inverse_mass: 0.0,
+            inverse_inertia: Matrix3::zeros(),
+        };
+        let ke_before = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
+        let j = collide(&mut body, &mut wall, &arm, &V3::zeros(), &normal);
+        let ke_after = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
+        self.accumulate_kinetic();
+        self.kinetic_translational += ke_after - ke_before;
+        self.interval.wall_impulse[axis] += j;
+        self.bodies[i].velocity = body.velocity;
+        self.bodies[i].angular_velocity = body.angular_velocity;
+        self.calendar.invalidate(i);
+        self.schedule_crossing(i);
+        self.schedule_collisions(i, None, false)
     }
 
     /// Predicts and schedules the collisions of body `i` (at the current
@@ -1245,6 +1449,14 @@ fn kinds_for(species: &[Species], options: &DynamicsOptions) -> Result<Vec<Kind>
         });
     }
     Ok(kinds)
+}
+
+/// Degrees of freedom of `n` bodies, `rotors` of them turning: total
+/// momentum is conserved (and zero) along each periodic axis only; walls
+/// exchange momentum with the bodies.
+fn degrees_of_freedom(box_: &PeriodicBox, n: usize, rotors: usize) -> f64 {
+    let periodic = box_.walls().iter().filter(|&&w| !w).count();
+    (3 * n - periodic + 3 * rotors) as f64
 }
 
 /// Kinetic energy of one body (spherical top).

@@ -103,6 +103,11 @@ impl Predictor {
         distance(a, b, rel, &self.options.distance, warm)
     }
 
+    /// The options it predicts with.
+    pub fn options(&self) -> &PredictorOptions {
+        &self.options
+    }
+
     /// Relative tolerance on the distance at a contact.
     pub fn contact_tolerance(&self) -> f64 {
         // A collision found at the end of a search may sit anywhere in

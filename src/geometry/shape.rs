@@ -421,6 +421,19 @@ impl Shape {
         }
     }
 
+    /// Half-extents along the lab axes of the body turned by `rotation`
+    /// (body → lab): the support values hₖ = eₖ · R s(Rᵀ eₖ), i.e. the
+    /// exact axis-aligned bounding box. What a hard wall normal to eₖ sees.
+    pub fn lab_half_extents(&self, rotation: &nalgebra::Matrix3<f64>) -> Vector3<f64> {
+        if let Shape::Sphere(s) = self {
+            return Vector3::repeat(s.radius);
+        }
+        Vector3::from_fn(|k, _| {
+            let d = rotation.row(k).transpose();
+            d.dot(&self.support(&d))
+        })
+    }
+
     /// The body axis of a body of revolution (two equal principal moments;
     /// the third, odd one is the axis; x when all three are equal), or `None` for a
     /// body with three different moments.

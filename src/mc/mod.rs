@@ -47,6 +47,9 @@ pub enum McError {
     /// Two particles overlap in a state that must be overlap-free.
     #[error("particles {0} and {1} overlap")]
     Overlap(usize, usize),
+    /// A particle touches or crosses a hard wall.
+    #[error("particle {0} touches or crosses a hard wall")]
+    WallOverlap(usize),
     /// The box is smaller than twice the largest interaction range, so the
     /// minimum image is not unique.
     #[error("box {lengths:?} is smaller than twice the interaction range {range}")]
@@ -250,6 +253,9 @@ impl System {
             range,
             ideal: false,
         };
+        if let Some(i) = system.first_wall_overlap() {
+            return Err(McError::WallOverlap(i));
+        }
         // Through the neighbour structure: O(N), where the all-pairs check is
         // O(N²) (that one is for tests).
         for i in 0..system.len() {
@@ -338,6 +344,24 @@ impl System {
         self.overlaps_at_except(i, position, rotation, |j| j == i)
     }
 
+    /// Whether a body of species `s` at `position` turned by `rotation`
+    /// touches or crosses a hard wall.
+    fn touches_wall(&self, s: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
+        let extents = self.species[s].shape.lab_half_extents(rotation);
+        self.box_.wall_gap(position, &extents) <= 0.0
+    }
+
+    /// The first particle touching or crossing a hard wall, if any.
+    pub fn first_wall_overlap(&self) -> Option<usize> {
+        (0..self.len()).find(|&i| {
+            self.touches_wall(
+                self.particles[i].species as usize,
+                &self.positions[i],
+                &self.rotations[i],
+            )
+        })
+    }
+
     /// Whether particle `i` (its species), placed at `position` with
     /// `rotation`, overlaps particle `j` placed at `position_j` with
     /// `rotation_j`.
@@ -399,6 +423,9 @@ impl System {
         let si = self.particles[i].species as usize;
         let shape_i = &self.species[si].shape;
         let ri = self.radii[si];
+        if self.box_.has_walls() && self.touches_wall(si, position, rotation) {
+            return true;
+        }
         // The largest reach any partner could have: most candidates fail
         // this before their species is even looked up.
         let reach_max = ri + self.max_radius;
@@ -495,7 +522,7 @@ impl System {
     /// creates no overlap and keeps the box at least twice the interaction
     /// range; returns whether it did.
     pub(crate) fn try_rescale(&mut self, lengths: V3) -> bool {
-        let Ok(new_box) = PeriodicBox::new(lengths) else {
+        let Ok(new_box) = self.box_.with_lengths(lengths) else {
             return false;
         };
         if Self::check_box(&new_box, self.range).is_err() {

@@ -147,12 +147,13 @@ pub struct LatticePlan {
 /// `counts[s]` particles of each species on the lattice of
 /// [`lattice_plan`], species mixed at random over randomly chosen sites.
 pub fn lattice<R: Rng>(
-    lengths: Vector3<f64>,
+    box_: PeriodicBox,
     species: Vec<Species>,
     counts: &[usize],
     rng: &mut R,
 ) -> Result<System, StartError> {
     use rand::seq::SliceRandom;
+    let lengths = box_.lengths();
     let n: usize = counts.iter().sum();
     let plan = lattice_plan(&lengths, &species, n);
     let [a, b, c] = plan.sites;
@@ -195,7 +196,6 @@ pub fn lattice<R: Rng>(
             }
         })
         .collect();
-    let box_ = PeriodicBox::new(lengths).map_err(|_| McError::Empty)?;
     Ok(System::new(box_, species, particles)?)
 }
 
@@ -203,14 +203,14 @@ pub fn lattice<R: Rng>(
 /// random positions and orientations, each kept only if it overlaps none
 /// placed before; gives up after `max_attempts` attempts in all.
 pub fn random_insertion<R: Rng>(
-    lengths: Vector3<f64>,
+    box_: PeriodicBox,
     species: Vec<Species>,
     counts: &[usize],
     max_attempts: u64,
     rng: &mut R,
 ) -> Result<System, StartError> {
     use crate::geometry::{Relative, overlap};
-    let box_ = PeriodicBox::new(lengths).map_err(|_| McError::Empty)?;
+    let lengths = box_.lengths();
     let n: usize = counts.iter().sum();
     let mut placed: Vec<Particle> = Vec::with_capacity(n);
     let mut attempts = 0;
@@ -229,17 +229,19 @@ pub fn random_insertion<R: Rng>(
                 attempts += 1;
                 let position = Vector3::from_fn(|k, _| (rng.r#gen::<f64>() - 0.5) * lengths[k]);
                 let orientation = random_rotation(rng);
-                let clash = placed.iter().any(|p| {
-                    let other = &species[p.species as usize].shape;
-                    let d = box_.minimum_image(&(p.position - position));
-                    let reach = radius + other.bounding_radius();
-                    d.norm_squared() <= reach * reach
-                        && overlap(
-                            &shape,
-                            other,
-                            &Relative::new(&d, &orientation, &p.orientation),
-                        )
-                });
+                let rotation = orientation.to_rotation_matrix().into_inner();
+                let clash = box_.wall_gap(&position, &shape.lab_half_extents(&rotation)) <= 0.0
+                    || placed.iter().any(|p| {
+                        let other = &species[p.species as usize].shape;
+                        let d = box_.minimum_image(&(p.position - position));
+                        let reach = radius + other.bounding_radius();
+                        d.norm_squared() <= reach * reach
+                            && overlap(
+                                &shape,
+                                other,
+                                &Relative::new(&d, &orientation, &p.orientation),
+                            )
+                    });
                 if !clash {
                     placed.push(Particle {
                         position: box_.wrap(&position),
@@ -275,15 +277,16 @@ mod tests {
         // spacing must exceed the oriented-box widths 2 x 1 x 1).
         let rods = species("Ellipsoid(a: 1.0, b: 0.5, c: 0.5)");
         let l = Vector3::repeat(12.0);
+        let b = PeriodicBox::new(l).unwrap();
         let plan = lattice_plan(&l, &rods, 256);
         assert!(!plan.random_orientations);
         assert!(plan.sites.iter().product::<usize>() >= 256);
-        let system = lattice(l, rods.clone(), &[256], &mut rng).unwrap();
+        let system = lattice(b, rods.clone(), &[256], &mut rng).unwrap();
         assert_eq!(system.len(), 256);
         assert_eq!(system.first_overlap_all_pairs(), None);
         // A roomy lattice turns them at random.
         assert!(lattice_plan(&l, &rods, 100).random_orientations);
-        let err = lattice(l, rods, &[606], &mut rng).unwrap_err();
+        let err = lattice(b, rods, &[606], &mut rng).unwrap_err();
         assert!(
             matches!(err, StartError::LatticeTooSmall { sites: 605, .. }),
             "{err}"
@@ -294,12 +297,22 @@ mod tests {
     fn random_insertion_places_without_overlap_or_gives_up() {
         let mut rng = rand_pcg::Pcg64::seed_from_u64(2);
         let cubes = species("Cuboid(a: 0.5, b: 0.5, c: 0.5)");
-        let l = Vector3::repeat(8.0);
-        let system = random_insertion(l, cubes.clone(), &[60], 100_000, &mut rng).unwrap();
+        let b = PeriodicBox::new(Vector3::repeat(8.0)).unwrap();
+        let system = random_insertion(b, cubes.clone(), &[60], 100_000, &mut rng).unwrap();
         assert_eq!(system.len(), 60);
         assert_eq!(system.first_overlap_all_pairs(), None);
         // 400 unit cubes in 512: impossible by random insertion.
-        let err = random_insertion(l, cubes, &[400], 20_000, &mut rng).unwrap_err();
+        let err = random_insertion(b, cubes.clone(), &[400], 20_000, &mut rng).unwrap_err();
+        // Between walls: nothing touches them.
+        let walled = b.with_walls([true, false, true]);
+        let system = random_insertion(walled, cubes, &[60], 100_000, &mut rng).unwrap();
+        assert_eq!(system.first_wall_overlap(), None);
+        assert!(
+            system
+                .particles()
+                .iter()
+                .all(|p| p.position.x.abs() < 3.5 && p.position.z.abs() < 3.5)
+        );
         assert!(matches!(err, StartError::InsertionFailed { .. }), "{err}");
     }
 }

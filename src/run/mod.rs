@@ -337,11 +337,16 @@ fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result<System, Ru
     let species = plan.mc_species();
     let counts: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
     match &scene.start {
-        Start::Lattice => Ok(lattice(scene.box_vector(), species, &counts, rng)?),
+        Start::Lattice => Ok(lattice(scene.periodic_box(), species, &counts, rng)?),
+        Start::Layered(axis) => layered(
+            lattice(scene.periodic_box(), species, &counts, rng)?,
+            *axis as usize,
+        )
+        .map_err(|e| RunError::Start(e.into())),
         Start::Random => {
             let n: usize = counts.iter().sum();
             Ok(random_insertion(
-                scene.box_vector(),
+                scene.periodic_box(),
                 species,
                 &counts,
                 1000 * n as u64,
@@ -357,6 +362,22 @@ fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result<System, Ru
             system_from_record(&record, plan).map_err(RunError::Resume)
         }
     }
+}
+
+/// The species of a lattice start put in layers along `axis`: the sites
+/// sorted by that coordinate, the first species on the lowest.
+fn layered(system: System, axis: usize) -> Result<System, McError> {
+    let mut sites: Vec<Particle> = system.particles().to_vec();
+    sites.sort_by(|a, b| a.position[axis].total_cmp(&b.position[axis]));
+    let mut kinds: Vec<u16> = system.particles().iter().map(|p| p.species).collect();
+    kinds.sort_unstable();
+    // Aligned bodies stay aligned (the lattice chose the orientations for
+    // its spacing); a body takes the orientation of its new site's species
+    // only when orientations are random, which any site allows.
+    for (p, k) in sites.iter_mut().zip(kinds) {
+        p.species = k;
+    }
+    System::new(*system.periodic_box(), system.species().to_vec(), sites)
 }
 
 /// A system from a logged state, checked against the scene's species.
@@ -396,7 +417,8 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, S
         return Err("the logged particle counts differ from the scene's".into());
     }
     let box_ = PeriodicBox::new(Vector3::from(record.box_lengths))
-        .map_err(|e| format!("logged box: {e}"))?;
+        .map_err(|e| format!("logged box: {e}"))?
+        .with_walls(plan.walls);
     let particles = record
         .positions
         .iter()
@@ -826,7 +848,9 @@ impl Runner<'_> {
         // NVT: pressure from the scale distribution function, sampled ten
         // times per stats interval.
         let sdf_every = (stats_every / 10).max(1);
-        let mut sdf = matches!(ensemble, Ensemble::Nvt).then(|| Sdf::new(0.02, 200));
+        // (Not with walls: the scale distribution assumes a periodic box.)
+        let mut sdf = (matches!(ensemble, Ensemble::Nvt) && !system.periodic_box().has_walls())
+            .then(|| Sdf::new(0.02, 200));
         let mut done = first;
         let mut stopped = false;
         let mut pressure = None;
@@ -1142,5 +1166,36 @@ fn diff(now: Counts, before: Counts) -> Counts {
         translate: d(now.translate, before.translate),
         rotate: d(now.rotate, before.rotate),
         volume: d(now.volume, before.volume),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_layered_start_puts_the_species_in_order_along_the_axis() {
+        let scene = Scene::parse(
+            r#"Scene(box: (20.0, 6.0, 6.0), walls: [X],
+                species: [Species(name: "a", shape: Sphere(radius: 0.4), count: 60),
+                          Species(name: "b", shape: Ellipsoid(a: 0.4, b: 0.3, c: 0.3), count: 40)],
+                start: Layered(X), stages: [Dynamics(duration: 1.0)])"#,
+        )
+        .unwrap();
+        let plan = Plan::of(&scene);
+        let system = start_state(&scene, &plan, &mut Pcg64::seed_from_u64(1)).unwrap();
+        let x = |k: u16| {
+            system
+                .particles()
+                .iter()
+                .filter(move |p| p.species == k)
+                .map(|p| p.position.x)
+        };
+        let a_max = x(0).fold(f64::NEG_INFINITY, f64::max);
+        let b_min = x(1).fold(f64::INFINITY, f64::min);
+        assert!(a_max <= b_min, "{a_max} > {b_min}");
+        assert_eq!(x(0).count(), 60);
+        assert_eq!(system.periodic_box().walls(), [true, false, false]);
+        assert_eq!(system.first_wall_overlap(), None);
     }
 }

@@ -92,6 +92,10 @@ pub enum Start {
     Random,
     /// The last complete state of an earlier log.
     Resume(String),
+    /// A lattice as `Lattice`, the species in layers along the axis in
+    /// scene order (the first at the low end): two species released from
+    /// the two halves of a box.
+    Layered(Axis),
 }
 
 /// One stage of a scene.
@@ -348,6 +352,22 @@ impl Scene {
         nalgebra::Vector3::new(x, y, z)
     }
 
+    /// Per axis: whether the scene closes it with hard walls.
+    pub fn wall_axes(&self) -> [bool; 3] {
+        let mut w = [false; 3];
+        for a in &self.walls {
+            w[*a as usize] = true;
+        }
+        w
+    }
+
+    /// The starting box, with its walls.
+    pub fn periodic_box(&self) -> crate::space::PeriodicBox {
+        crate::space::PeriodicBox::new(self.box_vector())
+            .expect("validated edges")
+            .with_walls(self.wall_axes())
+    }
+
     /// Checks every field; on failure the field path and what is wrong.
     fn validate(&self) -> Result<(), (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
@@ -358,12 +378,10 @@ impl Scene {
                 format!("edges must be finite and > 0, got ({x}, {y}, {z})"),
             );
         }
-        if !self.walls.is_empty() {
-            return bad(
-                "walls",
-                "hard walls are not available in this version; use walls: [] (periodic in every direction)"
-                    .into(),
-            );
+        for (i, a) in self.walls.iter().enumerate() {
+            if self.walls[..i].contains(a) {
+                return bad("walls", format!("{a:?} is listed twice"));
+            }
         }
         if self.species.is_empty() {
             return bad("species", "at least one species is needed".into());
@@ -408,7 +426,7 @@ impl Scene {
         }
         let phi0 = self.particle_volume() / (x * y * z);
         match &self.start {
-            Start::Lattice => {
+            Start::Lattice | Start::Layered(_) => {
                 let plan =
                     crate::mc::start::lattice_plan(&self.box_vector(), &self.mc_species(), n);
                 if plan.sites.iter().product::<usize>() < n {
@@ -437,6 +455,24 @@ impl Scene {
                     return bad("start", "Resume needs the path of a log".into());
                 }
             }
+        }
+        if self.stages.iter().any(|st| {
+            matches!(
+                st,
+                Stage::MonteCarlo {
+                    ensemble: Ensemble::Npt {
+                        anisotropic: true,
+                        ..
+                    },
+                    ..
+                }
+            )
+        }) && self.walls.len() == 3
+        {
+            return bad(
+                "walls",
+                "a box closed by walls on every axis has no periodic direction for per-axis box moves".into(),
+            );
         }
         if self.stages.is_empty() {
             return bad("stages", "at least one stage is needed".into());

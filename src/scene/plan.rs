@@ -56,6 +56,8 @@ pub struct Plan {
     pub msd: bool,
     /// See `msd`.
     pub c2: bool,
+    /// Per axis: hard walls (true) or periodic.
+    pub walls: [bool; 3],
 }
 
 impl Plan {
@@ -121,6 +123,7 @@ impl Plan {
             has_dynamics,
             msd: asks(|s| matches!(s, Stage::Dynamics { msd: true, .. })),
             c2: asks(|s| matches!(s, Stage::Dynamics { c2: true, .. })),
+            walls: scene.wall_axes(),
         }
     }
 
@@ -176,10 +179,25 @@ impl fmt::Display for Report<'_> {
             }
         }
         writeln!(f, "effects:")?;
-        writeln!(
-            f,
-            "  walls: none, periodic in x, y, z (walls: [] in the scene)"
-        )?;
+        let walls = scene.wall_axes();
+        if walls.iter().any(|&w| w) {
+            let names: Vec<&str> = ["x", "y", "z"]
+                .iter()
+                .zip(walls)
+                .filter(|(_, w)| *w)
+                .map(|(n, _)| *n)
+                .collect();
+            writeln!(
+                f,
+                "  walls: hard walls at -L/2 and L/2 along {} (no periodic image there); pressure in dynamics from the momentum the walls take; no SDF pressure in NVT Monte Carlo",
+                names.join(", ")
+            )?;
+        } else {
+            writeln!(
+                f,
+                "  walls: none, periodic in x, y, z (walls: [] in the scene)"
+            )?;
+        }
         if plan.has_mc {
             let n = &plan.mc_neighbours;
             let why = match (n.elongated, n.size_asymmetric) {
@@ -242,6 +260,8 @@ impl fmt::Display for Report<'_> {
                 Start::Lattice => "lattice filling the box, random orientations".to_string(),
                 Start::Random => "random insertion, random orientations".to_string(),
                 Start::Resume(p) => format!("the last state in {p}"),
+                Start::Layered(a) =>
+                    format!("lattice filling the box, species in layers along {a:?} in scene order"),
             }
         )?;
         writeln!(f, "stages:")?;

@@ -1,11 +1,20 @@
-//! An orthorhombic box, periodic in every direction, positions in [−L/2, L/2).
+//! An orthorhombic box, positions in [−L/2, L/2): periodic along each axis
+//! unless that axis is closed by hard walls at ±L/2 (then no periodic
+//! image is taken along it, and bodies must keep inside the walls).
 
 use nalgebra::Vector3;
 
-/// An orthorhombic periodic box with edge lengths `lengths`.
+/// An orthorhombic box with edge lengths `lengths`, periodic along every
+/// axis without walls.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PeriodicBox {
     lengths: Vector3<f64>,
+    /// Per axis: hard walls at ±L/2 (true) or periodic (false).
+    walls: [bool; 3],
+    /// Per axis: 1 where periodic, 0 where walled (masks image shifts).
+    periodic: Vector3<f64>,
+    /// Per axis: L/2 where periodic, ∞ where walled (image thresholds).
+    half: Vector3<f64>,
 }
 
 /// A box with a non-positive or non-finite edge.
@@ -17,10 +26,45 @@ impl PeriodicBox {
     /// A box with edges `lengths`.
     pub fn new(lengths: Vector3<f64>) -> Result<Self, BoxError> {
         if lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
-            Ok(Self { lengths })
+            Ok(Self::build(lengths, [false; 3]))
         } else {
             Err(BoxError(lengths.into()))
         }
+    }
+
+    fn build(lengths: Vector3<f64>, walls: [bool; 3]) -> Self {
+        Self {
+            lengths,
+            walls,
+            periodic: Vector3::from_fn(|k, _| if walls[k] { 0.0 } else { 1.0 }),
+            half: Vector3::from_fn(|k, _| {
+                if walls[k] {
+                    f64::INFINITY
+                } else {
+                    0.5 * lengths[k]
+                }
+            }),
+        }
+    }
+
+    /// The same box with hard walls at ±L/2 along the axes marked true.
+    pub fn with_walls(self, walls: [bool; 3]) -> Self {
+        Self::build(self.lengths, walls)
+    }
+
+    /// The same walls with other edge lengths.
+    pub fn with_lengths(&self, lengths: Vector3<f64>) -> Result<Self, BoxError> {
+        Ok(Self::new(lengths)?.with_walls(self.walls))
+    }
+
+    /// Per axis: whether hard walls close it.
+    pub fn walls(&self) -> [bool; 3] {
+        self.walls
+    }
+
+    /// Whether any axis has walls.
+    pub fn has_walls(&self) -> bool {
+        self.walls.iter().any(|&w| w)
     }
 
     /// Edge lengths.
@@ -36,10 +80,11 @@ impl PeriodicBox {
     /// The shortest periodic image of the separation `d`.
     #[inline]
     pub fn minimum_image(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        let (l, p) = (&self.lengths, &self.periodic);
         Vector3::new(
-            d.x - self.lengths.x * (d.x / self.lengths.x).round(),
-            d.y - self.lengths.y * (d.y / self.lengths.y).round(),
-            d.z - self.lengths.z * (d.z / self.lengths.z).round(),
+            d.x - l.x * (d.x / l.x).round() * p.x,
+            d.y - l.y * (d.y / l.y).round() * p.y,
+            d.z - l.z * (d.z / l.z).round() * p.z,
         )
     }
 
@@ -52,9 +97,9 @@ impl PeriodicBox {
         // are random, so branches would mispredict).
         let mut r = *d;
         for k in 0..3 {
-            let l = self.lengths[k];
-            let up = if r[k] < -0.5 * l { l } else { 0.0 };
-            let down = if r[k] > 0.5 * l { l } else { 0.0 };
+            let (l, h) = (self.lengths[k], self.half[k]);
+            let up = if r[k] < -h { l } else { 0.0 };
+            let down = if r[k] > h { l } else { 0.0 };
             r[k] += up - down;
         }
         r
@@ -66,10 +111,10 @@ impl PeriodicBox {
     pub fn wrap_near(&self, r: &Vector3<f64>) -> Vector3<f64> {
         let mut w = *r;
         for k in 0..3 {
-            let l = self.lengths[k];
-            if w[k] >= 0.5 * l {
+            let (l, h) = (self.lengths[k], self.half[k]);
+            if w[k] >= h {
                 w[k] -= l;
-            } else if w[k] < -0.5 * l {
+            } else if w[k] < -h {
                 w[k] += l;
             }
         }
@@ -81,11 +126,22 @@ impl PeriodicBox {
     pub fn wrap(&self, r: &Vector3<f64>) -> Vector3<f64> {
         let mut w = self.minimum_image(r);
         for i in 0..3 {
-            if w[i] >= 0.5 * self.lengths[i] {
+            if w[i] >= self.half[i] {
                 w[i] -= self.lengths[i];
             }
         }
         w
+    }
+
+    /// How far a body reaching `extent` from its centre `r` along each axis
+    /// stays inside the walls: the smallest gap L/2 − |rₖ| − extentₖ over
+    /// the walled axes (∞ without walls); not positive when it touches or
+    /// crosses one.
+    pub fn wall_gap(&self, r: &Vector3<f64>, extent: &Vector3<f64>) -> f64 {
+        (0..3)
+            .filter(|&k| self.walls[k])
+            .map(|k| 0.5 * self.lengths[k] - r[k].abs() - extent[k])
+            .fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -105,5 +161,34 @@ mod tests {
         assert!((b.minimum_image_near(&near) - b.minimum_image(&near)).norm() < 1e-12);
         let moved = Vector3::new(5.5, -4.5, 2.0);
         assert!((b.wrap_near(&moved) - b.wrap(&moved)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn walled_axes_take_no_image() {
+        let b = PeriodicBox::new(Vector3::new(10.0, 8.0, 6.0))
+            .unwrap()
+            .with_walls([false, false, true]);
+        let d = Vector3::new(9.0, -7.0, 5.5);
+        assert_eq!(b.minimum_image(&d), Vector3::new(-1.0, 1.0, 5.5));
+        assert_eq!(b.minimum_image_near(&d), Vector3::new(-1.0, 1.0, 5.5));
+        assert_eq!(
+            b.wrap_near(&Vector3::new(5.5, 0.0, 2.9)),
+            Vector3::new(-4.5, 0.0, 2.9)
+        );
+        // 3 - 2.5 - 0.25 from the wall at z = 3.
+        assert_eq!(
+            b.wall_gap(&Vector3::new(4.9, 0.0, -2.5), &Vector3::repeat(0.25)),
+            0.25
+        );
+        assert_eq!(
+            PeriodicBox::new(Vector3::repeat(2.0))
+                .unwrap()
+                .wall_gap(&Vector3::zeros(), &Vector3::zeros()),
+            f64::INFINITY
+        );
+        assert_eq!(
+            b.with_lengths(Vector3::repeat(4.0)).unwrap().walls(),
+            [false, false, true]
+        );
     }
 }
