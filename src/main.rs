@@ -321,6 +321,14 @@ fn check(path: &std::path::Path) -> ExitCode {
         Ok(s) => s,
         Err(e) => return bad_input(e),
     };
+    if let Err(e) = check_writable(std::path::Path::new(&scene.log.path)) {
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let line = hardbody::scene::outline::Outline::of(&text)
+            .line_of("log.path")
+            .map(|l| format!("line {l}: "))
+            .unwrap_or_default();
+        return bad_input(format!("{}: {line}log.path: {e}", path.display()));
+    }
     let plan = Plan::of(&scene);
     say(&format!("{}: valid", path.display()));
     say(&Report {
