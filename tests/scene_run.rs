@@ -512,3 +512,65 @@ fn a_killed_run_resumes_from_its_partial_log() {
         "the resumed run ends elsewhere"
     );
 }
+
+#[test]
+fn ctrl_c_finishes_the_log_cleanly() {
+    let exe = env!("CARGO_BIN_EXE_hardbody");
+    let dir = scratch("sigint");
+    let text = r#"Scene(
+        seed: 4,
+        box: (9.0, 9.0, 9.0),
+        species: [Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 64)],
+        stages: [
+            Compress(packing_fraction: 0.35),
+            Dynamics(duration: 1000.0, stats_every: 0.5, frames_every: 0.5),
+        ],
+    )"#;
+    let scene_file = dir.join("sigint.ron");
+    std::fs::write(&scene_file, text).unwrap();
+    let log = dir.join("stopped.mcap");
+    let mut child = std::process::Command::new(exe)
+        .args([
+            "run",
+            scene_file.to_str().unwrap(),
+            "--out",
+            log.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let clock = std::time::Instant::now();
+    loop {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        if let Ok(l) = read_log(&partial_path(&log), true)
+            && l.states.iter().any(|(_, s)| s.stage == "dynamics")
+        {
+            break;
+        }
+        assert!(
+            clock.elapsed().as_secs() < 120,
+            "no dynamics frame after two minutes"
+        );
+    }
+    let sent = std::process::Command::new("kill")
+        .args(["-s", "INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let status = child.wait().unwrap();
+    assert_eq!(
+        status.code(),
+        Some(130),
+        "exit code of a run stopped by Ctrl-C"
+    );
+    // The log is complete (footer and summary written) under its name.
+    let l = read_log(&log, true).unwrap();
+    assert!(!l.truncated);
+    assert!(!partial_path(&log).exists());
+    let last = &l.states.last().unwrap().1;
+    assert_eq!(last.stage, "dynamics");
+    assert!(last.time.unwrap() < 1000.0);
+    // And it resumes from there.
+    assert!(last.resume.as_ref().is_some_and(|r| !r.stage_complete));
+}

@@ -33,8 +33,9 @@ use crate::scene::plan::Plan;
 use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
 use crate::space::PeriodicBox;
 
-/// Sweeps between move-size updates while tuning.
-const TUNE_WINDOW: u64 = 20;
+/// Sweeps between move-size updates while tuning (50: a window of 20
+/// holds only 20 box moves, too few to steer the volume step by).
+const TUNE_WINDOW: u64 = 50;
 
 /// Told how a run goes (the command line draws progress bars or lines).
 pub trait Progress {
