@@ -336,6 +336,16 @@ impl Predictor {
             }
             if d_t < eps && d_next < eps {
                 // A grazing contact may hide between t and t_next (step 6).
+                // The stepping may have used lower bounds: the parabola
+                // needs the distances themselves (a lower bound far below
+                // the distance bent it wrongly and let a vertex graze of two
+                // cuboids through).
+                let d_t = dist(t);
+                failed(d_t)?;
+                let d_next = dist(t_next);
+                failed(d_next)?;
+                let closing_at_next = closing_speed(t_next);
+                let closing_at_t = closing_speed(t);
                 let t_mid = 0.5 * (t + t_next);
                 let d_mid = dist(t_mid);
                 failed(d_mid)?;
@@ -345,9 +355,15 @@ impl Predictor {
                 let h = 0.5 * (t_next - t);
                 // Parabola through the three points, in s = (τ − t_mid)/h.
                 let curvature = d_next - 2.0 * d_mid + d_t;
-                if curvature > 0.0 {
-                    let s_min = -(d_next - d_t) / (2.0 * curvature);
-                    if s_min > -1.0 && s_min < 1.0 {
+                let s_min = -(d_next - d_t) / (2.0 * curvature);
+                let parabola_dips = curvature > 0.0 && s_min > -1.0 && s_min < 1.0;
+                // The contact points close at t and recede at t_next: a
+                // minimum lies between, whatever the parabola says (a
+                // vertex graze is a V, no parabola).
+                let turns = closing_at_t > 0.0 && closing_at_next <= 0.0;
+                if parabola_dips || turns {
+                    let s_min = if parabola_dips { s_min } else { 0.0 };
+                    {
                         let t_min = t_mid + s_min * h;
                         let d_min = dist(t_min);
                         failed(d_min)?;
