@@ -83,7 +83,11 @@ pub fn gjk_distance(
     let first = support(&dir);
     let mut simplex = Simplex::new(first);
     let mut v = first.w;
-    let mut lower = 0.0f64;
+    // The best bound −h_M(−v̂) ≤ signed distance so far: negative until a
+    // plane separates (it was clamped at 0 from the start, which took a
+    // pair overlapping by 1e-10, with v within the tolerance of the
+    // origin, for touching and apart).
+    let mut lower = f64::NEG_INFINITY;
     for it in 1..=max_iterations {
         let vv = v.norm_squared();
         if vv <= (1e-3 * tolerance).powi(2) {
@@ -93,8 +97,22 @@ pub fn gjk_distance(
         let vw = v.dot(&vertex.w);
         let vn = vv.sqrt();
         lower = lower.max(vw / vn);
-        if vn - lower <= tolerance || simplex.contains(&vertex.w) {
+        if vn - lower <= tolerance {
             return simplex.finish(GjkOutcome::Separated, vn, lower, it);
+        }
+        // No new support point: converged as far as it goes; apart if the
+        // bound says so, else undecided (within rounding of touching, or
+        // overlapping by less than the simplex can resolve).
+        let stalled = |simplex: &Simplex| {
+            let outcome = if lower >= -tolerance {
+                GjkOutcome::Separated
+            } else {
+                GjkOutcome::IterationCap
+            };
+            simplex.finish(outcome, vn, lower, it)
+        };
+        if simplex.contains(&vertex.w) {
+            return stalled(&simplex);
         }
         simplex.push(vertex);
         match simplex.reduce() {
@@ -103,7 +121,7 @@ pub fn gjk_distance(
         }
         if v.norm_squared() >= vv {
             // No progress (rounding): the previous v is the answer.
-            return simplex.finish(GjkOutcome::Separated, vn, lower, it);
+            return stalled(&simplex);
         }
     }
     let d = v.norm();

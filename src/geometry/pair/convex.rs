@@ -43,6 +43,30 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
     let g = gjk_distance(&sa, &sb, rel.translation, tol, opts.gjk_max_iterations);
     let iterations = g.iterations as u32;
     match g.outcome {
+        GjkOutcome::IterationCap
+            if g.distance < 1e3 * tol
+                && gjk_intersect(&sa, &sb, rel.translation, opts.gjk_max_iterations)
+                    == Some(true) =>
+        {
+            // GJK stalled within its resolution of the origin without a
+            // separating plane, and the bodies do overlap (a superellipsoid
+            // against a cuboid face, overlapping by 1e-10 of the size, once
+            // came out as apart by 6e-13): overlapping by less than GJK
+            // resolves; say so with the sign right.
+            let d = g.point_b - g.point_a;
+            Contact {
+                distance: -tol,
+                point_a: g.point_a,
+                point_b: g.point_b,
+                normal: d
+                    .try_normalize(0.0)
+                    .or_else(|| rel.translation.try_normalize(0.0))
+                    .unwrap_or(V3::x()),
+                status: Status::Converged { iterations },
+                method: Method::Gjk,
+                warm_start: None,
+            }
+        }
         GjkOutcome::Separated | GjkOutcome::IterationCap => {
             let d = g.point_b - g.point_a;
             let len = d.norm();
