@@ -162,3 +162,26 @@ fn impossible_parameters_are_errors() {
         other => panic!("expected a jam, got {other:?}"),
     }
 }
+
+#[test]
+fn a_box_too_small_for_the_target_is_said_at_once() {
+    // 64 needles of length 5 at 0.15 need a box edge of 6.5 < 2 x 5: the
+    // minimum image would not be unique. (This once surfaced as a "jam" at
+    // 0.042 after 2155 sweeps.)
+    let mut system = dilute_lattice(
+        4,
+        one("needles", "Ellipsoid(a: 2.5, b: 0.25, c: 0.25)"),
+        |_| 0,
+        3,
+    );
+    let before = system.packing_fraction();
+    let mut rng = Pcg64::seed_from_u64(4);
+    match compress(&mut system, sizes(), &CompressOptions::to(0.15), &mut rng) {
+        Err(e @ CompressError::BoxLimit { .. }) => {
+            let text = e.to_string();
+            assert!(text.contains("use more particles"), "{text}");
+        }
+        other => panic!("expected the box limit, got {other:?}"),
+    }
+    assert_eq!(system.packing_fraction(), before, "nothing was done");
+}

@@ -68,6 +68,22 @@ pub enum CompressError {
         /// Sweeps done.
         sweeps: u64,
     },
+    /// The target needs a box edge shorter than twice the interaction
+    /// range (the minimum image would not be unique): too few particles
+    /// for that packing fraction.
+    #[error(
+        "at packing fraction {target} the box edge would be {edge:.4}, below twice the interaction range {range:.4}: use more particles (reached {reached:.4})"
+    )]
+    BoxLimit {
+        /// Packing fraction reached.
+        reached: f64,
+        /// Requested.
+        target: f64,
+        /// The shortest edge the target needs.
+        edge: f64,
+        /// Twice the largest bounding radius.
+        range: f64,
+    },
     /// Ran out of sweeps.
     #[error("reached packing fraction {reached:.4} of {target} in the allowed {sweeps} sweeps")]
     OutOfSweeps {
@@ -158,6 +174,17 @@ impl Compressor {
         }
         if sizes.translate.is_nan() || sizes.translate <= 0.0 {
             return Err(CompressError::ZeroMoveSize(sizes.translate));
+        }
+        // Said at once, not found out as a "jam" thousands of sweeps later.
+        let edge = system.periodic_box().lengths().min() * (start / opts.target).cbrt();
+        let range = system.interaction_range();
+        if edge < 2.0 * range {
+            return Err(CompressError::BoxLimit {
+                reached: start,
+                target: opts.target,
+                edge,
+                range,
+            });
         }
         Ok(Self::resume(
             opts,

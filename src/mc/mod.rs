@@ -291,6 +291,13 @@ impl System {
         }
     }
 
+    /// The largest centre–centre distance at which two particles can
+    /// touch (twice the largest bounding radius): the box edges must stay
+    /// at least twice this for the minimum image to be unique.
+    pub fn interaction_range(&self) -> f64 {
+        self.range
+    }
+
     /// Switches overlap tests off (an ideal gas of the same particles), for
     /// checking the volume-move statistics.
     pub fn set_ideal(&mut self, ideal: bool) {
