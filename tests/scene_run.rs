@@ -435,60 +435,72 @@ fn a_run_resumed_from_a_cut_log_continues_bit_for_bit() {
     assert!(stages_resumed.len() >= 3, "{stages_resumed:?}");
 }
 
-#[test]
-fn a_killed_run_resumes_from_its_partial_log() {
+/// Starts `hardbody run` on a scene of 64 rods (compressed to 0.35, then
+/// dynamics for `duration` with a frame every 0.5) and returns the child,
+/// its log path and the scene text once its partial log holds `frames`
+/// dynamics frames.
+fn run_until_frames(
+    name: &str,
+    seed: u64,
+    duration: f64,
+    frames: usize,
+) -> (std::process::Child, PathBuf, String) {
     let exe = env!("CARGO_BIN_EXE_hardbody");
-    let dir = scratch("kill");
-    let text = r#"Scene(
-        seed: 9,
+    let dir = scratch(name);
+    let text = format!(
+        r#"Scene(
+        seed: {seed},
         box: (9.0, 9.0, 9.0),
         species: [Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 64)],
         stages: [
             Compress(packing_fraction: 0.35),
-            Dynamics(duration: 20.0, stats_every: 0.5, frames_every: 0.5),
+            Dynamics(duration: {duration:?}, stats_every: 0.5, frames_every: 0.5),
         ],
-    )"#;
-    let scene_file = dir.join("kill.ron");
-    std::fs::write(&scene_file, text).unwrap();
-    let killed = dir.join("killed.mcap");
-    let partial = partial_path(&killed);
-    let mut child = std::process::Command::new(exe)
+    )"#
+    );
+    let scene_file = dir.join(format!("{name}.ron"));
+    std::fs::write(&scene_file, &text).unwrap();
+    let log = dir.join(format!("{name}.mcap"));
+    let child = std::process::Command::new(exe)
         .args([
             "run",
             scene_file.to_str().unwrap(),
             "--out",
-            killed.to_str().unwrap(),
+            log.to_str().unwrap(),
         ])
+        .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    // Kill it (SIGKILL) once a few dynamics frames are on disk.
     let clock = std::time::Instant::now();
     loop {
         std::thread::sleep(std::time::Duration::from_millis(50));
-        if let Ok(log) = read_log(&partial, true)
-            && log
-                .states
+        if let Ok(l) = read_log(&partial_path(&log), true)
+            && l.states
                 .iter()
                 .filter(|(_, s)| s.stage == "dynamics")
                 .count()
-                >= 4
+                >= frames
         {
             break;
         }
         assert!(
             clock.elapsed().as_secs() < 120,
-            "no frames after two minutes"
-        );
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the run ended before it was killed"
+            "{name}: no frames after two minutes"
         );
     }
+    (child, log, text)
+}
+
+#[test]
+fn a_killed_run_resumes_from_its_partial_log() {
+    // Killed (SIGKILL) once a few dynamics frames are on disk.
+    let (mut child, killed, text) = run_until_frames("kill", 9, 20.0, 4);
+    let partial = partial_path(&killed);
     child.kill().unwrap();
     child.wait().unwrap();
     assert!(!killed.exists(), "a killed run leaves only the partial log");
-    let status = std::process::Command::new(exe)
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
         .args(["run", "--resume", partial.to_str().unwrap()])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -496,9 +508,9 @@ fn a_killed_run_resumes_from_its_partial_log() {
         .unwrap();
     assert!(status.success());
     // The same scene uninterrupted.
-    let whole = dir.join("whole.mcap");
-    let scene = Scene::parse(text).unwrap();
-    run_scene(&scene, text, &whole, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let whole = killed.with_file_name("whole.mcap");
+    let scene = Scene::parse(&text).unwrap();
+    run_scene(&scene, &text, &whole, &mut Silent, &AtomicBool::new(false)).unwrap();
     let (a, b) = (
         read_log(&killed, true).unwrap(),
         read_log(&whole, true).unwrap(),
@@ -515,44 +527,7 @@ fn a_killed_run_resumes_from_its_partial_log() {
 
 #[test]
 fn ctrl_c_finishes_the_log_cleanly() {
-    let exe = env!("CARGO_BIN_EXE_hardbody");
-    let dir = scratch("sigint");
-    let text = r#"Scene(
-        seed: 4,
-        box: (9.0, 9.0, 9.0),
-        species: [Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 64)],
-        stages: [
-            Compress(packing_fraction: 0.35),
-            Dynamics(duration: 1000.0, stats_every: 0.5, frames_every: 0.5),
-        ],
-    )"#;
-    let scene_file = dir.join("sigint.ron");
-    std::fs::write(&scene_file, text).unwrap();
-    let log = dir.join("stopped.mcap");
-    let mut child = std::process::Command::new(exe)
-        .args([
-            "run",
-            scene_file.to_str().unwrap(),
-            "--out",
-            log.to_str().unwrap(),
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let clock = std::time::Instant::now();
-    loop {
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        if let Ok(l) = read_log(&partial_path(&log), true)
-            && l.states.iter().any(|(_, s)| s.stage == "dynamics")
-        {
-            break;
-        }
-        assert!(
-            clock.elapsed().as_secs() < 120,
-            "no dynamics frame after two minutes"
-        );
-    }
+    let (mut child, log, _) = run_until_frames("sigint", 4, 1000.0, 1);
     let sent = std::process::Command::new("kill")
         .args(["-s", "INT", &child.id().to_string()])
         .status()

@@ -11,7 +11,7 @@ use super::calendar::{Calendar, EventKind};
 use super::collision::{Kinetics, collide, collide_spheres};
 use super::motion::{Spin, position_after};
 use super::predict::{Predictor, PredictorOptions, Search};
-use crate::analysis::order::{legendre_p2, molecular_axis, nematic_order};
+use crate::analysis::order::{legendre_p2, nematic_order};
 use crate::geometry::pair::contact_sum;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
 use crate::geometry::{Relative, Shape, WarmStart};
@@ -517,17 +517,7 @@ impl Dynamics {
             kinds,
             bodies,
         };
-        dynamics.molecular_axes = dynamics
-            .species
-            .iter()
-            .map(|s| {
-                if s.rotation {
-                    molecular_axis(&s.shape)
-                } else {
-                    None
-                }
-            })
-            .collect();
+        dynamics.molecular_axes = dynamics.species.iter().map(Species::order_axis).collect();
         dynamics.set_reference();
         dynamics.schedule_everything()?;
         Ok(dynamics)

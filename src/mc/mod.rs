@@ -30,6 +30,19 @@ pub struct Species {
     pub rotation: bool,
 }
 
+impl Species {
+    /// The body axis the nematic order and C₂ follow: the shape's molecular
+    /// axis if the species turns, else none (frozen or isotropic bodies
+    /// carry no orientational order of their own).
+    pub fn order_axis(&self) -> Option<Vector3<f64>> {
+        if self.rotation {
+            crate::analysis::order::molecular_axis(&self.shape)
+        } else {
+            None
+        }
+    }
+}
+
 /// One particle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Particle {

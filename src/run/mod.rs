@@ -15,7 +15,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
-use crate::analysis::order::{molecular_axis, nematic_order};
+use crate::analysis::order::nematic_order;
 use crate::edmd::dynamics::{Dynamics, DynamicsOptions, EdmdError};
 use crate::edmd::predict::PredictorOptions;
 use crate::log::read::{RawMessage, read_log, read_messages};
@@ -28,7 +28,7 @@ use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
 use crate::mc::sdf::Sdf;
 use crate::mc::start::{StartError, lattice, random_insertion};
 use crate::mc::tuning::Tuner;
-use crate::mc::{McError, Particle, System};
+use crate::mc::{McError, Particle, Species, System};
 use crate::scene::plan::Plan;
 use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
 use crate::space::PeriodicBox;
@@ -562,17 +562,8 @@ impl Runner<'_> {
         if !self.plan.nematic_order {
             return None;
         }
-        let axes: Vec<Option<Vector3<f64>>> = system
-            .species()
-            .iter()
-            .map(|s| {
-                if s.rotation {
-                    molecular_axis(&s.shape)
-                } else {
-                    None
-                }
-            })
-            .collect();
+        let axes: Vec<Option<Vector3<f64>>> =
+            system.species().iter().map(Species::order_axis).collect();
         nematic_order(
             system
                 .particles()
