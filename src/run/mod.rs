@@ -948,6 +948,10 @@ impl Runner<'_> {
         };
         let fail = |e: EdmdError| e.to_string();
         let write_error = |e: LogError| format!("writing the log: {e}");
+        // A dynamics built here from the system is already as a resumed
+        // run would rebuild it; one carried over from another stage is
+        // resynchronized at its start frame.
+        let mut fresh = false;
         let mut dynamics = match phase {
             Phase::Dynamics {
                 mut dynamics,
@@ -968,6 +972,7 @@ impl Runner<'_> {
             other => {
                 let system = self.to_system(other)?;
                 let options = self.dynamics_options(temperature, true_inertia);
+                fresh = true;
                 Box::new(Dynamics::from_state(&system, &options, rng).map_err(fail)?)
             }
         };
@@ -983,7 +988,9 @@ impl Runner<'_> {
                     next_frame: 1,
                     temperature,
                 };
-                dynamics.resynchronize().map_err(fail)?;
+                if !fresh {
+                    dynamics.resynchronize().map_err(fail)?;
+                }
                 self.start_frame(log, &self.record_dynamics(&dynamics, index, p, false))?;
                 p
             }
