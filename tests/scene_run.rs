@@ -391,7 +391,7 @@ fn the_python_readers_decode_every_channel_and_the_gsd_export() {
 }
 
 #[test]
-fn a_run_resumed_from_a_cut_log_continues_bit_for_bit() {
+fn a_run_resumed_from_any_frame_continues_bit_for_bit() {
     let dir = scratch("resume");
     let path = dir.join("whole.mcap");
     let scene = Scene::parse(SMALL).unwrap();
@@ -399,12 +399,33 @@ fn a_run_resumed_from_a_cut_log_continues_bit_for_bit() {
     let whole = read_log(&path, true).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let mut stages_resumed = std::collections::BTreeSet::new();
-    for fraction in [0.15, 0.35, 0.5, 0.65, 0.8, 0.95] {
-        let cut = dir.join(format!("cut-{fraction}.mcap.partial"));
-        std::fs::write(&cut, &bytes[..(bytes.len() as f64 * fraction) as usize]).unwrap();
+    // A cut just after each frame (each frame closes a chunk): the shortest
+    // prefix that holds k frames, by bisection on the length.
+    let frames_in = |len: usize| {
+        let probe = dir.join("probe.mcap.partial");
+        std::fs::write(&probe, &bytes[..len]).unwrap();
+        read_log(&probe, true).map(|l| l.states.len()).unwrap_or(0)
+    };
+    let mut cuts = Vec::new();
+    for k in 1..whole.states.len() {
+        let (mut lo, mut hi) = (0, bytes.len());
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if frames_in(mid) >= k {
+                hi = mid
+            } else {
+                lo = mid
+            }
+        }
+        cuts.push(hi);
+    }
+    for (k, &len) in cuts.iter().enumerate() {
+        let fraction = format!("frame {k}");
+        let cut = dir.join(format!("cut-{k}.mcap.partial"));
+        std::fs::write(&cut, &bytes[..len]).unwrap();
         let from = read_log(&cut, false).unwrap().last_state.unwrap().1;
         stages_resumed.insert(from.stage_index);
-        let out = dir.join(format!("resumed-{fraction}.mcap"));
+        let out = dir.join(format!("resumed-{k}.mcap"));
         let summary = hardbody::run::resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false))
             .unwrap_or_else(|e| panic!("{fraction}: {e}"));
         assert!(!summary.interrupted);
@@ -431,8 +452,8 @@ fn a_run_resumed_from_a_cut_log_continues_bit_for_bit() {
             assert!(v(s) == v(sw), "{fraction}: velocities of frame {k} differ");
         }
     }
-    // The cuts fall in every kind of stage.
-    assert!(stages_resumed.len() >= 3, "{stages_resumed:?}");
+    // Resumed from every frame of every stage.
+    assert_eq!(stages_resumed.len(), 4, "{stages_resumed:?}");
 }
 
 /// Starts `hardbody run` on a scene of 64 rods (compressed to 0.35, then
