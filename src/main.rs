@@ -141,14 +141,11 @@ fn main() -> ExitCode {
 
 /// Pretty JSON on standard output (the `--json` of every command).
 fn print_json(value: &impl serde::Serialize) {
-    println!(
-        "{}",
-        serde_json::to_string_pretty(value).expect("plain numbers serialise")
-    );
+    say(&serde_json::to_string_pretty(value).expect("plain numbers serialise"));
 }
 
 fn bad_input(message: impl std::fmt::Display) -> ExitCode {
-    eprintln!("hardbody: {message}");
+    esay(&format!("hardbody: {message}"));
     ExitCode::from(EXIT_BAD_INPUT)
 }
 
@@ -201,14 +198,14 @@ fn run(
         .as_ref()
         .map(|p| p.display().to_string())
         .unwrap_or_else(|| "the default scene".into());
-    eprintln!(
+    esay(&format!(
         "hardbody {}: running {name} ({} particles, {} stages, seed {}), log {}",
         env!("CARGO_PKG_VERSION"),
         scene.particle_count(),
         scene.stages.len(),
         scene.seed,
         log_path.display()
-    );
+    ));
     let mut progress = progress_display();
     finish_run(run_scene(
         &scene,
@@ -251,12 +248,12 @@ fn resume_log(log: &std::path::Path, out: Option<PathBuf>, seed: Option<u64>) ->
         return bad_input(e);
     }
     handle_ctrl_c();
-    eprintln!(
+    esay(&format!(
         "hardbody {}: resuming {} from its last frame, log {}",
         env!("CARGO_PKG_VERSION"),
         log.display(),
         out.display()
-    );
+    ));
     let mut progress = progress_display();
     finish_run(resume_run(log, &out, progress.as_mut(), &STOP))
 }
@@ -269,7 +266,7 @@ fn finish_run(result: Result<RunSummary, RunError>) -> ExitCode {
             }
             say(&format!("log written: {}", summary.log.display()));
             if summary.interrupted {
-                eprintln!("hardbody: interrupted; the log is complete up to the last frame");
+                esay("hardbody: interrupted; the log is complete up to the last frame");
                 ExitCode::from(EXIT_INTERRUPTED)
             } else {
                 ExitCode::SUCCESS
@@ -277,7 +274,7 @@ fn finish_run(result: Result<RunSummary, RunError>) -> ExitCode {
         }
         Err(e) if e.is_bad_input() => bad_input(e),
         Err(e) => {
-            eprintln!("hardbody: {e}");
+            esay(&format!("hardbody: {e}"));
             ExitCode::from(EXIT_FAILED)
         }
     }
@@ -402,17 +399,17 @@ fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> ExitCode {
     if json {
         print_json(&e);
     } else {
-        println!("shapes:          {sa} / {sb}");
-        println!(
+        say(&format!("shapes:          {sa} / {sb}"));
+        say(&format!(
             "excluded volume: {:.6} ± {:.6}",
             e.excluded_volume, e.excluded_volume_error
-        );
-        println!(
+        ));
+        say(&format!(
             "B2:              {:.6} ± {:.6}",
             e.b2,
             e.excluded_volume_error / 2.0
-        );
-        println!("samples:         {}", e.samples);
+        ));
+        say(&format!("samples:         {}", e.samples));
     }
     ExitCode::SUCCESS
 }
@@ -433,23 +430,23 @@ fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
         }
     });
     if terminal {
-        eprintln!();
+        esay("");
     }
     match result {
         Ok(rows) => {
             if json {
                 print_json(&rows);
             } else {
-                println!(
+                say(&format!(
                     "OCSI benchmark: {} configurations x {} sets per cuboid, L*, W* in {:?}, non-overlap target {}",
                     cfg.configurations, cfg.sets, cfg.lengths, cfg.non_overlap_ratio
-                );
-                print!("{}", ocsi_table(&rows));
+                ));
+                print_block(&ocsi_table(&rows));
             }
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("hardbody: OCSI benchmark failed: {e}");
+            esay(&format!("hardbody: OCSI benchmark failed: {e}"));
             ExitCode::from(EXIT_FAILED)
         }
     }
@@ -459,14 +456,14 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
     let moves = match hardbody::bench::mc::run(quick) {
         Ok(rows) => rows,
         Err(e) => {
-            eprintln!("hardbody: MC benchmark failed: {e}");
+            esay(&format!("hardbody: MC benchmark failed: {e}"));
             return ExitCode::from(EXIT_FAILED);
         }
     };
     let compression = match hardbody::bench::mc::compression(quick) {
         Ok(rows) => rows,
         Err(e) => {
-            eprintln!("hardbody: MC compression benchmark failed: {e}");
+            esay(&format!("hardbody: MC compression benchmark failed: {e}"));
             return ExitCode::from(EXIT_FAILED);
         }
     };
@@ -482,10 +479,10 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
         );
         print_json(&all);
     } else {
-        println!("| shape | N | phi | threads | trial moves/s (median) | translate acceptance |");
-        println!("|---|---|---|---|---|---|");
+        say("| shape | N | phi | threads | trial moves/s (median) | translate acceptance |");
+        say("|---|---|---|---|---|---|");
         for r in &moves {
-            println!(
+            say(&format!(
                 "| {} | {} | {:.3} | {} | {:.3e} | {:.2} |",
                 r.shape,
                 r.n,
@@ -493,16 +490,16 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
                 r.threads,
                 r.trial_moves_per_s,
                 r.acceptance_translate
-            );
+            ));
         }
-        println!();
-        println!("| compression from a dilute lattice | N | phi reached | sweeps | seconds |");
-        println!("|---|---|---|---|---|");
+        say("");
+        say("| compression from a dilute lattice | N | phi reached | sweeps | seconds |");
+        say("|---|---|---|---|---|");
         for r in &compression {
-            println!(
+            say(&format!(
                 "| {} | {} | {:.3} | {} | {:.1} |",
                 r.shape, r.n, r.packing_fraction, r.sweeps, r.seconds
-            );
+            ));
         }
     }
     ExitCode::SUCCESS
@@ -512,7 +509,7 @@ fn bench_scene(quick: bool, json: bool) -> ExitCode {
     let rows = match hardbody::bench::scene::run(quick) {
         Ok(rows) => rows,
         Err(e) => {
-            eprintln!("hardbody: scene benchmark failed: {e}");
+            esay(&format!("hardbody: scene benchmark failed: {e}"));
             return ExitCode::from(EXIT_FAILED);
         }
     };
@@ -552,4 +549,16 @@ fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
         }
         Err(e) => bad_input(e),
     }
+}
+
+/// Prints text that already ends its lines, ignoring a closed pipe.
+fn print_block(text: &str) {
+    use std::io::Write;
+    let _ = write!(std::io::stdout(), "{text}");
+}
+
+/// Prints a line on standard error, ignoring a closed stream.
+fn esay(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
 }
