@@ -110,6 +110,8 @@ enum Suite {
     Mc,
     /// Hard-sphere dynamics through the full scene path against the library directly.
     Scene,
+    /// What the grazing threshold and the Newton tolerance buy and cost (ellipsoids, aspect 2 and 5).
+    EdmdTolerance,
 }
 
 fn main() -> ExitCode {
@@ -135,6 +137,7 @@ fn main() -> ExitCode {
             Suite::Ocsi => bench_ocsi(quick, json),
             Suite::Mc => bench_mc(quick, json),
             Suite::Scene => bench_scene(quick, json),
+            Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
         },
     }
 }
@@ -561,4 +564,51 @@ fn print_block(text: &str) {
 fn esay(line: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stderr(), "{line}");
+}
+
+fn bench_edmd_tolerance(quick: bool, json: bool) -> ExitCode {
+    use hardbody::bench::edmd::{loosest_safe_grazing, tolerance};
+    let rows = match tolerance(quick) {
+        Ok(rows) => rows,
+        Err(e) => {
+            esay(&format!("hardbody: edmd-tolerance benchmark failed: {e}"));
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    if json {
+        print_json(&rows);
+        return ExitCode::SUCCESS;
+    }
+    say(
+        "| aspect | N | phi | eps_d | Newton tol | collisions | us/collision | energy drift/collision | max contact-time error (first 100) | follows reference for | missed |",
+    );
+    say("|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in &rows {
+        say(&format!(
+            "| {} | {} | {} | {:.0e} | {:.0e} | {} | {:.0} | {:.1e} | {:.1e} | {} | {} |",
+            r.aspect,
+            r.n,
+            r.packing_fraction,
+            r.grazing_threshold,
+            r.newton_tolerance,
+            r.collisions,
+            r.us_per_collision,
+            r.energy_drift_per_collision,
+            r.max_contact_time_error,
+            if r.reference {
+                "(reference)".to_string()
+            } else {
+                format!("{} collisions", r.departure_collisions)
+            },
+            r.missed.as_deref().unwrap_or("none")
+        ));
+    }
+    for (aspect, eps) in loosest_safe_grazing(&rows) {
+        say(&format!(
+            "aspect {aspect}: loosest eps_d with no missed collision: {}",
+            eps.map(|e| format!("{e:.0e}"))
+                .unwrap_or_else(|| "none".into())
+        ));
+    }
+    ExitCode::SUCCESS
 }

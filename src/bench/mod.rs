@@ -1,5 +1,6 @@
 //! Benchmark suites behind `hardbody bench`.
 
+pub mod edmd;
 pub mod mc;
 pub mod ocsi;
 pub mod scene;

@@ -289,6 +289,8 @@ pub struct Dynamics {
     events_at_now: u64,
     /// The options it was built with (to rebuild itself).
     options: DynamicsOptions,
+    /// Every collision (time, lower index, higher index) while on.
+    trace: Option<Vec<(f64, u32, u32)>>,
 }
 
 /// The outcome of a search for a body's next wall contact.
@@ -457,6 +459,7 @@ impl Dynamics {
             *image = r - b.position;
         }
         next.reference = std::mem::take(&mut self.reference);
+        next.trace = self.trace.take();
         *self = next;
         Ok(())
     }
@@ -507,6 +510,7 @@ impl Dynamics {
             packing_fraction: system.packing_fraction(),
             rotating,
             options: options.clone(),
+            trace: None,
             deferred: Vec::new(),
             found: std::collections::HashMap::new(),
             molecular_axes: Vec::new(),
@@ -725,6 +729,17 @@ impl Dynamics {
         Ok(())
     }
 
+    /// Starts (or stops) recording every collision: time, and the pair as
+    /// (lower index, higher index). For comparing trajectories.
+    pub fn record_collisions(&mut self, on: bool) {
+        self.trace = on.then(Vec::new);
+    }
+
+    /// The collisions recorded since the last call.
+    pub fn take_collisions(&mut self) -> Vec<(f64, u32, u32)> {
+        self.trace.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
     /// Observables over the interval since the previous sample (or the
     /// start), and a new interval begins.
     pub fn sample(&mut self) -> Sample {
@@ -900,6 +915,9 @@ impl Dynamics {
         self.interval.virial += impulse;
         self.interval.collisions += 1;
         self.collisions += 1;
+        if let Some(trace) = self.trace.as_mut() {
+            trace.push((self.origin + self.now, i.min(j) as u32, i.max(j) as u32));
+        }
         self.calendar.invalidate(i);
         self.calendar.invalidate(j);
         self.schedule_crossing(i);
