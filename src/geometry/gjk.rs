@@ -137,6 +137,34 @@ pub fn gjk_intersect(
     initial: V3,
     max_iterations: usize,
 ) -> Option<bool> {
+    match gjk_enclose(support_a, support_b, initial, max_iterations) {
+        Enclosure::Separated => Some(false),
+        Enclosure::Enclosed(_) => Some(true),
+        Enclosure::Undecided => None,
+    }
+}
+
+/// How [`gjk_enclose`] ended.
+#[derive(Debug, Clone, Copy)]
+#[allow(clippy::large_enum_variant)] // returned once per call, on the stack
+pub enum Enclosure {
+    /// A plane separates the origin from M.
+    Separated,
+    /// The origin is in M: the tetrahedron of M enclosing it, or `None`
+    /// when it lies on a lower simplex (touching to rounding).
+    Enclosed(Option<[Vertex; 4]>),
+    /// Neither within the iterations (within rounding of touching).
+    Undecided,
+}
+
+/// The boolean GJK, keeping the tetrahedron that encloses the origin (a
+/// start for EPA when the distance GJK could not decide).
+pub fn gjk_enclose(
+    support_a: impl Fn(&V3) -> V3,
+    support_b: impl Fn(&V3) -> V3,
+    initial: V3,
+    max_iterations: usize,
+) -> Enclosure {
     let support = |d: &V3| {
         let a = support_a(d);
         let b = support_b(&-d);
@@ -153,26 +181,28 @@ pub fn gjk_intersect(
     for _ in 0..max_iterations {
         let vertex = support(&-v);
         if v.dot(&vertex.w) > 0.0 {
-            return Some(false); // the plane v·x = v·w separates origin from M
+            return Enclosure::Separated; // the plane v·x = v·w separates origin from M
         }
         if simplex.contains(&vertex.w) {
-            return None;
+            return Enclosure::Undecided;
         }
         simplex.push(vertex);
         match simplex.reduce() {
             Some(closest) => {
                 if closest.norm_squared() >= v.norm_squared() {
-                    return None;
+                    return Enclosure::Undecided;
                 }
                 v = closest;
             }
-            None => return Some(true),
+            None => {
+                return Enclosure::Enclosed((simplex.len == 4).then_some(simplex.verts));
+            }
         }
         if v.norm_squared() == 0.0 {
-            return Some(true);
+            return Enclosure::Enclosed(None);
         }
     }
-    None
+    Enclosure::Undecided
 }
 
 /// The simplex (1–4 vertices) with the barycentric weights of its closest

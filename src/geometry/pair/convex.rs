@@ -4,7 +4,9 @@
 use nalgebra::Vector3;
 
 use super::{Contact, DistanceOptions, Method, Relative, Status};
-use crate::geometry::gjk::{GjkOutcome, epa, gjk_distance, gjk_intersect};
+use crate::geometry::gjk::{
+    Enclosure, GjkOutcome, Vertex, epa, gjk_distance, gjk_enclose, gjk_intersect,
+};
 use crate::geometry::shape::Shape;
 
 type V3 = Vector3<f64>;
@@ -42,32 +44,61 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
     let (sa, sb) = supports(a, b, rel);
     let g = gjk_distance(&sa, &sb, rel.translation, tol, opts.gjk_max_iterations);
     let iterations = g.iterations as u32;
-    match g.outcome {
-        GjkOutcome::IterationCap
-            if g.distance < 1e3 * tol
-                && gjk_intersect(&sa, &sb, rel.translation, opts.gjk_max_iterations)
-                    == Some(true) =>
-        {
-            // GJK stalled within its resolution of the origin without a
-            // separating plane, and the bodies do overlap (a superellipsoid
-            // against a cuboid face, overlapping by 1e-10 of the size, once
-            // came out as apart by 6e-13): overlapping by less than GJK
-            // resolves; say so with the sign right.
-            let d = g.point_b - g.point_a;
-            Contact {
-                distance: -tol,
-                point_a: g.point_a,
-                point_b: g.point_b,
-                normal: d
-                    .try_normalize(0.0)
-                    .or_else(|| rel.translation.try_normalize(0.0))
-                    .unwrap_or(V3::x()),
-                status: Status::Converged { iterations },
-                method: Method::Gjk,
+    let touching = Contact {
+        distance: -0.0,
+        point_a: g.point_a,
+        point_b: g.point_b,
+        normal: rel.translation.try_normalize(0.0).unwrap_or(V3::x()),
+        status: Status::Converged { iterations },
+        method: Method::Gjk,
+        warm_start: None,
+    };
+    let penetration = |simplex: &[Vertex; 4], iterations: u32| -> Contact {
+        match epa(&sa, &sb, simplex, tol, EPA_MAX_ITERATIONS) {
+            Some(p) => Contact {
+                distance: -p.depth,
+                point_a: p.point_a,
+                point_b: p.point_b,
+                normal: p.normal,
+                status: if p.converged {
+                    Status::Converged {
+                        iterations: iterations + p.iterations as u32,
+                    }
+                } else {
+                    Status::IterationCap {
+                        iterations: iterations + p.iterations as u32,
+                    }
+                },
+                method: Method::Epa,
                 warm_start: None,
-            }
+            },
+            None => Contact {
+                status: Status::DeepOverlap,
+                ..touching
+            },
         }
+    };
+    match g.outcome {
         GjkOutcome::Separated | GjkOutcome::IterationCap => {
+            if g.outcome == GjkOutcome::IterationCap {
+                // GJK stalled without a separating plane: its distance is
+                // only an upper bound, and the bodies may overlap (an
+                // ellipsoid against a cuboid overlapping by 1e-7 came out
+                // as apart by 2.5e-8; a superellipsoid against a cuboid
+                // overlapping by 1e-10, as apart by 6e-13). Decide with the
+                // boolean GJK and measure the depth from its tetrahedron.
+                match gjk_enclose(&sa, &sb, rel.translation, opts.gjk_max_iterations) {
+                    Enclosure::Enclosed(Some(simplex)) => return penetration(&simplex, iterations),
+                    Enclosure::Enclosed(None) => {
+                        // On a face of M: overlapping to rounding.
+                        return Contact {
+                            distance: -tol,
+                            ..touching
+                        };
+                    }
+                    Enclosure::Separated | Enclosure::Undecided => {}
+                }
+            }
             let d = g.point_b - g.point_a;
             let len = d.norm();
             let normal = if len > 0.0 {
@@ -90,42 +121,11 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
             }
         }
         GjkOutcome::Overlapping => {
-            let touching = Contact {
-                distance: -0.0,
-                point_a: g.point_a,
-                point_b: g.point_b,
-                normal: rel.translation.try_normalize(0.0).unwrap_or(V3::x()),
-                status: Status::Converged { iterations },
-                method: Method::Gjk,
-                warm_start: None,
-            };
             if g.simplex_len < 4 {
                 // The origin is on the simplex: within rounding of touching.
                 return touching;
             }
-            match epa(&sa, &sb, &g.simplex, tol, EPA_MAX_ITERATIONS) {
-                Some(p) => Contact {
-                    distance: -p.depth,
-                    point_a: p.point_a,
-                    point_b: p.point_b,
-                    normal: p.normal,
-                    status: if p.converged {
-                        Status::Converged {
-                            iterations: iterations + p.iterations as u32,
-                        }
-                    } else {
-                        Status::IterationCap {
-                            iterations: iterations + p.iterations as u32,
-                        }
-                    },
-                    method: Method::Epa,
-                    warm_start: None,
-                },
-                None => Contact {
-                    status: Status::DeepOverlap,
-                    ..touching
-                },
-            }
+            penetration(&g.simplex, iterations)
         }
     }
 }
