@@ -102,7 +102,7 @@ proptest! {
         let horizon = 4.0;
         let predicted = predictor
             .contact_time((&c.a, &c.qa, &sa), (&c.b, &c.qb, &sb), &c.d, &c.dv, horizon)
-            .map_err(|e| TestCaseError::fail(e))?;
+            .map_err(TestCaseError::fail)?;
         // Fine stepping with the MC overlap test.
         let steps = 4000;
         let h = horizon / steps as f64;
