@@ -314,6 +314,25 @@ fn python_with_readers() -> bool {
     has()
 }
 
+/// Runs `tests/python/SCRIPT` on `args` and returns the JSON it prints,
+/// failing with its standard error if it fails.
+fn python_report(name: &str, script: &str, args: &[&Path]) -> serde_json::Value {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/python")
+        .join(script);
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 #[test]
 fn the_python_readers_decode_every_channel_and_the_gsd_export() {
     assert!(
@@ -340,18 +359,7 @@ fn the_python_readers_decode_every_channel_and_the_gsd_export() {
         let scene = Scene::parse(&text).unwrap();
         let path = dir.join(format!("{name}.mcap"));
         run_scene(&scene, &text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/read_log.py");
-        let out = std::process::Command::new("python3")
-            .arg(&script)
-            .arg(&path)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let report = python_report(name, "read_log.py", &[&path]);
         let log = read_log(&path, true).unwrap();
         for (topic, count) in &log.counts {
             assert_eq!(
@@ -373,19 +381,7 @@ fn the_python_readers_decode_every_channel_and_the_gsd_export() {
             .status()
             .unwrap();
         assert!(status.success());
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/read_gsd.py");
-        let out = std::process::Command::new("python3")
-            .arg(&script)
-            .arg(&path)
-            .arg(&gsd)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let report = python_report(name, "read_gsd.py", &[&path, &gsd]);
         assert_eq!(report["frames"].as_u64(), Some(log.states.len() as u64));
     }
 }
