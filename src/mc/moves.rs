@@ -1,7 +1,7 @@
 //! Trial moves: translation, rotation, and ln V box moves (isotropic or
 //! along one axis), with their counters.
 
-use std::ops::{Add, AddAssign};
+use std::ops::{Add, AddAssign, Sub};
 
 use nalgebra::{Unit, UnitQuaternion, Vector3};
 use rand::Rng;
@@ -57,6 +57,28 @@ impl Add for Counts {
             translate: self.translate + o.translate,
             rotate: self.rotate + o.rotate,
             volume: self.volume + o.volume,
+        }
+    }
+}
+
+impl Sub for Count {
+    type Output = Count;
+    fn sub(self, o: Count) -> Count {
+        Count {
+            tried: self.tried - o.tried,
+            accepted: self.accepted - o.accepted,
+        }
+    }
+}
+
+impl Sub for Counts {
+    type Output = Counts;
+    /// The moves counted since `o` was read off the same counter.
+    fn sub(self, o: Counts) -> Counts {
+        Counts {
+            translate: self.translate - o.translate,
+            rotate: self.rotate - o.rotate,
+            volume: self.volume - o.volume,
         }
     }
 }

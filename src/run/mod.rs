@@ -683,12 +683,11 @@ impl Runner<'_> {
             }
         };
         let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
-        let before = compressor.state().counts;
-        let mut last_counts = before;
+        let mut last_counts = compressor.state().counts;
         let outcome = loop {
             let step = compressor.sweep(&mut system, rng);
             let state = *compressor.state();
-            window += diff(state.counts, last_counts);
+            window += state.counts - last_counts;
             last_counts = state.counts;
             let s = state.sweeps;
             let time = self.clock + s * NS_PER_SWEEP;
@@ -1152,19 +1151,6 @@ impl Runner<'_> {
             )
             .with_velocities(&dynamics.velocities())
         }
-    }
-}
-
-/// Counts of `now` minus those of `before`.
-fn diff(now: Counts, before: Counts) -> Counts {
-    let d = |a: Count, b: Count| Count {
-        tried: a.tried - b.tried,
-        accepted: a.accepted - b.accepted,
-    };
-    Counts {
-        translate: d(now.translate, before.translate),
-        rotate: d(now.rotate, before.rotate),
-        volume: d(now.volume, before.volume),
     }
 }
 
