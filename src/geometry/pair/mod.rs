@@ -111,6 +111,9 @@ pub enum Method {
     Epa,
     /// 15-axis separating-axis test (cuboid penetration depth).
     SeparatingAxes,
+    /// Largest gap between support planes over a cuboid's features (exact
+    /// cuboid–smooth distance near contact).
+    SupportGap,
 }
 
 /// Signed distance of two bodies and where it is attained, in A's frame.
@@ -317,7 +320,7 @@ pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
         (Cuboid(_), Ellipsoid(_) | Superellipsoid(_))
         | (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => (
             "OBB, then GJK on support points",
-            "GJK/EPA on support points",
+            "GJK; near contact the largest support-plane gap over the cuboid's features",
         ),
     }
 }
