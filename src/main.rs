@@ -110,6 +110,8 @@ enum Suite {
     Mc,
     /// Hard-sphere dynamics through the full scene path against the library directly.
     Scene,
+    /// Event-driven dynamics: time per collision for spheres, ellipsoids and cubes.
+    Edmd,
     /// What the grazing threshold and the Newton tolerance buy and cost (ellipsoids, aspect 2 and 5).
     EdmdTolerance,
 }
@@ -137,6 +139,7 @@ fn main() -> ExitCode {
             Suite::Ocsi => bench_ocsi(quick, json),
             Suite::Mc => bench_mc(quick, json),
             Suite::Scene => bench_scene(quick, json),
+            Suite::Edmd => bench_edmd(quick, json),
             Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
         },
     }
@@ -564,6 +567,39 @@ fn print_block(text: &str) {
 fn esay(line: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stderr(), "{line}");
+}
+
+fn bench_edmd(quick: bool, json: bool) -> ExitCode {
+    let rows = match hardbody::bench::edmd_speed::speed(quick) {
+        Ok(rows) => rows,
+        Err(e) => {
+            esay(&format!("hardbody: edmd benchmark failed: {e}"));
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    if json {
+        print_json(&rows);
+        return ExitCode::SUCCESS;
+    }
+    say("| system | N | phi | neighbours | us/collision, median (range) | target | published |");
+    say("|---|---|---|---|---|---|---|");
+    for r in &rows {
+        say(&format!(
+            "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | <= {} | {} |",
+            r.system,
+            r.n,
+            r.packing_fraction,
+            r.neighbours,
+            r.median_us_per_collision,
+            r.min_us_per_collision,
+            r.max_us_per_collision,
+            r.repeats,
+            r.collisions_per_repeat,
+            r.target_us_per_collision,
+            r.reference
+        ));
+    }
+    ExitCode::SUCCESS
 }
 
 fn bench_edmd_tolerance(quick: bool, json: bool) -> ExitCode {

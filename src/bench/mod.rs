@@ -1,6 +1,7 @@
 //! Benchmark suites behind `hardbody bench`.
 
 pub mod edmd;
+pub mod edmd_speed;
 pub mod mc;
 pub mod ocsi;
 pub mod scene;
