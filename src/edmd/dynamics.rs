@@ -139,6 +139,12 @@ struct Body {
     velocity: V3,
     /// The time the stored pose belongs to.
     time: f64,
+    /// Where its last collision search stopped: its crossing time or the
+    /// earliest collision it found, whichever is first (any later
+    /// collision of this body will be invalidated by that event). If that
+    /// collision is invalidated by the partner instead, the search is
+    /// renewed from there.
+    horizon: f64,
     orientation: UnitQuaternion<f64>,
     /// Lab frame.
     angular_velocity: V3,
@@ -146,12 +152,6 @@ struct Body {
     /// When the body next leaves its cell (its events after that are
     /// invalidated there anyway, so none later is scheduled).
     crossing_time: f64,
-    /// Where its last collision search stopped: its crossing time or the
-    /// earliest collision it found, whichever is first (any later
-    /// collision of this body will be invalidated by that event). If that
-    /// collision is invalidated by the partner instead, the search is
-    /// renewed from there.
-    horizon: f64,
 }
 
 /// Per species: what the dynamics needs to know.
@@ -253,6 +253,12 @@ pub struct Dynamics {
     kinds: Vec<Kind>,
     /// Closed-form contact distance per species pair (spheres), else None.
     contact_sums: Vec<Option<f64>>,
+    /// Every pair in closed form (spheres only): a contact time is exact
+    /// whenever it is found, so searches need no horizon, and a body that
+    /// crosses into a cell searches only the layer of cells it now
+    /// neighbours (Smallenburg's scheme); otherwise a crossing renews the
+    /// whole search, which stopped at it.
+    closed_form: bool,
     bodies: Vec<Body>,
     cells: CellList,
     cell_lengths: V3,
@@ -493,8 +499,10 @@ impl Dynamics {
             .iter()
             .map(|b| 0.5 * b.velocity.norm_squared() / kinds[b.species as usize].inverse_mass)
             .sum();
+        let closed_form = contact_sums.iter().all(Option::is_some);
         let mut dynamics = Self {
             box_,
+            closed_form,
             contact_sums,
             cells,
             cell_lengths,
@@ -1052,9 +1060,62 @@ impl Dynamics {
         }
         let cell = self.cells.index_of(c);
         self.cells.move_to(i, cell);
+        if self.closed_form {
+            // The trajectory is unchanged and its events stand; only the
+            // bodies in the layer of cells ahead are new neighbours.
+            self.schedule_crossing(i);
+            let mut layer = c;
+            layer[axis] = if up {
+                (c[axis] + 1) % dims[axis]
+            } else {
+                (c[axis] + dims[axis] - 1) % dims[axis]
+            };
+            return self.schedule_collisions_in_layer(i, layer, axis);
+        }
         self.calendar.invalidate(i);
         self.schedule_crossing(i);
         self.schedule_collisions(i, None, false)
+    }
+
+    /// Closed-form pairs only: schedules body `i`'s collisions with the
+    /// bodies in the 3×3 cells around `layer` across `axis` (its new
+    /// neighbours after a crossing), if earlier than its earliest one.
+    fn schedule_collisions_in_layer(
+        &mut self,
+        i: usize,
+        layer: [usize; 3],
+        axis: usize,
+    ) -> Result<(), EdmdError> {
+        let dims = self.cells.dims();
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        let mut horizon_i = self.bodies[i].horizon;
+        let mut earliest = None;
+        for da in [dims[a] - 1, 0, 1] {
+            for db in [dims[b] - 1, 0, 1] {
+                let mut c = layer;
+                c[a] = (c[a] + da) % dims[a];
+                c[b] = (c[b] + db) % dims[b];
+                for &j in self.cells.members(self.cells.index_of(c)) {
+                    let j = j as usize;
+                    if j == i {
+                        continue;
+                    }
+                    match self.closed_form_contact(i, j) {
+                        Some(t) if t < horizon_i.min(self.bodies[j].horizon) => {
+                            earliest = Some(j);
+                            horizon_i = t;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        if let Some(j) = earliest {
+            self.bodies[i].horizon = horizon_i;
+            self.calendar
+                .schedule(horizon_i, EventKind::Collision, i, j);
+        }
+        Ok(())
     }
 
     /// Schedules body `i`'s next cell crossing (`i` at its own time).
@@ -1278,12 +1339,43 @@ impl Dynamics {
     ) -> Result<(), EdmdError> {
         self.advance(i);
         let cell = self.cells.cell_of(i);
-        let mut horizon_i = self.bodies[i].crossing_time;
+        let mut horizon_i = if self.closed_form {
+            f64::INFINITY
+        } else {
+            self.bodies[i].crossing_time
+        };
         // Searches that need many steps (pairs lingering close together)
         // wait until the cheap ones have shortened the horizon.
         let mut deferred = std::mem::take(&mut self.deferred);
         deferred.clear();
-        for &nc in self.cells.neighbour_cells(cell) {
+        // Only the earliest contact found is scheduled: a later one would be
+        // invalidated by it, or, if its partner changes first, found again
+        // when the search is renewed from there (see `process_next`).
+        let mut earliest = None;
+        if self.closed_form {
+            // Every search is one closed-form solve, none deferred.
+            for &nc in self.cells.neighbour_cells(cell) {
+                for &j in self.cells.members(nc as usize) {
+                    let j = j as usize;
+                    if j == i || Some(j) == skip || (once && j < i) {
+                        continue;
+                    }
+                    match self.closed_form_contact(i, j) {
+                        Some(t) if t < horizon_i.min(self.bodies[j].horizon) => {
+                            earliest = Some((t, j, None));
+                            horizon_i = t;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        for &nc in self
+            .cells
+            .neighbour_cells(cell)
+            .iter()
+            .filter(|_| !self.closed_form)
+        {
             for &j in self.cells.members(nc as usize) {
                 let j = j as usize;
                 if j == i || Some(j) == skip || (once && j < i) {
@@ -1294,8 +1386,7 @@ impl Dynamics {
                 let horizon = horizon_i.min(self.bodies[j].horizon);
                 match self.predict_pair(i, j, self.now, horizon, CHEAP_SEARCH)? {
                     (Search::Contact(t), warm) => {
-                        // (The fields, not `self`: the cell list is borrowed.)
-                        schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
+                        earliest = Some((t, j, warm));
                         horizon_i = t;
                     }
                     (Search::Apart, _) => {}
@@ -1316,7 +1407,7 @@ impl Dynamics {
             let horizon = horizon_i.min(self.bodies[j].horizon);
             match self.predict_pair(i, j, from, horizon, CHEAP_SEARCH)? {
                 (Search::Contact(t), warm) => {
-                    schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
+                    earliest = Some((t, j, warm));
                     horizon_i = t;
                     deferred.swap_remove(k);
                 }
@@ -1328,7 +1419,23 @@ impl Dynamics {
         }
         self.deferred = deferred;
         self.bodies[i].horizon = horizon_i;
+        if let Some((t, j, warm)) = earliest {
+            schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
+        }
         Ok(())
+    }
+
+    /// The contact time of two spheres, `i` at the current time (absolute,
+    /// `None` if they never touch).
+    #[inline]
+    fn closed_form_contact(&self, i: usize, j: usize) -> Option<f64> {
+        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+        let sigma =
+            self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]?;
+        let rj = position_after(&bj.position, &bj.velocity, self.now - bj.time);
+        let d = self.box_.minimum_image_near(&(rj - bi.position));
+        crate::geometry::pair::sphere_contact_time(&d, &(bj.velocity - bi.velocity), sigma)
+            .map(|t| self.now + t)
     }
 
     /// The contact time of bodies `i` (at the current time) and `j` if it
