@@ -19,9 +19,26 @@ use rand_pcg::Pcg64;
 /// Runs at least `collisions` collisions in frames of `frame` time units,
 /// checking every frame; returns the energy drift.
 fn run(shapes: &[&str], n: usize, phi: f64, collisions: u64, frame: f64, seed: u64) -> f64 {
+    run_with(shapes, n, phi, collisions, frame, seed, None)
+}
+
+/// [`run`] with neighbour lists of shell `shell` (None: cells).
+fn run_with(
+    shapes: &[&str],
+    n: usize,
+    phi: f64,
+    collisions: u64,
+    frame: f64,
+    seed: u64,
+    shell: Option<f64>,
+) -> f64 {
     let system = compressed_state(shapes, n, phi, seed);
     let mut rng = Pcg64::seed_from_u64(seed + 1);
-    let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+    let options = DynamicsOptions {
+        neighbour_shell: shell,
+        ..DynamicsOptions::default()
+    };
+    let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
     let e0 = md.kinetic_energy();
     let momentum_scale = (md.len() as f64).sqrt();
     let mut worst: f64 = 0.0;
@@ -47,7 +64,7 @@ fn run(shapes: &[&str], n: usize, phi: f64, collisions: u64, frame: f64, seed: u
     let end = md.to_system().unwrap();
     assert_eq!(end.first_overlap_all_pairs(), None, "{shapes:?}");
     eprintln!(
-        "{shapes:?} phi {phi}: {} collisions, {frames} frames checked, energy drift {worst:.1e}, {:.0} us/collision",
+        "{shapes:?} phi {phi}, shell {shell:?}: {} collisions, {frames} frames checked, energy drift {worst:.1e}, {:.0} us/collision",
         md.collisions(),
         started.elapsed().as_secs_f64() * 1e6 / md.collisions() as f64
     );
@@ -83,6 +100,18 @@ fn cubes_at_0_50() {
 #[test]
 fn cuboid_sphere_mixture_at_0_45() {
     run(&[CUBE, BALL], 6, 0.45, 20_000, 0.02, 5);
+}
+
+/// Every system again with neighbour lists (shells of 0.1 and 0.3 of the
+/// smallest bounding diameter): no overlap at any frame, energy and
+/// momentum conserved.
+#[test]
+fn every_system_with_neighbour_lists() {
+    run_with(&[PROLATE], 6, 0.50, 5_000, 0.05, 21, Some(0.2));
+    run_with(&[OBLATE], 6, 0.50, 5_000, 0.05, 22, Some(0.6));
+    run_with(&[SUPERELLIPSOID], 6, 0.40, 1_000, 0.05, 23, Some(0.2));
+    run_with(&[CUBE], 6, 0.50, 5_000, 0.02, 24, Some(0.17));
+    run_with(&[CUBE, BALL], 6, 0.45, 5_000, 0.02, 25, Some(0.08));
 }
 
 // The acceptance soak: 10⁶ collisions per system, every frame checked

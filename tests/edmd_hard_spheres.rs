@@ -137,4 +137,54 @@ fn bad_settings_are_errors() {
     };
     let err = Dynamics::from_state(&system, &opts, &mut rng).unwrap_err();
     assert!(err.to_string().contains("masses"), "{err}");
+    for shell in [-0.1, f64::NAN, f64::INFINITY] {
+        let opts = DynamicsOptions {
+            neighbour_shell: Some(shell),
+            ..DynamicsOptions::default()
+        };
+        let err = Dynamics::from_state(&system, &opts, &mut rng).unwrap_err();
+        assert!(err.to_string().contains("neighbour shell"), "{err}");
+    }
+}
+
+/// Neighbour lists change how pairs are found, not the trajectory: from
+/// the same state and velocities, cells and lists (two shells) give the
+/// same collisions, pair by pair and at the same times, until rounding
+/// lets chaos part them (a body's stored position is advanced at its cell
+/// crossings with cells and at its sphere rebuilds with lists, so the
+/// predictions differ in the last bits; measured: 9204 and 9602 of 20 000
+/// collisions identical).
+#[test]
+fn neighbour_lists_give_the_same_collisions_as_cells() {
+    let system = mc_state(0.45, 4);
+    let sequence = |shell: Option<f64>| {
+        let mut rng = Pcg64::seed_from_u64(40);
+        let opts = DynamicsOptions {
+            neighbour_shell: shell,
+            ..DynamicsOptions::default()
+        };
+        let mut md = Dynamics::from_state(&system, &opts, &mut rng).unwrap();
+        md.record_collisions(true);
+        md.run_collisions(20_000).unwrap();
+        md.take_collisions()
+    };
+    let cells = sequence(None);
+    for shell in [0.1, 0.4] {
+        let lists = sequence(Some(shell));
+        let same = cells
+            .iter()
+            .zip(&lists)
+            .take_while(|(a, b)| {
+                a.1 == b.1 && a.2 == b.2 && (a.0 - b.0).abs() <= 1e-9 * a.0.max(1.0)
+            })
+            .count();
+        eprintln!(
+            "shell {shell}: the same {same} collisions of {}",
+            cells.len()
+        );
+        assert!(
+            same >= 5_000,
+            "shell {shell}: sequences part after {same} collisions"
+        );
+    }
 }

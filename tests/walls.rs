@@ -112,6 +112,18 @@ fn a_sphere_bounces_exactly() {
 /// collisions (pairs and walls), checking energy and every frame; returns
 /// the dynamics.
 fn closed_gas(shapes: &[&str], counts: &[usize], l: f64, walls: [bool; 3], time: f64) -> Dynamics {
+    closed_gas_with(shapes, counts, l, walls, time, None)
+}
+
+/// [`closed_gas`] with neighbour lists of shell `shell` (None: cells).
+fn closed_gas_with(
+    shapes: &[&str],
+    counts: &[usize],
+    l: f64,
+    walls: [bool; 3],
+    time: f64,
+    shell: Option<f64>,
+) -> Dynamics {
     let mut rng = Pcg64::seed_from_u64(7);
     let kinds: Vec<Species> = shapes
         .iter()
@@ -119,7 +131,11 @@ fn closed_gas(shapes: &[&str], counts: &[usize], l: f64, walls: [bool; 3], time:
         .map(|(k, s)| species(&format!("s{k}"), s))
         .collect();
     let system = lattice(walled(l, walls), kinds, counts, &mut rng).unwrap();
-    let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+    let options = DynamicsOptions {
+        neighbour_shell: shell,
+        ..DynamicsOptions::default()
+    };
+    let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
     let e0 = md.kinetic_energy();
     let frames = 200;
     for f in 1..=frames {
@@ -149,9 +165,14 @@ fn turning_bodies_bounce_off_walls_conserving_energy() {
             &[30][..],
         ),
     ] {
-        let md = closed_gas(shapes, counts, 8.0, [true, true, true], 20.0);
-        eprintln!("{shapes:?}: {} collisions in t = 20", md.collisions());
-        assert!(md.collisions() > 200, "{shapes:?}");
+        for shell in [None, Some(0.2)] {
+            let md = closed_gas_with(shapes, counts, 8.0, [true, true, true], 20.0, shell);
+            eprintln!(
+                "{shapes:?}, shell {shell:?}: {} collisions in t = 20",
+                md.collisions()
+            );
+            assert!(md.collisions() > 200, "{shapes:?}");
+        }
     }
 }
 

@@ -157,39 +157,62 @@ pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
     let mut rows = Vec::new();
     for setup in setups(quick) {
         let system = start(&setup, 1)?;
-        let options = DynamicsOptions::default();
-        let mut rng = Pcg64::seed_from_u64(2);
-        let mut md =
-            Dynamics::from_state(&system, &options, &mut rng).map_err(|e| e.to_string())?;
-        let fail = |e: crate::edmd::EdmdError| format!("{}: {e}", setup.system);
-        md.run_collisions(10 * setup.n as u64 / if quick { 10 } else { 1 })
-            .map_err(fail)?;
-        let mut times = Vec::with_capacity(repeats);
-        for _ in 0..repeats {
-            let clock = Instant::now();
-            md.run_collisions(setup.collisions).map_err(fail)?;
-            times.push(clock.elapsed().as_secs_f64() * 1e6 / setup.collisions as f64);
+        // Cells, then neighbour lists with shells of 0.1, 0.25 and 0.5 of
+        // the bounding diameter.
+        let diameter = 2.0 * system.species()[0].shape.bounding_radius();
+        for shell in [None, Some(0.1), Some(0.25), Some(0.5)] {
+            let shell = shell.map(|f| f * diameter);
+            rows.push(time_system(&setup, &system, shell, repeats, quick)?);
         }
-        // Checked a moment after the last collision, whose pair touches
-        // (to rounding) at it and counts as overlapping in the MC test.
-        md.run_until(md.time() + 1e-3).map_err(fail)?;
-        md.to_system()
-            .map_err(|e| format!("{}: overlap at the end: {e}", setup.system))?;
-        times.sort_by(f64::total_cmp);
-        rows.push(SpeedRow {
-            system: setup.system.into(),
-            shape: setup.shape.into(),
-            n: setup.n,
-            packing_fraction: setup.phi,
-            neighbours: "cells".into(),
-            collisions_per_repeat: setup.collisions,
-            repeats,
-            median_us_per_collision: times[repeats / 2],
-            min_us_per_collision: times[0],
-            max_us_per_collision: times[repeats - 1],
-            target_us_per_collision: setup.target,
-            reference: setup.reference.into(),
-        });
     }
     Ok(rows)
+}
+
+/// Times one system with one neighbour structure: 10 collisions per body
+/// to forget the start, then `repeats` timed runs.
+fn time_system(
+    setup: &Setup,
+    system: &System,
+    neighbour_shell: Option<f64>,
+    repeats: usize,
+    quick: bool,
+) -> Result<SpeedRow, String> {
+    let options = DynamicsOptions {
+        neighbour_shell,
+        ..DynamicsOptions::default()
+    };
+    let mut rng = Pcg64::seed_from_u64(2);
+    let mut md = Dynamics::from_state(system, &options, &mut rng).map_err(|e| e.to_string())?;
+    let fail = |e: crate::edmd::EdmdError| format!("{}: {e}", setup.system);
+    md.run_collisions(10 * setup.n as u64 / if quick { 10 } else { 1 })
+        .map_err(fail)?;
+    let mut times = Vec::with_capacity(repeats);
+    for _ in 0..repeats {
+        let clock = Instant::now();
+        md.run_collisions(setup.collisions).map_err(fail)?;
+        times.push(clock.elapsed().as_secs_f64() * 1e6 / setup.collisions as f64);
+    }
+    // Checked a moment after the last collision, whose pair touches (to
+    // rounding) at it and counts as overlapping in the MC test.
+    md.run_until(md.time() + 1e-3).map_err(fail)?;
+    md.to_system()
+        .map_err(|e| format!("{}: overlap at the end: {e}", setup.system))?;
+    times.sort_by(f64::total_cmp);
+    Ok(SpeedRow {
+        system: setup.system.into(),
+        shape: setup.shape.into(),
+        n: setup.n,
+        packing_fraction: setup.phi,
+        neighbours: match neighbour_shell {
+            None => "cells".into(),
+            Some(shell) => format!("lists, shell {shell:.3}"),
+        },
+        collisions_per_repeat: setup.collisions,
+        repeats,
+        median_us_per_collision: times[repeats / 2],
+        min_us_per_collision: times[0],
+        max_us_per_collision: times[repeats - 1],
+        target_us_per_collision: setup.target,
+        reference: setup.reference.into(),
+    })
 }

@@ -66,7 +66,11 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
     .map_err(|e| e.to_string())?;
     log.finish().map_err(|e| e.to_string())?;
     // Simulated time for about `collisions` collisions, from a first run.
-    let options = DynamicsOptions::default();
+    // The neighbour lists the scene picks by itself.
+    let options = DynamicsOptions {
+        neighbour_shell: Some(crate::edmd::automatic_neighbour_shell(system.species())),
+        ..DynamicsOptions::default()
+    };
     let mut probe = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(1))
         .map_err(|e| e.to_string())?;
     probe

@@ -21,6 +21,9 @@ pub enum EventKind {
         /// Leaving through the face at the larger coordinate.
         up: bool,
     },
+    /// Particle `i` has moved the shell from the centre of its neighbour
+    /// sphere, which is rebuilt.
+    Escape,
     /// Particle `i` touches the hard wall normal to `axis`, at the larger
     /// coordinate if `up`.
     Wall {

@@ -11,5 +11,5 @@ pub mod dynamics;
 pub mod motion;
 pub mod predict;
 
-pub use dynamics::{Dynamics, DynamicsOptions, EdmdError, Sample};
+pub use dynamics::{Dynamics, DynamicsOptions, EdmdError, Sample, automatic_neighbour_shell};
 pub use predict::{Predictor, PredictorOptions, Search};

@@ -1107,6 +1107,7 @@ impl Runner<'_> {
             masses: self.plan.masses(),
             predictor: self.predictor_options(),
             true_inertia,
+            neighbour_shell: self.scene.neighbour_shell(),
         }
     }
 

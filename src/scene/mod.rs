@@ -224,6 +224,25 @@ pub struct Accuracy {
     /// Newton–Raphson convergence, relative to the smallest semi-axis.
     #[serde(default = "default_newton_tolerance")]
     pub newton_tolerance: f64,
+    /// How the dynamics finds the bodies a body may meet.
+    #[serde(default)]
+    pub neighbours: Neighbours,
+}
+
+/// The dynamics' neighbour structure (`accuracy.neighbours`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum Neighbours {
+    /// Neighbour lists with the shell [`crate::edmd::automatic_neighbour_shell`]
+    /// picks for the species.
+    #[default]
+    Auto,
+    /// Linked cells with cell-crossing events.
+    Cells,
+    /// Neighbour lists: bounding spheres grown by `shell` (a length).
+    Lists {
+        /// The shell Δ.
+        shell: f64,
+    },
 }
 
 fn default_grazing() -> f64 {
@@ -242,6 +261,7 @@ impl Default for Accuracy {
             grazing_threshold: default_grazing(),
             contact_tolerance: default_contact_tolerance(),
             newton_tolerance: default_newton_tolerance(),
+            neighbours: Neighbours::Auto,
         }
     }
 }
@@ -350,6 +370,16 @@ impl Scene {
     pub fn box_vector(&self) -> nalgebra::Vector3<f64> {
         let (x, y, z) = self.box_lengths;
         nalgebra::Vector3::new(x, y, z)
+    }
+
+    /// The dynamics' neighbour shell (`None`: cells), as
+    /// `accuracy.neighbours` asks.
+    pub fn neighbour_shell(&self) -> Option<f64> {
+        match self.accuracy.neighbours {
+            Neighbours::Auto => Some(crate::edmd::automatic_neighbour_shell(&self.mc_species())),
+            Neighbours::Cells => None,
+            Neighbours::Lists { shell } => Some(shell),
+        }
     }
 
     /// Per axis: whether the scene closes it with hard walls.
@@ -625,6 +655,14 @@ impl Scene {
             return bad(
                 "accuracy.newton_tolerance",
                 format!("must lie in (0, 1e-3), got {}", a.newton_tolerance),
+            );
+        }
+        if let Neighbours::Lists { shell } = a.neighbours
+            && !(shell.is_finite() && shell > 0.0)
+        {
+            return bad(
+                "accuracy.neighbours",
+                format!("the neighbour shell must be a length > 0, got {shell}"),
             );
         }
         Ok(())

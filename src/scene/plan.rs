@@ -6,7 +6,7 @@
 
 use std::fmt;
 
-use super::{Ensemble, Scene, Stage, Start};
+use super::{Ensemble, Neighbours, Scene, Stage, Start};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
 use crate::mc::{NeighbourPlan, Species};
@@ -58,6 +58,10 @@ pub struct Plan {
     pub c2: bool,
     /// Per axis: hard walls (true) or periodic.
     pub walls: [bool; 3],
+    /// The dynamics' neighbour structure, as the scene asks.
+    pub neighbours: Neighbours,
+    /// Its shell (`None`: cells).
+    pub neighbour_shell: Option<f64>,
 }
 
 impl Plan {
@@ -124,6 +128,8 @@ impl Plan {
             msd: asks(|s| matches!(s, Stage::Dynamics { msd: true, .. })),
             c2: asks(|s| matches!(s, Stage::Dynamics { c2: true, .. })),
             walls: scene.wall_axes(),
+            neighbours: scene.accuracy.neighbours,
+            neighbour_shell: scene.neighbour_shell(),
         }
     }
 
@@ -219,10 +225,21 @@ impl fmt::Display for Report<'_> {
             }
         }
         if plan.has_dynamics {
-            writeln!(
-                f,
-                "  dynamics neighbours: linked cells with cell-crossing events (oriented-box neighbour lists are not available in this version)"
-            )?;
+            match (plan.neighbours, plan.neighbour_shell) {
+                (Neighbours::Cells, _) | (_, None) => writeln!(
+                    f,
+                    "  dynamics neighbours: linked cells with cell-crossing events (accuracy.neighbours: Cells)"
+                )?,
+                (how, Some(shell)) => writeln!(
+                    f,
+                    "  dynamics neighbours: lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4} ({})",
+                    if how == Neighbours::Auto {
+                        "automatic: a quarter of the smallest bounding diameter for spheres, a tenth otherwise; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                    } else {
+                        "accuracy.neighbours"
+                    }
+                )?,
+            }
             let turning = plan.species.iter().any(|s| s.species.rotation);
             writeln!(
                 f,

@@ -1,12 +1,14 @@
-//! Space: the periodic simulation box and cell lists. Depends on nothing but
-//! nalgebra.
+//! Space: the periodic simulation box, cell lists and neighbour lists.
+//! Depends on nothing but nalgebra.
 
 pub mod aabb_cells;
 pub mod cell_list;
+pub mod neighbour_list;
 pub mod periodic_box;
 
 pub use aabb_cells::AabbCells;
 pub use cell_list::CellList;
+pub use neighbour_list::NeighbourLists;
 pub use periodic_box::PeriodicBox;
 
 use nalgebra::Vector3;
