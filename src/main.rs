@@ -99,6 +99,10 @@ enum Command {
         /// Print a JSON array of rows instead of the table.
         #[arg(long)]
         json: bool,
+        /// Write the suite's plots (SVG) into this directory
+        /// (edmd-shell, edmd-density).
+        #[arg(long, value_name = "DIR")]
+        plot: Option<std::path::PathBuf>,
     },
 }
 
@@ -112,6 +116,10 @@ enum Suite {
     Scene,
     /// Event-driven dynamics: time per collision for spheres, ellipsoids and cubes.
     Edmd,
+    /// Time per collision against the neighbour shell; the fastest shell against phi.
+    EdmdShell,
+    /// Time per collision against phi for ellipsoids of aspect 2 and 0.5, cells and lists.
+    EdmdDensity,
     /// What the grazing threshold and the Newton tolerance buy and cost (ellipsoids, aspect 2 and 5).
     EdmdTolerance,
 }
@@ -135,13 +143,45 @@ fn main() -> ExitCode {
             seed,
             json,
         } => virial(&shape_a, &shape_b, samples, seed, json),
-        Command::Bench { suite, quick, json } => match suite {
-            Suite::Ocsi => bench_ocsi(quick, json),
-            Suite::Mc => bench_mc(quick, json),
-            Suite::Scene => bench_scene(quick, json),
-            Suite::Edmd => bench_edmd(quick, json),
-            Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
-        },
+        Command::Bench {
+            suite,
+            quick,
+            json,
+            plot,
+        } => {
+            use hardbody::bench::edmd_speed;
+            if let Some(dir) = &plot {
+                if !matches!(suite, Suite::EdmdShell | Suite::EdmdDensity) {
+                    return bad_input(
+                        "--plot: this suite has no plots yet (edmd-shell and edmd-density have)",
+                    );
+                }
+                if let Err(e) = std::fs::create_dir_all(dir) {
+                    return bad_input(format!("--plot {}: {e}", dir.display()));
+                }
+            }
+            match suite {
+                Suite::Ocsi => bench_ocsi(quick, json),
+                Suite::Mc => bench_mc(quick, json),
+                Suite::Scene => bench_scene(quick, json),
+                Suite::Edmd => bench_speed("edmd", edmd_speed::speed(quick), json, None, None),
+                Suite::EdmdShell => bench_speed(
+                    "edmd-shell",
+                    edmd_speed::shell(quick),
+                    json,
+                    plot.as_deref(),
+                    Some(edmd_speed::plot_shell),
+                ),
+                Suite::EdmdDensity => bench_speed(
+                    "edmd-density",
+                    edmd_speed::density(quick),
+                    json,
+                    plot.as_deref(),
+                    Some(edmd_speed::plot_density),
+                ),
+                Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
+            }
+        }
     }
 }
 
@@ -569,35 +609,71 @@ fn esay(line: &str) {
     let _ = writeln!(std::io::stderr(), "{line}");
 }
 
-fn bench_edmd(quick: bool, json: bool) -> ExitCode {
-    let rows = match hardbody::bench::edmd_speed::speed(quick) {
+/// Plots of a suite's rows into a directory.
+type Plotter = fn(
+    &[hardbody::bench::edmd_speed::SpeedRow],
+    &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String>;
+
+/// Prints the rows of a time-per-collision suite (and writes its plots).
+fn bench_speed(
+    name: &str,
+    rows: Result<Vec<hardbody::bench::edmd_speed::SpeedRow>, String>,
+    json: bool,
+    plot: Option<&std::path::Path>,
+    plotter: Option<Plotter>,
+) -> ExitCode {
+    let rows = match rows {
         Ok(rows) => rows,
         Err(e) => {
-            esay(&format!("hardbody: edmd benchmark failed: {e}"));
+            esay(&format!("hardbody: {name} benchmark failed: {e}"));
             return ExitCode::from(EXIT_FAILED);
         }
     };
     if json {
         print_json(&rows);
-        return ExitCode::SUCCESS;
+    } else {
+        say(
+            "| system | N | phi | neighbours | us/collision, median (range) | target | published |",
+        );
+        say("|---|---|---|---|---|---|---|");
+        for r in &rows {
+            say(&format!(
+                "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | {} | {} |",
+                r.system,
+                r.n,
+                r.packing_fraction,
+                r.neighbours,
+                r.median_us_per_collision,
+                r.min_us_per_collision,
+                r.max_us_per_collision,
+                r.repeats,
+                r.collisions_per_repeat,
+                if r.target_us_per_collision.is_finite() {
+                    format!("<= {}", r.target_us_per_collision)
+                } else {
+                    "-".into()
+                },
+                if r.reference.is_empty() {
+                    "-"
+                } else {
+                    &r.reference
+                }
+            ));
+        }
     }
-    say("| system | N | phi | neighbours | us/collision, median (range) | target | published |");
-    say("|---|---|---|---|---|---|---|");
-    for r in &rows {
-        say(&format!(
-            "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | <= {} | {} |",
-            r.system,
-            r.n,
-            r.packing_fraction,
-            r.neighbours,
-            r.median_us_per_collision,
-            r.min_us_per_collision,
-            r.max_us_per_collision,
-            r.repeats,
-            r.collisions_per_repeat,
-            r.target_us_per_collision,
-            r.reference
-        ));
+    if let (Some(dir), Some(plotter)) = (plot, plotter) {
+        match plotter(&rows, dir) {
+            Ok(paths) => {
+                for p in paths {
+                    esay(&format!("plot written: {}", p.display()));
+                }
+            }
+            Err(e) => {
+                esay(&format!("hardbody: {name} plots failed: {e}"));
+                return ExitCode::from(EXIT_FAILED);
+            }
+        }
     }
     ExitCode::SUCCESS
 }

@@ -34,6 +34,8 @@ pub struct SpeedRow {
     pub packing_fraction: f64,
     /// Neighbour structure of the dynamics.
     pub neighbours: String,
+    /// The neighbour-list shell (None: cells).
+    pub shell: Option<f64>,
     /// Collisions per timed repeat.
     pub collisions_per_repeat: u64,
     /// Timed repeats.
@@ -207,6 +209,7 @@ fn time_system(
             None => "cells".into(),
             Some(shell) => format!("lists, shell {shell:.3}"),
         },
+        shell: neighbour_shell,
         collisions_per_repeat: setup.collisions,
         repeats,
         median_us_per_collision: times[repeats / 2],
@@ -215,4 +218,240 @@ fn time_system(
         target_us_per_collision: setup.target,
         reference: setup.reference.into(),
     })
+}
+
+const PROLATE: &str = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)";
+const OBLATE: &str = "Ellipsoid(a: 0.25, b: 0.5, c: 0.5)";
+
+/// A system of the parameter suites (no target, no published figure).
+fn plain(
+    system: &'static str,
+    shape: &'static str,
+    n: usize,
+    phi: f64,
+    start: Start,
+    collisions: u64,
+) -> Setup {
+    Setup {
+        system,
+        shape,
+        n,
+        phi,
+        start,
+        collisions,
+        target: f64::NAN,
+        reference: "",
+    }
+}
+
+/// `hardbody bench edmd-shell` (De Michele Figs. 10–11): time per collision
+/// against the neighbour shell Δ for hard spheres at φ = 0.3, 0.4, 0.5 and
+/// prolate ellipsoids (2:1) at φ = 0.5, with the cells time beside each;
+/// the best Δ per system.
+pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, String> {
+    let repeats = if quick { 3 } else { 5 };
+    let (n_spheres, sphere_collisions) = if quick {
+        (1000, 20_000)
+    } else {
+        (4000, 200_000)
+    };
+    let mut setups: Vec<Setup> = [0.3, 0.4, 0.5]
+        .into_iter()
+        .map(|phi| {
+            plain(
+                "hard spheres",
+                "Sphere(radius: 0.5)",
+                n_spheres,
+                phi,
+                Start::Lattice,
+                sphere_collisions,
+            )
+        })
+        .collect();
+    setups.push(plain(
+        "ellipsoids, aspect 2",
+        PROLATE,
+        256,
+        0.5,
+        Start::Compressed,
+        if quick { 500 } else { 5000 },
+    ));
+    // Shells in units of the bounding diameter.
+    let fractions: &[f64] = if quick {
+        &[0.05, 0.2, 0.5]
+    } else {
+        &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.8]
+    };
+    let mut rows = Vec::new();
+    for setup in &setups {
+        let system = start(setup, 1)?;
+        let diameter = 2.0 * system.species()[0].shape.bounding_radius();
+        rows.push(time_system(setup, &system, None, repeats, quick)?);
+        for f in fractions {
+            rows.push(time_system(
+                setup,
+                &system,
+                Some(f * diameter),
+                repeats,
+                quick,
+            )?);
+        }
+    }
+    Ok(rows)
+}
+
+/// `hardbody bench edmd-density` (De Michele Fig. 7): time per collision
+/// against φ for ellipsoids of aspect 2 and 0.5 (N = 256), cells and
+/// neighbour lists (shell a tenth of the bounding diameter), each φ
+/// compressed by Monte Carlo from the previous one.
+pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
+    let repeats = if quick { 3 } else { 5 };
+    let phis: &[f64] = if quick {
+        &[0.3, 0.45]
+    } else {
+        &[0.2, 0.3, 0.4, 0.45, 0.5]
+    };
+    let collisions = if quick { 300 } else { 5000 };
+    let mut rows = Vec::new();
+    for (name, shape) in [
+        ("ellipsoids, aspect 2", PROLATE),
+        ("ellipsoids, aspect 0.5", OBLATE),
+    ] {
+        let dilute = plain(name, shape, 256, 0.05, Start::Lattice, collisions);
+        let mut system = start(&dilute, 1)?;
+        let mut rng = Pcg64::seed_from_u64(3);
+        let sizes = MoveSizes {
+            translate: 0.3,
+            rotate: 0.3,
+            volume: 0.0,
+        };
+        let diameter = 2.0 * system.species()[0].shape.bounding_radius();
+        for &phi in phis {
+            compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)
+                .map_err(|e| e.to_string())?;
+            let setup = plain(name, shape, 256, phi, Start::Compressed, collisions);
+            rows.push(time_system(&setup, &system, None, repeats, quick)?);
+            rows.push(time_system(
+                &setup,
+                &system,
+                Some(0.1 * diameter),
+                repeats,
+                quick,
+            )?);
+        }
+    }
+    Ok(rows)
+}
+
+/// Plots of the shell suite: time per collision against Δ (one line per
+/// system, cells as Δ = 0 left out), and the best Δ against φ for spheres.
+pub fn plot_shell(
+    rows: &[SpeedRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let mut keys: Vec<(String, f64)> = Vec::new();
+    for r in rows {
+        if !keys
+            .iter()
+            .any(|k| k.0 == r.system && k.1 == r.packing_fraction)
+        {
+            keys.push((r.system.clone(), r.packing_fraction));
+        }
+    }
+    let series: Vec<Series> = keys
+        .iter()
+        .map(|(system, phi)| Series {
+            name: format!("{system}, phi {phi}"),
+            points: rows
+                .iter()
+                .filter(|r| &r.system == system && r.packing_fraction == *phi)
+                .filter_map(|r| r.shell.map(|s| (s, r.median_us_per_collision)))
+                .collect(),
+        })
+        .collect();
+    let time = dir.join("edmd-shell-time.svg");
+    line_plot(
+        &time,
+        &Figure {
+            title: "Time per collision against the neighbour shell (one core, medians)",
+            x_label: "neighbour shell Delta (length units; sphere diameter 1)",
+            y_label: "time per collision (us)",
+            log_x: true,
+            log_y: true,
+        },
+        &series,
+    )?;
+    let best: Vec<(f64, f64)> = keys
+        .iter()
+        .filter(|(system, _)| system == "hard spheres")
+        .filter_map(|(system, phi)| {
+            rows.iter()
+                .filter(|r| &r.system == system && r.packing_fraction == *phi && r.shell.is_some())
+                .min_by(|a, b| {
+                    a.median_us_per_collision
+                        .total_cmp(&b.median_us_per_collision)
+                })
+                .and_then(|r| r.shell.map(|s| (*phi, s)))
+        })
+        .collect();
+    let optimum = dir.join("edmd-shell-optimum.svg");
+    line_plot(
+        &optimum,
+        &Figure {
+            title: "Fastest neighbour shell against packing fraction, hard spheres",
+            x_label: "packing fraction phi",
+            y_label: "fastest shell Delta* (sphere diameters)",
+            log_x: false,
+            log_y: false,
+        },
+        &[Series {
+            name: "hard spheres".into(),
+            points: best,
+        }],
+    )?;
+    Ok(vec![time, optimum])
+}
+
+/// Plot of the density suite: time per collision against φ, one line per
+/// shape and neighbour structure.
+pub fn plot_density(
+    rows: &[SpeedRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let mut keys: Vec<(String, bool)> = Vec::new();
+    for r in rows {
+        let key = (r.system.clone(), r.shell.is_some());
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    let series: Vec<Series> = keys
+        .iter()
+        .map(|(system, lists)| Series {
+            name: format!(
+                "{system}, {}",
+                if *lists { "neighbour lists" } else { "cells" }
+            ),
+            points: rows
+                .iter()
+                .filter(|r| &r.system == system && r.shell.is_some() == *lists)
+                .map(|r| (r.packing_fraction, r.median_us_per_collision))
+                .collect(),
+        })
+        .collect();
+    let path = dir.join("edmd-density.svg");
+    line_plot(
+        &path,
+        &Figure {
+            title: "Time per collision against packing fraction, ellipsoids N = 256 (one core, medians)",
+            x_label: "packing fraction phi",
+            y_label: "time per collision (us)",
+            log_x: false,
+            log_y: true,
+        },
+        &series,
+    )?;
+    Ok(vec![path])
 }

@@ -4,4 +4,5 @@ pub mod edmd;
 pub mod edmd_speed;
 pub mod mc;
 pub mod ocsi;
+pub mod plot;
 pub mod scene;

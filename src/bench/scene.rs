@@ -68,7 +68,10 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
     // Simulated time for about `collisions` collisions, from a first run.
     // The neighbour lists the scene picks by itself.
     let options = DynamicsOptions {
-        neighbour_shell: Some(crate::edmd::automatic_neighbour_shell(system.species())),
+        neighbour_shell: crate::edmd::automatic_neighbour_shell(
+            system.species(),
+            system.packing_fraction(),
+        ),
         ..DynamicsOptions::default()
     };
     let mut probe = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(1))

@@ -142,22 +142,28 @@ impl Default for DynamicsOptions {
     }
 }
 
-/// The neighbour shell a scene gets unless it names one: a quarter of the
-/// smallest bounding diameter when every body is a sphere, a tenth
-/// otherwise. Measured (`hardbody bench edmd`, one core, medians of 5):
-/// hard spheres N = 4000 at φ = 0.5, 2.85 µs per collision against 4.20
-/// with cells; ellipsoids (aspect 2 and 0.5, N = 256, φ = 0.5) and cubes
-/// (N = 1000, φ = 0.5) 15–20 % faster than with cells at a tenth, slower
-/// with wider shells.
-pub fn automatic_neighbour_shell(species: &[Species]) -> f64 {
+/// Below this packing fraction hard spheres run faster with cells.
+pub const SPHERE_LISTS_FROM: f64 = 0.4;
+
+/// The neighbour structure a scene gets unless it names one, at packing
+/// fraction `packing_fraction`: for spheres, cells below φ = 0.4 and lists
+/// with a shell of a quarter of the diameter above; for every other
+/// system, lists with a shell of a tenth of the smallest bounding diameter.
+/// Measured (`hardbody bench edmd`, `edmd-shell`, `edmd-density`, one core,
+/// medians): hard spheres N = 4000 at φ = 0.5, 1.97 µs per collision
+/// against 3.13 with cells; at φ = 0.4 (N = 1000) 2.64 against 3.42; at
+/// φ = 0.3 cells win, 2.41 against 3.82 at the best shell; ellipsoids
+/// (aspect 2 and 0.5, φ 0.3–0.5) and cubes (φ 0.5) 15–30 % faster with
+/// lists at a tenth, slower with wider shells.
+pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
     let diameter = species
         .iter()
         .map(|s| 2.0 * s.shape.bounding_radius())
         .fold(f64::INFINITY, f64::min);
     if species.iter().all(|s| s.shape.is_sphere()) {
-        0.25 * diameter
+        (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
     } else {
-        0.1 * diameter
+        Some(0.1 * diameter)
     }
 }
 

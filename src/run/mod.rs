@@ -480,7 +480,8 @@ impl Runner<'_> {
             .zip(w)
             .map(|(v, w)| (Vector3::from(*v), Vector3::from(*w)))
             .collect();
-        let options = self.dynamics_options(d.temperature, *true_inertia);
+        let options =
+            self.dynamics_options(d.temperature, *true_inertia, system.packing_fraction());
         let dynamics = Dynamics::from_parts(&system, &velocities, &options, d.time, d.collisions)
             .map_err(|e| e.to_string())?;
         Ok(Phase::Dynamics {
@@ -970,7 +971,8 @@ impl Runner<'_> {
             }
             other => {
                 let system = self.to_system(other)?;
-                let options = self.dynamics_options(temperature, true_inertia);
+                let options =
+                    self.dynamics_options(temperature, true_inertia, system.packing_fraction());
                 fresh = true;
                 Box::new(Dynamics::from_state(&system, &options, rng).map_err(fail)?)
             }
@@ -1101,13 +1103,18 @@ impl Runner<'_> {
         ))
     }
 
-    fn dynamics_options(&self, temperature: f64, true_inertia: bool) -> DynamicsOptions {
+    fn dynamics_options(
+        &self,
+        temperature: f64,
+        true_inertia: bool,
+        packing_fraction: f64,
+    ) -> DynamicsOptions {
         DynamicsOptions {
             temperature,
             masses: self.plan.masses(),
             predictor: self.predictor_options(),
             true_inertia,
-            neighbour_shell: self.scene.neighbour_shell(),
+            neighbour_shell: self.scene.neighbour_shell(packing_fraction),
         }
     }
 

@@ -232,8 +232,8 @@ pub struct Accuracy {
 /// The dynamics' neighbour structure (`accuracy.neighbours`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub enum Neighbours {
-    /// Neighbour lists with the shell [`crate::edmd::automatic_neighbour_shell`]
-    /// picks for the species.
+    /// What [`crate::edmd::automatic_neighbour_shell`] picks for the
+    /// species at the packing fraction the dynamics starts at.
     #[default]
     Auto,
     /// Linked cells with cell-crossing events.
@@ -373,10 +373,13 @@ impl Scene {
     }
 
     /// The dynamics' neighbour shell (`None`: cells), as
-    /// `accuracy.neighbours` asks.
-    pub fn neighbour_shell(&self) -> Option<f64> {
+    /// `accuracy.neighbours` asks, for a dynamics stage that starts at
+    /// `packing_fraction`.
+    pub fn neighbour_shell(&self, packing_fraction: f64) -> Option<f64> {
         match self.accuracy.neighbours {
-            Neighbours::Auto => Some(crate::edmd::automatic_neighbour_shell(&self.mc_species())),
+            Neighbours::Auto => {
+                crate::edmd::automatic_neighbour_shell(&self.mc_species(), packing_fraction)
+            }
             Neighbours::Cells => None,
             Neighbours::Lists { shell } => Some(shell),
         }

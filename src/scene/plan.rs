@@ -60,7 +60,8 @@ pub struct Plan {
     pub walls: [bool; 3],
     /// The dynamics' neighbour structure, as the scene asks.
     pub neighbours: Neighbours,
-    /// Its shell (`None`: cells).
+    /// Its shell where lists are used (`None`: cells), for a dense
+    /// system (automatic choice: spheres below φ = 0.4 get cells).
     pub neighbour_shell: Option<f64>,
 }
 
@@ -129,7 +130,7 @@ impl Plan {
             c2: asks(|s| matches!(s, Stage::Dynamics { c2: true, .. })),
             walls: scene.wall_axes(),
             neighbours: scene.accuracy.neighbours,
-            neighbour_shell: scene.neighbour_shell(),
+            neighbour_shell: scene.neighbour_shell(1.0),
         }
     }
 
@@ -234,7 +235,7 @@ impl fmt::Display for Report<'_> {
                     f,
                     "  dynamics neighbours: lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4} ({})",
                     if how == Neighbours::Auto {
-                        "automatic: a quarter of the smallest bounding diameter for spheres, a tenth otherwise; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                        "automatic: a tenth of the smallest bounding diameter; for spheres a quarter, and cells instead when the dynamics starts below phi = 0.4; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
                     } else {
                         "accuracy.neighbours"
                     }

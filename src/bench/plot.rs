@@ -1,0 +1,158 @@
+//! SVG line plots of benchmark results (plotters): one or more named
+//! series of (x, y) points, axes labelled with units, log scales where the
+//! quantity spans decades.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+/// A named series of points.
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// (x, y) points, in order of x.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// How a plot is laid out.
+pub struct Figure<'a> {
+    /// Title above the plot.
+    pub title: &'a str,
+    /// x-axis label, with units.
+    pub x_label: &'a str,
+    /// y-axis label, with units.
+    pub y_label: &'a str,
+    /// Logarithmic x axis.
+    pub log_x: bool,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+}
+
+const COLOURS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+/// The range of the values, widened a little (by a factor on log axes).
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if !lo.is_finite() {
+        return if log { (0.1, 10.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        let pad = 0.05 * (hi - lo).max(hi.abs() * 1e-3).max(1e-12);
+        (lo - pad, hi + pad)
+    }
+}
+
+/// Writes `series` as an SVG line plot with points to `path`.
+pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), String> {
+    let (x0, x1) = range(
+        series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+        figure.log_x,
+    );
+    let (y0, y1) = range(
+        series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
+        figure.log_y,
+    );
+    let root = SVGBackend::new(path, (800, 520)).into_drawing_area();
+    let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| fail(&e))?;
+    let mut builder = ChartBuilder::on(&root);
+    builder
+        .caption(figure.title, ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70);
+    // The four axis kinds are four chart types; one body serves them.
+    macro_rules! draw {
+        ($x:expr, $y:expr) => {{
+            let mut chart = builder.build_cartesian_2d($x, $y).map_err(|e| fail(&e))?;
+            chart
+                .configure_mesh()
+                .x_desc(figure.x_label)
+                .y_desc(figure.y_label)
+                .draw()
+                .map_err(|e| fail(&e))?;
+            for (k, s) in series.iter().enumerate() {
+                let colour = COLOURS[k % COLOURS.len()];
+                chart
+                    .draw_series(LineSeries::new(
+                        s.points.iter().copied(),
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(|e| fail(&e))?
+                    .label(s.name.as_str())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+                chart
+                    .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                    .map_err(|e| fail(&e))?;
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()
+                .map_err(|e| fail(&e))?;
+        }};
+    }
+    match (figure.log_x, figure.log_y) {
+        (false, false) => draw!(x0..x1, y0..y1),
+        (true, false) => draw!((x0..x1).log_scale(), y0..y1),
+        (false, true) => draw!(x0..x1, (y0..y1).log_scale()),
+        (true, true) => draw!((x0..x1).log_scale(), (y0..y1).log_scale()),
+    }
+    root.present().map_err(|e| fail(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plot is written, with the title, labels and legend in it.
+    #[test]
+    fn writes_a_labelled_svg() {
+        let dir = std::env::temp_dir().join(format!("hardbody-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("p.svg");
+        let series = [
+            Series {
+                name: "cells".into(),
+                points: vec![(0.3, 10.0), (0.4, 20.0), (0.5, 80.0)],
+            },
+            Series {
+                name: "lists".into(),
+                points: vec![(0.3, 8.0), (0.4, 15.0), (0.5, 50.0)],
+            },
+        ];
+        let figure = Figure {
+            title: "time per collision",
+            x_label: "packing fraction",
+            y_label: "time per collision (us)",
+            log_x: false,
+            log_y: true,
+        };
+        line_plot(&path, &figure, &series).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        for text in [
+            "time per collision",
+            "packing fraction",
+            "cells",
+            "lists",
+            "<svg",
+        ] {
+            assert!(svg.contains(text), "{text} missing");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
