@@ -159,10 +159,10 @@ pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
     let mut rows = Vec::new();
     for setup in setups(quick) {
         let system = start(&setup, 1)?;
-        // Cells, then neighbour lists with shells of 0.1, 0.25 and 0.5 of
+        // Cells, then neighbour lists with shells of 0.05, 0.1 and 0.25 of
         // the bounding diameter.
         let diameter = 2.0 * system.species()[0].shape.bounding_radius();
-        for shell in [None, Some(0.1), Some(0.25), Some(0.5)] {
+        for shell in [None, Some(0.05), Some(0.1), Some(0.25)] {
             let shell = shell.map(|f| f * diameter);
             rows.push(time_system(&setup, &system, shell, repeats, quick)?);
         }
@@ -280,7 +280,7 @@ pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, String> {
     let fractions: &[f64] = if quick {
         &[0.05, 0.2, 0.5]
     } else {
-        &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.8]
+        &[0.0125, 0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.8]
     };
     let mut rows = Vec::new();
     for setup in &setups {
@@ -302,7 +302,7 @@ pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, String> {
 
 /// `hardbody bench edmd-density` (De Michele Fig. 7): time per collision
 /// against φ for ellipsoids of aspect 2 and 0.5 (N = 256), cells and
-/// neighbour lists (shell a tenth of the bounding diameter), each φ
+/// neighbour lists (shell a twentieth of the bounding diameter), each φ
 /// compressed by Monte Carlo from the previous one.
 pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
     let repeats = if quick { 3 } else { 5 };
@@ -334,7 +334,7 @@ pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
             rows.push(time_system(
                 &setup,
                 &system,
-                Some(0.1 * diameter),
+                Some(0.05 * diameter),
                 repeats,
                 quick,
             )?);

@@ -143,18 +143,21 @@ impl Default for DynamicsOptions {
 }
 
 /// Below this packing fraction hard spheres run faster with cells.
-pub const SPHERE_LISTS_FROM: f64 = 0.4;
+pub const SPHERE_LISTS_FROM: f64 = 0.45;
 
 /// The neighbour structure a scene gets unless it names one, at packing
-/// fraction `packing_fraction`: for spheres, cells below φ = 0.4 and lists
-/// with a shell of a quarter of the diameter above; for every other
-/// system, lists with a shell of a tenth of the smallest bounding diameter.
-/// Measured (`hardbody bench edmd`, `edmd-shell`, `edmd-density`, one core,
-/// medians): hard spheres N = 4000 at φ = 0.5, 1.97 µs per collision
-/// against 3.13 with cells; at φ = 0.4 (N = 1000) 2.64 against 3.42; at
-/// φ = 0.3 cells win, 2.41 against 3.82 at the best shell; ellipsoids
-/// (aspect 2 and 0.5, φ 0.3–0.5) and cubes (φ 0.5) 15–30 % faster with
-/// lists at a tenth, slower with wider shells.
+/// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
+/// lists with a shell of a quarter of the diameter above; for every other
+/// system, lists with a shell of a twentieth of the smallest bounding
+/// diameter. Measured (`hardbody bench edmd-shell`, `edmd-density`, one
+/// core, medians of 5; docs/ACCURACY.md): hard spheres N = 4000 at
+/// φ = 0.5, 2.48–2.50 µs per collision at shells 0.2–0.3 against 3.39 with
+/// cells; at φ = 0.4 no better than cells within the noise (2.97–3.81
+/// against 3.57); at φ = 0.3 cells win (2.98 against 3.96 at best);
+/// prolate ellipsoids at φ = 0.5 fastest at the smallest shell tried, a
+/// fortieth of the diameter (202 µs against 284 with cells, 230 at a
+/// tenth); ellipsoids 2:1 and 1:2 at every φ from 0.2 to 0.5 15–25 %
+/// faster with lists than with cells.
 pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
     let diameter = species
         .iter()
@@ -163,7 +166,7 @@ pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> 
     if species.iter().all(|s| s.shape.is_sphere()) {
         (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
     } else {
-        Some(0.1 * diameter)
+        Some(0.05 * diameter)
     }
 }
 

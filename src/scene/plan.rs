@@ -235,7 +235,7 @@ impl fmt::Display for Report<'_> {
                     f,
                     "  dynamics neighbours: lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4} ({})",
                     if how == Neighbours::Auto {
-                        "automatic: a tenth of the smallest bounding diameter; for spheres a quarter, and cells instead when the dynamics starts below phi = 0.4; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                        "automatic: a twentieth of the smallest bounding diameter; for spheres a quarter, and cells instead when the dynamics starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
                     } else {
                         "accuracy.neighbours"
                     }
