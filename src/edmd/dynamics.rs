@@ -308,7 +308,13 @@ pub struct Dynamics {
     /// whenever it is found, so searches need no horizon, and a body that
     /// crosses into a cell searches only the layer of cells it now
     /// neighbours (Smallenburg's scheme); otherwise a crossing renews the
-    /// whole search, which stopped at it.
+    /// whole search, which stopped at it. Closed-form predictions are also
+    /// canonical: a body's stored pose changes only at its collisions and
+    /// wall bounces (wrapped into the box there) and at rebases (at a
+    /// collision), never at crossings or list rebuilds, and a pair is
+    /// solved from the later of its two stored poses; so the predicted
+    /// times, and the trajectory, do not depend on when searches run or on
+    /// the neighbour structure.
     closed_form: bool,
     bodies: Vec<Body>,
     /// Cells over the bodies' centres (with crossing events), or with
@@ -320,6 +326,10 @@ pub struct Dynamics {
     neighbours: Option<NeighbourSpheres>,
     /// Scratch: the bodies a search looks at.
     candidates: Vec<u32>,
+    /// Per body, with cells and closed-form pairs: what to add to the
+    /// stored position to put it in its cell's image (the pose is kept
+    /// through periodic crossings; see `closed_form`).
+    cell_shifts: Vec<V3>,
     calendar: Calendar,
     predictor: Predictor,
     /// Time since `origin`.
@@ -327,6 +337,8 @@ pub struct Dynamics {
     /// Absolute time of `now` = 0 (moved forward at rebases).
     origin: f64,
     events_since_rebase: u64,
+    /// Collisions at the last rebase.
+    collisions_at_rebase: u64,
     collisions: u64,
     interval: Interval,
     /// Translational kinetic energy (changes only at collisions).
@@ -496,6 +508,7 @@ impl Dynamics {
             Self::assemble(system, species, kinds, bodies, dof, rotors > 0, options)?;
         dynamics.origin = time;
         dynamics.collisions = collisions;
+        dynamics.collisions_at_rebase = collisions;
         Ok(dynamics)
     }
 
@@ -585,11 +598,13 @@ impl Dynamics {
             cell_lengths,
             neighbours,
             candidates: Vec::new(),
+            cell_shifts: vec![V3::zeros(); n],
             calendar: Calendar::new(n),
             predictor: Predictor::new(options.predictor),
             now: 0.0,
             origin: 0.0,
             events_since_rebase: 0,
+            collisions_at_rebase: 0,
             collisions: 0,
             interval: Interval::default(),
             kinetic_translational,
@@ -922,8 +937,16 @@ impl Dynamics {
             }
         }
         self.events_since_rebase += 1;
-        if self.events_since_rebase > 64 * self.bodies.len() as u64 {
-            self.rebase();
+        // Closed-form pairs rebase at a collision (an instant both
+        // neighbour structures share; see `closed_form`), others at any event.
+        let due = if self.closed_form {
+            self.collisions - self.collisions_at_rebase > 32 * self.bodies.len() as u64
+                && matches!(e.kind, EventKind::Collision)
+        } else {
+            self.events_since_rebase > 64 * self.bodies.len() as u64
+        };
+        if due {
+            self.rebase()?;
         }
         Ok(true)
     }
@@ -948,7 +971,7 @@ impl Dynamics {
 
     /// Moves the time origin to now, so that event times stay small and
     /// keep their precision over long runs.
-    fn rebase(&mut self) {
+    fn rebase(&mut self) -> Result<(), EdmdError> {
         for i in 0..self.bodies.len() {
             self.advance(i);
         }
@@ -965,6 +988,17 @@ impl Dynamics {
         self.origin += shift;
         self.now = 0.0;
         self.events_since_rebase = 0;
+        self.collisions_at_rebase = self.collisions;
+        if self.closed_form {
+            // Every prediction again from the new poses: an event predicted
+            // before and shifted can differ in its last bit from the same
+            // event predicted after (see `closed_form`).
+            for b in &mut self.bodies {
+                b.horizon = f64::INFINITY;
+            }
+            self.schedule_everything()?;
+        }
+        Ok(())
     }
 
     fn collide(&mut self, i: usize, j: usize) -> Result<(), EdmdError> {
@@ -976,7 +1010,28 @@ impl Dynamics {
         );
         let d = self
             .box_
-            .minimum_image_near(&(self.bodies[j].position - self.bodies[i].position));
+            .minimum_image(&(self.bodies[j].position - self.bodies[i].position));
+        if self.closed_form {
+            // New stored poses: wrapped into the box here, and only here;
+            // with cells, in the image of the body's cell.
+            for k in [i, j] {
+                let p = self.bodies[k].position;
+                let wrapped = match self.neighbours {
+                    Some(_) => self.box_.wrap(&p),
+                    None => {
+                        let l = self.box_.lengths();
+                        let c = self.cells.coords_of(self.cells.cell_of(k));
+                        V3::from_fn(|a, _| {
+                            let centre = -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a];
+                            p[a] + l[a] * ((centre - p[a]) / l[a]).round()
+                        })
+                    }
+                };
+                self.images[k] += p - wrapped;
+                self.bodies[k].position = wrapped;
+                self.cell_shifts[k] = V3::zeros();
+            }
+        }
         let impulse = if let Some(sigma) = self.contact_sums[si * self.kinds.len() + sj] {
             let len = d.norm();
             let gap = len - sigma;
@@ -1120,23 +1175,35 @@ impl Dynamics {
     }
 
     fn cross(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
-        self.advance(i);
+        // Closed-form pairs keep the stored pose (see `closed_form`): the
+        // cell is followed through the image nearest to it.
+        let keep_pose = self.closed_form;
+        if !keep_pose {
+            self.advance(i);
+        }
         let dims = self.cells.dims();
         let mut c = self.cells.coords_of(self.cells.cell_of(i));
         let l = self.box_.lengths()[axis];
+        let mut shift = 0.0;
         if up {
             c[axis] += 1;
             if c[axis] == dims[axis] {
                 c[axis] = 0;
-                self.bodies[i].position[axis] -= l;
-                self.images[i][axis] += l;
+                shift = -l;
             }
         } else if c[axis] == 0 {
             c[axis] = dims[axis] - 1;
-            self.bodies[i].position[axis] += l;
-            self.images[i][axis] -= l;
+            shift = l;
         } else {
             c[axis] -= 1;
+        }
+        if shift != 0.0 {
+            if keep_pose {
+                self.cell_shifts[i][axis] += shift;
+            } else {
+                self.bodies[i].position[axis] += shift;
+                self.images[i][axis] -= shift;
+            }
         }
         let cell = self.cells.index_of(c);
         self.cells.move_to(i, cell);
@@ -1160,10 +1227,18 @@ impl Dynamics {
     /// Body `i` has moved the shell from its neighbour sphere's centre: the
     /// sphere is rebuilt around it, and `i` searches its new list.
     fn escape(&mut self, i: usize) -> Result<(), EdmdError> {
-        self.advance(i);
-        let wrapped = self.box_.wrap(&self.bodies[i].position);
-        self.images[i] += self.bodies[i].position - wrapped;
-        self.bodies[i].position = wrapped;
+        let wrapped = if self.closed_form {
+            // The stored pose stays (see `closed_form`).
+            let b = &self.bodies[i];
+            self.box_
+                .wrap(&position_after(&b.position, &b.velocity, self.now - b.time))
+        } else {
+            self.advance(i);
+            let wrapped = self.box_.wrap(&self.bodies[i].position);
+            self.images[i] += self.bodies[i].position - wrapped;
+            self.bodies[i].position = wrapped;
+            wrapped
+        };
         self.cells.update(i, &wrapped);
         let spheres = self
             .neighbours
@@ -1224,12 +1299,13 @@ impl Dynamics {
         if let Some(spheres) = &self.neighbours {
             // Against a sphere shrunk by a relative 1e-9: rounding never
             // takes a body out of its sphere unseen.
+            let now = position_after(&b.position, &b.velocity, self.now - b.time);
             let dt = escape_time(
-                &(b.position - spheres.centres[i]),
+                &self.box_.minimum_image(&(now - spheres.centres[i])),
                 &b.velocity,
                 spheres.shell * (1.0 - 1e-9),
             );
-            self.schedule_neighbourhood_event(i, b.time + dt, EventKind::Escape);
+            self.schedule_neighbourhood_event(i, self.now + dt, EventKind::Escape);
             return;
         }
         let c = self.cells.coords_of(self.cells.cell_of(i));
@@ -1246,7 +1322,10 @@ impl Dynamics {
             } else {
                 (lower, false)
             };
-            let t = ((face - b.position[k]) / v).max(0.0);
+            // The stored position in the image of its cell (they differ
+            // when the pose is kept through a periodic crossing).
+            let x = b.position[k] + self.cell_shifts[i][k];
+            let t = ((face - x) / v).max(0.0);
             if t < best.0 {
                 best = (t, k as u8, up);
             }
@@ -1453,7 +1532,9 @@ impl Dynamics {
         skip: Option<usize>,
         once: bool,
     ) -> Result<(), EdmdError> {
-        self.advance(i);
+        if !self.closed_form {
+            self.advance(i);
+        }
         let keep = |j: usize| j != i && Some(j) != skip && !(once && j < i);
         if self.closed_form {
             // Every search is one closed-form solve, exact whenever it is
@@ -1579,15 +1660,26 @@ impl Dynamics {
 
     /// The contact time of two spheres, `i` at the current time (absolute,
     /// `None` if they never touch).
-    #[inline]
+    #[inline(always)]
     fn closed_form_contact(&self, i: usize, j: usize) -> Option<f64> {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
         let sigma =
             self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]?;
-        let rj = position_after(&bj.position, &bj.velocity, self.now - bj.time);
-        let d = self.box_.minimum_image_near(&(rj - bi.position));
-        crate::geometry::pair::sphere_contact_time(&d, &(bj.velocity - bi.velocity), sigma)
-            .map(|t| self.now + t)
+        // From the later of the two stored poses, whenever the search runs:
+        // the same bits for the same poses (see `closed_form`).
+        // The image is the one nearest now (bodies that have flown far
+        // since t0 may have been nearer in another then); neighbours are
+        // far closer than half a box, so every search picks the same one.
+        let dv = bj.velocity - bi.velocity;
+        let (t0, raw) = if bi.time >= bj.time {
+            let rj = position_after(&bj.position, &bj.velocity, bi.time - bj.time);
+            (bi.time, rj - bi.position)
+        } else {
+            let ri = position_after(&bi.position, &bi.velocity, bj.time - bi.time);
+            (bj.time, bj.position - ri)
+        };
+        let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
+        crate::geometry::pair::sphere_contact_time(&d, &dv, sigma).map(|t| (t0 + t).max(self.now))
     }
 
     /// The contact time of bodies `i` (at the current time) and `j` if it
