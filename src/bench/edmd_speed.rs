@@ -86,7 +86,7 @@ fn setups(quick: bool) -> Vec<Setup> {
         },
         Setup {
             system: "ellipsoids, aspect 2",
-            shape: "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)",
+            shape: PROLATE,
             n: 256,
             phi: 0.5,
             start: Start::Compressed,
@@ -96,7 +96,7 @@ fn setups(quick: bool) -> Vec<Setup> {
         },
         Setup {
             system: "ellipsoids, aspect 0.5",
-            shape: "Ellipsoid(a: 0.25, b: 0.5, c: 0.5)",
+            shape: OBLATE,
             n: 256,
             phi: 0.5,
             start: Start::Compressed,
