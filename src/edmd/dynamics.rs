@@ -1021,10 +1021,10 @@ impl Dynamics {
                     None => {
                         let l = self.box_.lengths();
                         let c = self.cells.coords_of(self.cells.cell_of(k));
-                        V3::from_fn(|a, _| {
-                            let centre = -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a];
-                            p[a] + l[a] * ((centre - p[a]) / l[a]).round()
-                        })
+                        let centre = V3::from_fn(|a, _| {
+                            -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a]
+                        });
+                        p + self.box_.image_shift(&(p - centre))
                     }
                 };
                 self.images[k] += p - wrapped;
@@ -1175,8 +1175,8 @@ impl Dynamics {
     }
 
     fn cross(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
-        // Closed-form pairs keep the stored pose (see `closed_form`): the
-        // cell is followed through the image nearest to it.
+        // Closed-form pairs keep the stored pose (see `closed_form`): a
+        // periodic crossing moves `cell_shifts`, not the pose.
         let keep_pose = self.closed_form;
         if !keep_pose {
             self.advance(i);

@@ -126,8 +126,8 @@ struct Candidate {
 impl SupportGap<'_> {
     /// B's point farthest along −n (towards A), in A's frame.
     fn point_b(&self, n: &V3) -> V3 {
-        let r = &self.rel.rotation;
-        self.rel.translation + r * self.b.support(&-r.tr_mul(n))
+        self.rel
+            .b_to_a(&self.b.support(&-self.rel.rotation.tr_mul(n)))
     }
 
     /// The largest support gap over the features next to direction
@@ -310,7 +310,7 @@ impl SupportGap<'_> {
                 return Some(Candidate {
                     gap,
                     normal: n,
-                    point_b: self.rel.translation + r * x,
+                    point_b: self.rel.b_to_a(&x),
                     iterations: iteration,
                 });
             }
