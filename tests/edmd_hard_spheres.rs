@@ -137,7 +137,7 @@ fn bad_settings_are_errors() {
     };
     let err = Dynamics::from_state(&system, &opts, &mut rng).unwrap_err();
     assert!(err.to_string().contains("masses"), "{err}");
-    for shell in [-0.1, f64::NAN, f64::INFINITY] {
+    for shell in [0.0, -0.1, f64::NAN, f64::INFINITY] {
         let opts = DynamicsOptions {
             neighbour_shell: Some(shell),
             ..DynamicsOptions::default()

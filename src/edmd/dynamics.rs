@@ -90,8 +90,9 @@ pub enum EdmdError {
         "velocities must be finite, one pair per body ({0} bodies), and zero spin for bodies that do not rotate"
     )]
     BadVelocities(usize),
-    /// A neighbour shell that is negative or not finite.
-    #[error("the neighbour shell must be a finite length >= 0, got {0}")]
+    /// A neighbour shell that is not a finite length > 0 (with a zero
+    /// shell every body would rebuild its list at every instant).
+    #[error("the neighbour shell must be a finite length > 0, got {0}")]
     BadShell(f64),
     /// The distance solver failed at a collision or a prediction.
     #[error("distance of particles {i} and {j} at t = {time} could not be computed: {why}")]
@@ -558,10 +559,12 @@ impl Dynamics {
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
             .collect();
         let box_ = *system.periodic_box();
-        let shell = options.neighbour_shell.unwrap_or(0.0);
-        if !(shell.is_finite() && shell >= 0.0) {
+        if let Some(shell) = options.neighbour_shell
+            && !(shell.is_finite() && shell > 0.0)
+        {
             return Err(EdmdError::BadShell(shell));
         }
+        let shell = options.neighbour_shell.unwrap_or(0.0);
         let reach: Vec<f64> = kinds
             .iter()
             .map(|k| k.shape.bounding_radius() + shell)
