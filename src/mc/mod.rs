@@ -15,7 +15,7 @@ pub mod tuning;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use crate::geometry::{Relative, Shape, overlap};
-use crate::space::{AabbCells, CellList, PeriodicBox};
+use crate::space::{AabbCells, PackedCells, PeriodicBox};
 
 type V3 = Vector3<f64>;
 
@@ -86,7 +86,7 @@ pub enum McError {
 /// for elongated or flat particles and size-asymmetric mixtures.
 #[derive(Debug, Clone)]
 enum Neighbours {
-    Cells(CellList),
+    Cells(PackedCells),
     Aabb(AabbCells),
 }
 
@@ -150,14 +150,15 @@ impl Neighbours {
         use_aabb: bool,
         width: f64,
         range: f64,
-        lengths: V3,
+        box_: &PeriodicBox,
         centres: &[V3],
         halves: &[V3],
+        radii: &[f64],
     ) -> Self {
         if use_aabb {
-            Neighbours::Aabb(AabbCells::new(lengths, width, centres, halves))
+            Neighbours::Aabb(AabbCells::new(box_.lengths(), width, centres, halves))
         } else {
-            Neighbours::Cells(CellList::new(lengths, range, centres))
+            Neighbours::Cells(PackedCells::new(box_, range, centres, radii))
         }
     }
 }
@@ -192,6 +193,8 @@ pub struct System {
     aabb_width: f64,
     /// Largest distance at which two centres can still touch.
     range: f64,
+    /// Every species is a sphere: overlap is the distance of centres alone.
+    all_spheres: bool,
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
 }
@@ -242,13 +245,19 @@ impl System {
             .collect();
         let (use_aabb, aabb_width, _, _) = Neighbours::plan(&species);
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
+        let particle_radii: Vec<f64> = particles
+            .iter()
+            .map(|p| radii[p.species as usize])
+            .collect();
+        let all_spheres = species.iter().all(|s| s.shape.is_sphere());
         let cells = Neighbours::build(
             use_aabb,
             aabb_width,
             range,
-            box_.lengths(),
+            &box_,
             &positions,
             &aabb,
+            &particle_radii,
         );
         let system = Self {
             box_,
@@ -264,6 +273,7 @@ impl System {
             use_aabb,
             aabb_width,
             range,
+            all_spheres,
             ideal: false,
         };
         if let Some(i) = system.first_wall_overlap() {
@@ -361,7 +371,23 @@ impl System {
     /// Whether particle `i`, placed at `position` with rotation `rotation`,
     /// would overlap any other particle (periodic images included).
     pub fn overlaps_at(&self, i: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
+        if let (Neighbours::Cells(cells), true, false) = (&self.cells, self.all_spheres, self.ideal)
+        {
+            let si = self.particles[i].species as usize;
+            if self.box_.has_walls() && self.touches_wall(si, position, rotation) {
+                return true;
+            }
+            return cells.sphere_overlaps(&self.box_.wrap_near(position), self.radii[si], i);
+        }
         self.overlaps_at_except(i, position, rotation, |j| j == i)
+    }
+
+    /// Bounding radius of each particle.
+    fn particle_radii(&self) -> Vec<f64> {
+        self.particles
+            .iter()
+            .map(|p| self.radii[p.species as usize])
+            .collect()
     }
 
     /// Whether a body of species `s` at `position` turned by `rotation`
@@ -469,14 +495,16 @@ impl System {
             };
             overlap(shape_i, shape_j, &rel)
         };
-        // Both centres lie within half a box of the box: |d| < 3L/2.
-        let separation = |j: usize| {
-            self.box_
-                .minimum_image_near(&(self.positions[j] - position))
-        };
         match &self.cells {
-            Neighbours::Cells(cells) => cells.any_near(position, |j| test(j, &separation(j))),
+            // At the position it would be stored at (a trial translation may
+            // have left the box).
+            Neighbours::Cells(cells) => cells.any_near(&self.box_.wrap_near(position), test),
             Neighbours::Aabb(cells) => {
+                // Both centres lie within half a box of the box: |d| < 3L/2.
+                let separation = |j: usize| {
+                    self.box_
+                        .minimum_image_near(&(self.positions[j] - position))
+                };
                 let h = aabb_half_extents(rotation, &self.obb[si]);
                 cells.any_near(position, &h, |j| {
                     // Disjoint AABBs (the registry is coarser than them).
@@ -562,9 +590,10 @@ impl System {
             self.use_aabb,
             self.aabb_width,
             self.range,
-            lengths,
+            &new_box,
             &positions,
             &trial.aabb,
+            &trial.particle_radii(),
         );
         // Scaling all centres up cannot create an overlap of convex bodies
         // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some

@@ -4,11 +4,13 @@
 pub mod aabb_cells;
 pub mod cell_list;
 pub mod neighbour_list;
+pub mod packed_cells;
 pub mod periodic_box;
 
 pub use aabb_cells::AabbCells;
 pub use cell_list::CellList;
 pub use neighbour_list::NeighbourLists;
+pub use packed_cells::PackedCells;
 pub use periodic_box::PeriodicBox;
 
 use nalgebra::Vector3;
