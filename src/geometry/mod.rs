@@ -14,5 +14,8 @@ pub mod shape;
 
 pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent, WarmStart};
 pub use obb::Obb;
-pub use pair::{Contact, DistanceOptions, Failure, Method, Relative, Status, distance, overlap};
+pub use pair::{
+    Contact, DistanceOptions, Failure, Method, Placed, Relative, Status, distance, overlap,
+    placed_overlap,
+};
 pub use shape::{Cuboid, Ellipsoid, Shape, ShapeError, ShapeSpec, Sphere, Superellipsoid};

@@ -14,7 +14,7 @@ pub mod tuning;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use crate::geometry::{Relative, Shape, overlap};
+use crate::geometry::{Placed, Relative, Shape, overlap, placed_overlap};
 use crate::space::{AabbCells, PackedCells, PeriodicBox};
 
 type V3 = Vector3<f64>;
@@ -187,6 +187,8 @@ pub struct System {
     obb: Vec<V3>,
     /// Lab-frame AABB half-extents per particle.
     aabb: Vec<V3>,
+    /// Each particle's shape as placed (for the lab-frame overlap kernels).
+    placed: Vec<Placed>,
     cells: Neighbours,
     /// AABB cells (true) or stencil cells, and the AABB cell width.
     use_aabb: bool,
@@ -243,6 +245,11 @@ impl System {
             .zip(&rotations)
             .map(|(p, r)| aabb_half_extents(r, &obb[p.species as usize]))
             .collect();
+        let placed: Vec<Placed> = particles
+            .iter()
+            .zip(&rotations)
+            .map(|(p, r)| Placed::new(&species[p.species as usize].shape, r))
+            .collect();
         let (use_aabb, aabb_width, _, _) = Neighbours::plan(&species);
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
         let particle_radii: Vec<f64> = particles
@@ -269,6 +276,7 @@ impl System {
             positions,
             obb,
             aabb,
+            placed,
             cells,
             use_aabb,
             aabb_width,
@@ -447,6 +455,13 @@ impl System {
                 return false;
             }
         }
+        let (placed_i, placed_j) = (
+            Placed::new(shape_i, rotation),
+            Placed::new(shape_j, rotation_j),
+        );
+        if let Some(answer) = placed_overlap(&placed_i, &placed_j, &d) {
+            return answer;
+        }
         let rel = Relative {
             translation: rotation.tr_mul(&d),
             rotation: rotation.tr_mul(rotation_j),
@@ -475,6 +490,7 @@ impl System {
         // The largest reach any partner could have: most candidates fail
         // this before their species is even looked up.
         let reach_max = ri + self.max_radius;
+        let placed_i = Placed::new(shape_i, rotation);
         let test = |j: usize, d: &V3| {
             let d2 = d.norm_squared();
             if d2 > reach_max * reach_max || skip(j) {
@@ -488,6 +504,9 @@ impl System {
             let shape_j = &self.species[sj].shape;
             if shape_i.is_sphere() && shape_j.is_sphere() {
                 return true; // within the sum of radii
+            }
+            if let Some(answer) = placed_overlap(&placed_i, &self.placed[j], d) {
+                return answer;
             }
             let rel = Relative {
                 translation: rotation.tr_mul(d),
@@ -558,7 +577,9 @@ impl System {
         self.positions[i] = position;
         self.particles[i].orientation = orientation;
         self.rotations[i] = rotation;
-        let h = aabb_half_extents(&rotation, &self.obb[self.particles[i].species as usize]);
+        let species = self.particles[i].species as usize;
+        self.placed[i] = Placed::new(&self.species[species].shape, &rotation);
+        let h = aabb_half_extents(&rotation, &self.obb[species]);
         self.aabb[i] = h;
         match &mut self.cells {
             Neighbours::Cells(cells) => cells.update(i, &position),

@@ -8,8 +8,14 @@ use crate::geometry::shape::Sphere;
 /// Overlap iff |r_AB| ≤ R_A + R_B (frame: see the module docs of `pair`).
 #[inline]
 pub fn overlap(a: &Sphere, b: &Sphere, rel: &Relative) -> bool {
-    let reach = a.radius() + b.radius();
-    rel.translation.norm_squared() <= reach * reach
+    overlap_at(a.radius(), b.radius(), &rel.translation)
+}
+
+/// Overlap of spheres of radii `ra`, `rb` with centres `d` apart.
+#[inline]
+pub fn overlap_at(ra: f64, rb: f64, d: &Vector3<f64>) -> bool {
+    let reach = ra + rb;
+    d.norm_squared() <= reach * reach
 }
 
 /// Signed distance |r_AB| − R_A − R_B, with the points on the centre line.
