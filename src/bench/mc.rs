@@ -45,21 +45,30 @@ pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, McError>
     let lengths;
     match shape {
         Shape::Sphere(_) | Shape::Ellipsoid(_) => {
-            // fcc of unit-diameter spheres, then scaled by the semi-axes.
-            let cells = ((n as f64 / 4.0).cbrt().round() as usize).max(2);
-            let count = 4 * cells.pow(3);
-            let sphere_len = (count as f64 * std::f64::consts::PI / 6.0 / phi).cbrt();
-            let a = sphere_len / cells as f64;
+            // fcc of unit-diameter spheres, then scaled by the semi-axes,
+            // with fewer fcc cells along the longer axes so that the box
+            // comes out near cubic (needles need a box twice their length
+            // across, not only along).
             let scale = shape.obb_half_extents() * 2.0; // diameter 1 → 2a, 2b, 2c
-            lengths = scale * sphere_len;
+            let mean = scale.product().cbrt();
+            let m = (n as f64 / 4.0).cbrt();
+            let cells = scale.map(|s| ((m * mean / s).round() as usize).max(1));
+            let count = 4 * cells.product();
+            // fcc constant in sphere units for this φ.
+            let a = (4.0 * std::f64::consts::PI / 6.0 / phi).cbrt();
+            lengths = cells.map(|c| c as f64 * a).component_mul(&scale);
             let basis = [
                 [0.0, 0.0, 0.0],
                 [0.5, 0.5, 0.0],
                 [0.5, 0.0, 0.5],
                 [0.0, 0.5, 0.5],
             ];
-            for i in 0..cells.pow(3) {
-                let (x, y, z) = (i % cells, (i / cells) % cells, i / (cells * cells));
+            for i in 0..count / 4 {
+                let (x, y, z) = (
+                    i % cells.x,
+                    (i / cells.x) % cells.y,
+                    i / (cells.x * cells.y),
+                );
                 for b in &basis {
                     let r = Vector3::new(x as f64 + b[0], y as f64 + b[1], z as f64 + b[2]) * a;
                     particles.push(r.component_mul(&scale) - lengths / 2.0);

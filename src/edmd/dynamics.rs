@@ -122,12 +122,15 @@ pub struct DynamicsOptions {
     /// principal moments; otherwise every body is a spherical top with the
     /// mean moment (De Michele's choice, eqs. 4–6).
     pub true_inertia: bool,
-    /// Neighbour lists (Donev et al.; De Michele Sec. 3.3 with spheres for
-    /// boxes): each body gets a neighbour sphere, its bounding sphere grown
-    /// by this shell, centred where the body was when it was built;
-    /// collisions are predicted only between bodies whose neighbour
-    /// spheres overlap, and a body's sphere is rebuilt when its centre has
-    /// moved by the shell. `None`: cells with cell-crossing events.
+    /// Neighbour lists (Donev et al.; De Michele Sec. 3.3): each body gets
+    /// a neighbour region fixed where the body was when it was built, and
+    /// collisions are predicted only between bodies whose regions overlap;
+    /// a region is rebuilt when its body is about to leave it. Systems of
+    /// spheres use the bounding sphere grown by this shell (rebuilt when the
+    /// centre has moved by the shell); any other system the paper's
+    /// oriented boxes, the body's bounding box grown by the shell on every
+    /// face (rebuilt when the turning body is about to poke out of a face).
+    /// `None`: cells with cell-crossing events.
     pub neighbour_shell: Option<f64>,
 }
 
@@ -148,40 +151,57 @@ pub const SPHERE_LISTS_FROM: f64 = 0.45;
 
 /// The neighbour structure a scene gets unless it names one, at packing
 /// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
-/// lists with a shell of a quarter of the diameter above; for every other
-/// system, lists with a shell of a twentieth of the smallest bounding
-/// diameter. Measured (`hardbody bench edmd-shell`, `edmd-density`, one
-/// core, medians of 5; docs/ACCURACY.md): hard spheres N = 4000 at
-/// φ = 0.5, 2.48–2.50 µs per collision at shells 0.2–0.3 against 3.39 with
-/// cells; at φ = 0.4 no better than cells within the noise (2.97–3.81
-/// against 3.57); at φ = 0.3 cells win (2.98 against 3.96 at best);
-/// prolate ellipsoids at φ = 0.5 fastest at the smallest shell tried, a
-/// fortieth of the diameter (202 µs against 284 with cells, 230 at a
-/// tenth); ellipsoids 2:1 and 1:2 at every φ from 0.2 to 0.5 15–25 %
-/// faster with lists than with cells.
+/// lists (bounding spheres) with a shell of a quarter of the diameter
+/// above; for every other system, oriented-box lists with a shell of a
+/// tenth of the thinnest body's thickness (twice its smallest half-extent).
+/// Measured (`hardbody bench edmd-shell`, `edmd-density`,
+/// `edmd-elongation`, one core; docs/ACCURACY.md): hard spheres N = 4000
+/// at φ = 0.5, 2.48–2.50 µs per collision at shells 0.2–0.3 against 3.39
+/// with cells; at φ = 0.4 no better than cells within the noise; at
+/// φ = 0.3 cells win (2.98 against 3.96 at best). Bodies at φ = 0.5 with
+/// box lists, thickness 1 unless said: prolate 2:1 177 µs at shells
+/// 0.04–0.1 against 254 with cells; needles 5:1 239 at 0.1 against 566;
+/// needles 10:1 285–288 at 0.1–0.2 against 1109; plates 1:10 (thickness
+/// 0.1) 228 at 0.01 against 455; cubes 124–129 at 0.04–0.09 against 216;
+/// larger shells slower in every case.
 pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
-    let diameter = species
-        .iter()
-        .map(|s| 2.0 * s.shape.bounding_radius())
-        .fold(f64::INFINITY, f64::min);
     if species.iter().all(|s| s.shape.is_sphere()) {
+        let diameter = species
+            .iter()
+            .map(|s| 2.0 * s.shape.bounding_radius())
+            .fold(f64::INFINITY, f64::min);
         (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
     } else {
-        Some(0.05 * diameter)
+        let thickness = species
+            .iter()
+            .map(|s| 2.0 * s.shape.min_half_extent())
+            .fold(f64::INFINITY, f64::min);
+        Some(0.1 * thickness)
     }
 }
 
-/// The neighbour spheres of [`DynamicsOptions::neighbour_shell`].
+/// The neighbour regions of [`DynamicsOptions::neighbour_shell`]: spheres,
+/// or oriented boxes.
 #[derive(Debug, Clone)]
 struct NeighbourSpheres {
     shell: f64,
-    /// Per species: bounding radius + shell.
+    /// Per species: the largest distance from the centre to a point of the
+    /// region (bounding radius + shell for spheres, the box's half-diagonal
+    /// for boxes).
     reach: Vec<f64>,
-    /// Where each body's sphere is centred (its centre when it was built,
+    /// Where each body's region is centred (its centre when it was built,
     /// wrapped into the box).
     centres: Vec<V3>,
+    /// Oriented boxes: per species the half-extents (the body's bounding
+    /// box grown by the shell), per body the box axes (the body's axes when
+    /// it was built). `None`: spheres.
+    boxes: Option<(Vec<V3>, Vec<Matrix3<f64>>)>,
     lists: NeighbourLists,
 }
+
+/// A box region stops being trusted when its body is this fraction of the
+/// shell from a face (the escape search stops there, never past the face).
+const BOX_ESCAPE_MARGIN: f64 = 0.02;
 
 /// A body's motion since its last event.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -565,20 +585,39 @@ impl Dynamics {
             return Err(EdmdError::BadShell(shell));
         }
         let shell = options.neighbour_shell.unwrap_or(0.0);
-        let reach: Vec<f64> = kinds
+        // Spheres keep spheres; any other system gets oriented boxes.
+        let box_regions =
+            options.neighbour_shell.is_some() && kinds.iter().any(|k| !k.shape.is_sphere());
+        let box_half: Vec<V3> = kinds
             .iter()
-            .map(|k| k.shape.bounding_radius() + shell)
+            .map(|k| k.shape.obb_half_extents().add_scalar(shell))
             .collect();
+        let reach: Vec<f64> = if box_regions {
+            box_half.iter().map(|h| h.norm()).collect()
+        } else {
+            kinds
+                .iter()
+                .map(|k| k.shape.bounding_radius() + shell)
+                .collect()
+        };
         let range = 2.0 * reach.iter().copied().fold(0.0, f64::max);
         let positions: Vec<V3> = bodies.iter().map(|b| b.position).collect();
         let cells = CellList::new(box_.lengths(), range, &positions);
         let cell_lengths = cells.cell_lengths();
         let neighbours = match options.neighbour_shell {
             Some(shell) => {
+                let boxes = box_regions.then(|| {
+                    let axes = bodies
+                        .iter()
+                        .map(|b| b.orientation.to_rotation_matrix().into_inner())
+                        .collect();
+                    (box_half, axes)
+                });
                 let mut spheres = NeighbourSpheres {
                     shell,
                     reach,
                     centres: positions,
+                    boxes,
                     lists: NeighbourLists::new(n, 16),
                 };
                 for i in 0..n {
@@ -1248,6 +1287,9 @@ impl Dynamics {
             .as_mut()
             .expect("escapes come with neighbour lists");
         spheres.centres[i] = wrapped;
+        if let Some((_, axes)) = &mut spheres.boxes {
+            axes[i] = self.bodies[i].orientation.to_rotation_matrix().into_inner();
+        }
         spheres.lists.unlink_all(i);
         link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
         if self.closed_form {
@@ -1300,6 +1342,11 @@ impl Dynamics {
     fn schedule_crossing(&mut self, i: usize) {
         let b = &self.bodies[i];
         if let Some(spheres) = &self.neighbours {
+            if spheres.boxes.is_some() {
+                let t = self.box_escape_time(i);
+                self.schedule_neighbourhood_event(i, t, EventKind::Escape);
+                return;
+            }
             // Against a sphere shrunk by a relative 1e-9: rounding never
             // takes a body out of its sphere unseen.
             let now = position_after(&b.position, &b.velocity, self.now - b.time);
@@ -1374,6 +1421,57 @@ impl Dynamics {
         if time.is_finite() {
             self.calendar.schedule(time, kind, i, i);
         }
+    }
+
+    /// The gap between body `i` at time `t` and the faces of its neighbour
+    /// box: min over the box axes uₖ of Hₖ − |(r − c)·uₖ| − hₖ, with H the
+    /// box's half-extents, c its centre and hₖ the body's extent along uₖ.
+    fn box_gap_at(&self, i: usize, t: f64) -> f64 {
+        let spheres = self.neighbours.as_ref().expect("box regions");
+        let (half, axes) = spheres.boxes.as_ref().expect("box regions");
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let dt = t - b.time;
+        let r = position_after(&b.position, &b.velocity, dt);
+        let q = kind
+            .spin(&b.orientation, &b.angular_velocity)
+            .orientation_after(&b.orientation, dt);
+        let axes = &axes[i];
+        let h = kind
+            .shape
+            .lab_half_extents(&axes.tr_mul(&q.to_rotation_matrix().into_inner()));
+        let offset = axes.tr_mul(&self.box_.minimum_image(&(r - spheres.centres[i])));
+        let half = &half[b.species as usize];
+        (0..3)
+            .map(|k| half[k] - offset[k].abs() - h[k])
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// When body `i`'s neighbour box stops being trusted: the gap to its
+    /// faces cannot close faster than |v·uₖ| + |ω| × moment arm, so steps
+    /// of gap / rate never pass a face (conservative advancement); the
+    /// search stops within [`BOX_ESCAPE_MARGIN`] of the shell, or after 64
+    /// steps (an early rebuild costs a search, never a collision).
+    fn box_escape_time(&self, i: usize) -> f64 {
+        let spheres = self.neighbours.as_ref().expect("box regions");
+        let (_, axes) = spheres.boxes.as_ref().expect("box regions");
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let along = axes[i].tr_mul(&b.velocity).abs().max();
+        let rate = along + b.angular_velocity.norm() * kind.shape.moment_arm();
+        if rate == 0.0 {
+            return f64::INFINITY;
+        }
+        let margin = BOX_ESCAPE_MARGIN * spheres.shell;
+        let mut t = self.now;
+        for _ in 0..64 {
+            let gap = self.box_gap_at(i, t);
+            if gap <= margin {
+                break;
+            }
+            t += gap / rate;
+        }
+        t
     }
 
     /// The gap between body `i` at absolute time `t` (relative to the
@@ -1775,17 +1873,32 @@ fn link_overlapping(
     spheres: &mut NeighbourSpheres,
 ) {
     let centre = spheres.centres[i];
-    let reach = spheres.reach[bodies[i].species as usize];
+    let si = bodies[i].species as usize;
+    let reach = spheres.reach[si];
     for &nc in cells.neighbour_cells(cells.cell_of(i)) {
         for &j in cells.members(nc as usize) {
             let j = j as usize;
             if j == i || (after && j < i) {
                 continue;
             }
-            let apart = box_.minimum_image(&(spheres.centres[j] - centre)).norm();
-            if apart <= reach + spheres.reach[bodies[j].species as usize] {
-                spheres.lists.link(i, j);
+            let sj = bodies[j].species as usize;
+            let d = box_.minimum_image(&(spheres.centres[j] - centre));
+            if d.norm() > reach + spheres.reach[sj] {
+                continue;
             }
+            if let Some((half, axes)) = &spheres.boxes {
+                // The 15-axis test in i's box frame (De Michele eqs. 62–64).
+                let apart = !crate::geometry::obb::boxes_overlap(
+                    &half[si],
+                    &half[sj],
+                    &axes[i].tr_mul(&axes[j]),
+                    &axes[i].tr_mul(&d),
+                );
+                if apart {
+                    continue;
+                }
+            }
+            spheres.lists.link(i, j);
         }
     }
 }

@@ -233,9 +233,18 @@ impl fmt::Display for Report<'_> {
                 )?,
                 (how, Some(shell)) => writeln!(
                     f,
-                    "  dynamics neighbours: lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4} ({})",
+                    "  dynamics neighbours: {} ({})",
+                    if plan.species.iter().all(|s| s.species.shape.is_sphere()) {
+                        format!(
+                            "lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4}"
+                        )
+                    } else {
+                        format!(
+                            "lists of the bodies whose oriented bounding boxes grown by {shell:.4} overlap, rebuilt when a body is about to leave its box"
+                        )
+                    },
                     if how == Neighbours::Auto {
-                        "automatic: a twentieth of the smallest bounding diameter; for spheres a quarter, and cells instead when the dynamics starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                        "automatic: oriented boxes grown by a tenth of the thinnest body's thickness; for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the dynamics starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
                     } else {
                         "accuracy.neighbours"
                     }
