@@ -100,7 +100,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Write the suite's plots (SVG) into this directory
-        /// (edmd-shell, edmd-density).
+        /// (edmd-shell, edmd-density, edmd-elongation).
         #[arg(long, value_name = "DIR")]
         plot: Option<std::path::PathBuf>,
     },
@@ -120,6 +120,8 @@ enum Suite {
     EdmdShell,
     /// Time per collision against phi for ellipsoids of aspect 2 and 0.5, cells and lists.
     EdmdDensity,
+    /// Time per collision against aspect ratio 0.1-10 at phi 0.3, 0.4, 0.5, cells and lists.
+    EdmdElongation,
     /// What the grazing threshold and the Newton tolerance buy and cost (ellipsoids, aspect 2 and 5).
     EdmdTolerance,
 }
@@ -151,9 +153,12 @@ fn main() -> ExitCode {
         } => {
             use hardbody::bench::edmd_speed;
             if let Some(dir) = &plot {
-                if !matches!(suite, Suite::EdmdShell | Suite::EdmdDensity) {
+                if !matches!(
+                    suite,
+                    Suite::EdmdShell | Suite::EdmdDensity | Suite::EdmdElongation
+                ) {
                     return bad_input(
-                        "--plot: this suite has no plots yet (edmd-shell and edmd-density have)",
+                        "--plot: this suite has no plots yet (edmd-shell, edmd-density and edmd-elongation have)",
                     );
                 }
                 if let Err(e) = std::fs::create_dir_all(dir) {
@@ -178,6 +183,13 @@ fn main() -> ExitCode {
                     json,
                     plot.as_deref(),
                     Some(edmd_speed::plot_density),
+                ),
+                Suite::EdmdElongation => bench_speed(
+                    "edmd-elongation",
+                    edmd_speed::elongation(quick),
+                    json,
+                    plot.as_deref(),
+                    Some(edmd_speed::plot_elongation),
                 ),
                 Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
             }

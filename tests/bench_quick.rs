@@ -50,7 +50,7 @@ fn check_plot(path: &std::path::Path, texts: &[&str]) {
 }
 
 #[test]
-fn shell_and_density_suites_run_quick_with_plots() {
+fn shell_density_and_elongation_suites_run_quick_with_plots() {
     let dir = std::env::temp_dir().join(format!("hardbody-bench-quick-{}", std::process::id()));
     let rows = bench("edmd-shell", &dir);
     check_rows("edmd-shell", &rows);
@@ -76,6 +76,25 @@ fn shell_and_density_suites_run_quick_with_plots() {
             "cells",
             "neighbour lists",
         ],
+    );
+    let rows = bench("edmd-elongation", &dir);
+    check_rows("edmd-elongation", &rows);
+    assert!(
+        rows.iter().all(|r| r["aspect"].as_f64().is_some()),
+        "edmd-elongation: a row without its aspect ratio"
+    );
+    check_plot(
+        &dir.join("edmd-elongation-time.svg"),
+        &[
+            "aspect ratio",
+            "time per collision (us)",
+            "oriented-box lists",
+            "cells",
+        ],
+    );
+    check_plot(
+        &dir.join("edmd-elongation-ratio.svg"),
+        &["aspect ratio", "time with cells / time with lists"],
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }

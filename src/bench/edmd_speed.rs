@@ -32,6 +32,9 @@ pub struct SpeedRow {
     pub n: usize,
     /// φ.
     pub packing_fraction: f64,
+    /// Ellipsoids of revolution: the symmetry semi-axis over the others.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub aspect: Option<f64>,
     /// Neighbour structure of the dynamics.
     pub neighbours: String,
     /// The neighbour-list shell (None: cells).
@@ -61,58 +64,64 @@ enum Start {
 }
 
 struct Setup {
-    system: &'static str,
-    shape: &'static str,
+    system: String,
+    shape: String,
     n: usize,
     phi: f64,
     start: Start,
     collisions: u64,
     target: f64,
     reference: &'static str,
+    /// Ellipsoids of revolution: symmetry semi-axis over the other two.
+    aspect: Option<f64>,
 }
 
 fn setups(quick: bool) -> Vec<Setup> {
     let scale = if quick { 10 } else { 1 };
     vec![
         Setup {
-            system: "hard spheres",
-            shape: "Sphere(radius: 0.5)",
+            system: "hard spheres".into(),
+            shape: "Sphere(radius: 0.5)".into(),
             n: 4000,
             phi: 0.5,
             start: Start::Lattice,
             collisions: 200_000 / scale,
             target: 1.0,
             reference: "Smallenburg's single-event code ~0.8 us here; De Michele 250 us",
+            aspect: None,
         },
         Setup {
-            system: "ellipsoids, aspect 2",
-            shape: PROLATE,
+            system: "ellipsoids, aspect 2".into(),
+            shape: PROLATE.into(),
             n: 256,
             phi: 0.5,
             start: Start::Compressed,
             collisions: 5000 / scale,
             target: 25.0,
             reference: "De Michele (Fig. 7, with NNL) 2.5 ms",
+            aspect: None,
         },
         Setup {
-            system: "ellipsoids, aspect 0.5",
-            shape: OBLATE,
+            system: "ellipsoids, aspect 0.5".into(),
+            shape: OBLATE.into(),
             n: 256,
             phi: 0.5,
             start: Start::Compressed,
             collisions: 5000 / scale,
             target: 25.0,
             reference: "De Michele (Fig. 7, with NNL) 2.5 ms",
+            aspect: None,
         },
         Setup {
-            system: "cubes",
-            shape: "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
+            system: "cubes".into(),
+            shape: "Cuboid(a: 0.5, b: 0.5, c: 0.5)".into(),
             n: 1000,
             phi: 0.5,
             start: Start::Lattice,
             collisions: 5000 / scale,
             target: 30.0,
             reference: "a public GJK-based EDMD ~120 us here",
+            aspect: None,
         },
     ]
 }
@@ -121,7 +130,7 @@ fn setups(quick: bool) -> Vec<Setup> {
 fn start(setup: &Setup, seed: u64) -> Result<System, String> {
     let shape: Shape = setup.shape.parse().map_err(|e| format!("{e}"))?;
     let species = vec![Species {
-        name: setup.system.into(),
+        name: setup.system.clone(),
         shape,
         rotation: !shape.is_sphere(),
     }];
@@ -201,8 +210,9 @@ fn time_system(
         .map_err(|e| format!("{}: overlap at the end: {e}", setup.system))?;
     times.sort_by(f64::total_cmp);
     Ok(SpeedRow {
-        system: setup.system.into(),
-        shape: setup.shape.into(),
+        system: setup.system.clone(),
+        shape: setup.shape.clone(),
+        aspect: setup.aspect,
         n: setup.n,
         packing_fraction: setup.phi,
         neighbours: match neighbour_shell {
@@ -224,17 +234,11 @@ const PROLATE: &str = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)";
 const OBLATE: &str = "Ellipsoid(a: 0.25, b: 0.5, c: 0.5)";
 
 /// A system of the parameter suites (no target, no published figure).
-fn plain(
-    system: &'static str,
-    shape: &'static str,
-    n: usize,
-    phi: f64,
-    start: Start,
-    collisions: u64,
-) -> Setup {
+fn plain(system: &str, shape: &str, n: usize, phi: f64, start: Start, collisions: u64) -> Setup {
     Setup {
-        system,
-        shape,
+        system: system.into(),
+        shape: shape.into(),
+        aspect: None,
         n,
         phi,
         start,
@@ -454,4 +458,153 @@ pub fn plot_density(
         &series,
     )?;
     Ok(vec![path])
+}
+
+/// `hardbody bench edmd-elongation` (De Michele Fig. 8): time per
+/// collision against the aspect ratio X = a/b of ellipsoids of revolution
+/// (semi-axes 0.5·X, 0.5, 0.5) at φ = 0.3, 0.4, 0.5, with cells and with
+/// oriented-box lists (the automatic shell, a tenth of the thickness).
+/// Starts: aligned lattices at φ (near-cubic boxes large enough for the
+/// minimum image, so N grows with the long axis) relaxed by 50 Monte Carlo
+/// sweeps. Medians of the repeats; the ratio cells/lists is in the plot.
+pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
+    let repeats = if quick { 3 } else { 5 };
+    let aspects: &[f64] = if quick {
+        &[0.5, 5.0]
+    } else {
+        &[0.1, 0.2, 0.5, 2.0, 5.0, 10.0]
+    };
+    let phis: &[f64] = if quick { &[0.4] } else { &[0.3, 0.4, 0.5] };
+    let collisions = if quick { 300 } else { 3000 };
+    let mut rows = Vec::new();
+    for &phi in phis {
+        for &aspect in aspects {
+            let text = format!("Ellipsoid(a: {}, b: 0.5, c: 0.5)", 0.5 * aspect);
+            let shape: Shape = text.parse().map_err(|e| format!("{e}"))?;
+            let system = aligned_state(&shape, phi, quick)?;
+            let setup = Setup {
+                system: format!("ellipsoids, aspect {aspect}"),
+                shape: text,
+                n: system.len(),
+                phi,
+                start: Start::Lattice,
+                collisions,
+                target: f64::NAN,
+                reference: "",
+                aspect: Some(aspect),
+            };
+            let thickness = 2.0 * shape.min_half_extent();
+            rows.push(time_system(&setup, &system, None, repeats, quick)?);
+            rows.push(time_system(
+                &setup,
+                &system,
+                Some(0.1 * thickness),
+                repeats,
+                quick,
+            )?);
+        }
+    }
+    Ok(rows)
+}
+
+/// An aligned lattice of `shape` at `phi` in a box at least twice the
+/// interaction range across (at least 256 bodies; fewer when `quick`),
+/// relaxed by Monte Carlo sweeps tuned to 30 % acceptance.
+fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, String> {
+    use crate::mc::moves::{Ensemble, sweep};
+    use crate::mc::tuning::Tuner;
+    // Bodies needed for an edge of twice the range, with room to spare.
+    let edge = 4.0 * shape.bounding_radius() * 1.3;
+    let mut n = ((edge.powi(3) * phi / shape.volume()) as usize).max(if quick { 100 } else { 256 });
+    let mut system = loop {
+        match super::mc::dense_start(shape, n, phi) {
+            Ok(system) => break system,
+            Err(crate::mc::McError::BoxTooSmall { .. }) if n < 200_000 => n += n / 2,
+            Err(e) => return Err(e.to_string()),
+        }
+    };
+    let mut rng = Pcg64::seed_from_u64(5);
+    let mut sizes = MoveSizes {
+        translate: 0.05,
+        rotate: 0.05,
+        volume: 0.0,
+    };
+    let tuner = Tuner {
+        target: 0.3,
+        max_translate: 1.0,
+    };
+    for _ in 0..if quick { 10 } else { 50 } {
+        let counts = sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+        tuner.update(&mut sizes, &counts);
+    }
+    Ok(system)
+}
+
+/// Plots of the elongation suite: time per collision against the aspect
+/// ratio (cells and lists per φ), and the ratio cells/lists.
+pub fn plot_elongation(
+    rows: &[SpeedRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let mut phis: Vec<f64> = Vec::new();
+    for r in rows {
+        if !phis.contains(&r.packing_fraction) {
+            phis.push(r.packing_fraction);
+        }
+    }
+    let points = |phi: f64, lists: bool| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter(|r| r.packing_fraction == phi && r.shell.is_some() == lists)
+            .filter_map(|r| r.aspect.map(|x| (x, r.median_us_per_collision)))
+            .collect()
+    };
+    let mut series = Vec::new();
+    for &phi in &phis {
+        for lists in [false, true] {
+            series.push(Series {
+                name: format!(
+                    "phi {phi}, {}",
+                    if lists { "oriented-box lists" } else { "cells" }
+                ),
+                points: points(phi, lists),
+            });
+        }
+    }
+    let time = dir.join("edmd-elongation-time.svg");
+    line_plot(
+        &time,
+        &Figure {
+            title: "Time per collision against aspect ratio, ellipsoids of revolution (one core, medians)",
+            x_label: "aspect ratio X = a/b",
+            y_label: "time per collision (us)",
+            log_x: true,
+            log_y: true,
+        },
+        &series,
+    )?;
+    let ratios: Vec<Series> = phis
+        .iter()
+        .map(|&phi| Series {
+            name: format!("phi {phi}"),
+            points: points(phi, false)
+                .iter()
+                .zip(points(phi, true))
+                .map(|(&(x, cells), (_, lists))| (x, cells / lists))
+                .collect(),
+        })
+        .collect();
+    let ratio = dir.join("edmd-elongation-ratio.svg");
+    line_plot(
+        &ratio,
+        &Figure {
+            title: "Cells over oriented-box lists, time per collision",
+            x_label: "aspect ratio X = a/b",
+            y_label: "time with cells / time with lists",
+            log_x: true,
+            log_y: false,
+        },
+        &ratios,
+    )?;
+    Ok(vec![time, ratio])
 }
