@@ -100,7 +100,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Write the suite's plots (SVG) into this directory
-        /// (edmd-shell, edmd-density, edmd-elongation).
+        /// (mc, edmd-shell, edmd-density, edmd-elongation, superellipsoid).
         #[arg(long, value_name = "DIR")]
         plot: Option<std::path::PathBuf>,
     },
@@ -122,6 +122,10 @@ enum Suite {
     EdmdDensity,
     /// Time per collision against aspect ratio 0.1-10 at phi 0.3, 0.4, 0.5, cells and lists.
     EdmdElongation,
+    /// Time per collision and Newton iterations against the superellipsoid exponent p from 2 to 10.
+    Superellipsoid,
+    /// The cost of each optional effect (rotation, walls, lists, observables), on and off.
+    Effects,
     /// What the grazing threshold and the Newton tolerance buy and cost (ellipsoids, aspect 2 and 5).
     EdmdTolerance,
 }
@@ -155,10 +159,14 @@ fn main() -> ExitCode {
             if let Some(dir) = &plot {
                 if !matches!(
                     suite,
-                    Suite::EdmdShell | Suite::EdmdDensity | Suite::EdmdElongation
+                    Suite::Mc
+                        | Suite::EdmdShell
+                        | Suite::EdmdDensity
+                        | Suite::EdmdElongation
+                        | Suite::Superellipsoid
                 ) {
                     return bad_input(
-                        "--plot: this suite has no plots yet (edmd-shell, edmd-density and edmd-elongation have)",
+                        "--plot: this suite has no plots yet (mc, edmd-shell, edmd-density, edmd-elongation and superellipsoid have)",
                     );
                 }
                 if let Err(e) = std::fs::create_dir_all(dir) {
@@ -167,7 +175,7 @@ fn main() -> ExitCode {
             }
             match suite {
                 Suite::Ocsi => bench_ocsi(quick, json),
-                Suite::Mc => bench_mc(quick, json),
+                Suite::Mc => bench_mc(quick, json, plot.as_deref()),
                 Suite::Scene => bench_scene(quick, json),
                 Suite::Edmd => bench_speed("edmd", edmd_speed::speed(quick), json, None, None),
                 Suite::EdmdShell => bench_speed(
@@ -191,7 +199,15 @@ fn main() -> ExitCode {
                     plot.as_deref(),
                     Some(edmd_speed::plot_elongation),
                 ),
+                Suite::Superellipsoid => bench_speed(
+                    "superellipsoid",
+                    edmd_speed::superellipsoid(quick),
+                    json,
+                    plot.as_deref(),
+                    Some(edmd_speed::plot_superellipsoid),
+                ),
                 Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
+                Suite::Effects => bench_effects(quick, json),
             }
         }
     }
@@ -510,36 +526,48 @@ fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
     }
 }
 
-fn bench_mc(quick: bool, json: bool) -> ExitCode {
-    let moves = match hardbody::bench::mc::run(quick) {
-        Ok(rows) => rows,
-        Err(e) => {
-            esay(&format!("hardbody: MC benchmark failed: {e}"));
-            return ExitCode::from(EXIT_FAILED);
-        }
+fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
+    use hardbody::bench::mc;
+    let failed = |what: &str, e: &dyn std::fmt::Display| {
+        esay(&format!("hardbody: MC {what} benchmark failed: {e}"));
+        ExitCode::from(EXIT_FAILED)
     };
-    let compression = match hardbody::bench::mc::compression(quick) {
+    let moves = match mc::run(quick) {
         Ok(rows) => rows,
-        Err(e) => {
-            esay(&format!("hardbody: MC compression benchmark failed: {e}"));
-            return ExitCode::from(EXIT_FAILED);
-        }
+        Err(e) => return failed("speed", &e),
+    };
+    let density = match mc::by_density(quick) {
+        Ok(rows) => rows,
+        Err(e) => return failed("density", &e),
+    };
+    let sizes = match mc::by_move_size(quick) {
+        Ok(rows) => rows,
+        Err(e) => return failed("move-size", &e),
+    };
+    let compression = match mc::compression(quick) {
+        Ok(rows) => rows,
+        Err(e) => return failed("compression", &e),
     };
     if json {
-        let mut all: Vec<serde_json::Value> = moves
-            .iter()
-            .map(|r| serde_json::to_value(r).expect("plain numbers"))
-            .collect();
-        all.extend(
-            compression
-                .iter()
-                .map(|r| serde_json::to_value(r).expect("plain numbers")),
-        );
+        let mut all: Vec<serde_json::Value> = Vec::new();
+        let mut add = |v: serde_json::Value, table: &str| {
+            if let serde_json::Value::Array(rows) = v {
+                for mut r in rows {
+                    r["table"] = table.into();
+                    all.push(r);
+                }
+            }
+        };
+        let value = |x: Result<serde_json::Value, serde_json::Error>| x.expect("plain numbers");
+        add(value(serde_json::to_value(&moves)), "speed");
+        add(value(serde_json::to_value(&density)), "density");
+        add(value(serde_json::to_value(&sizes)), "move size");
+        add(value(serde_json::to_value(&compression)), "compression");
         print_json(&all);
     } else {
         say("| shape | N | phi | threads | trial moves/s (median) | translate acceptance |");
         say("|---|---|---|---|---|---|");
-        for r in &moves {
+        for r in moves.iter().chain(&density) {
             say(&format!(
                 "| {} | {} | {:.3} | {} | {:.3e} | {:.2} |",
                 r.shape,
@@ -551,12 +579,62 @@ fn bench_mc(quick: bool, json: bool) -> ExitCode {
             ));
         }
         say("");
+        say(
+            "| shape | phi | translation (thicknesses) | rotation (rad) | translate acceptance | rotate acceptance | trial moves/s |",
+        );
+        say("|---|---|---|---|---|---|---|");
+        for r in &sizes {
+            say(&format!(
+                "| {} | {:.3} | {} | {} | {:.3} | {:.3} | {:.3e} |",
+                r.shape,
+                r.packing_fraction,
+                r.translate,
+                r.rotate,
+                r.acceptance_translate,
+                r.acceptance_rotate,
+                r.trial_moves_per_s
+            ));
+        }
+        say("");
         say("| compression from a dilute lattice | N | phi reached | sweeps | seconds |");
         say("|---|---|---|---|---|");
         for r in &compression {
             say(&format!(
                 "| {} | {} | {:.3} | {} | {:.1} |",
                 r.shape, r.n, r.packing_fraction, r.sweeps, r.seconds
+            ));
+        }
+    }
+    if let Some(dir) = plot {
+        match mc::plot(&density, &sizes, dir) {
+            Ok(paths) => {
+                for p in paths {
+                    esay(&format!("plot written: {}", p.display()));
+                }
+            }
+            Err(e) => return failed("plot", &e),
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+fn bench_effects(quick: bool, json: bool) -> ExitCode {
+    let rows = match hardbody::bench::effects::run(quick) {
+        Ok(rows) => rows,
+        Err(e) => {
+            esay(&format!("hardbody: effects benchmark failed: {e}"));
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    if json {
+        print_json(&rows);
+    } else {
+        say("| driver | effect | off | on | on / off | unit |");
+        say("|---|---|---|---|---|---|");
+        for r in &rows {
+            say(&format!(
+                "| {} | {} | {:.3} | {:.3} | {:.2} | {} |",
+                r.driver, r.effect, r.off_us, r.on_us, r.ratio, r.unit
             ));
         }
     }
@@ -646,12 +724,12 @@ fn bench_speed(
         print_json(&rows);
     } else {
         say(
-            "| system | N | phi | neighbours | us/collision, median (range) | target | published |",
+            "| system | N | phi | neighbours | us/collision, median (range) | distances/collision | iterations/distance | target | published |",
         );
-        say("|---|---|---|---|---|---|---|");
+        say("|---|---|---|---|---|---|---|---|---|");
         for r in &rows {
             say(&format!(
-                "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | {} | {} |",
+                "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | {:.1} | {:.2} | {} | {} |",
                 r.system,
                 r.n,
                 r.packing_fraction,
@@ -661,6 +739,8 @@ fn bench_speed(
                 r.max_us_per_collision,
                 r.repeats,
                 r.collisions_per_repeat,
+                r.distances_per_collision,
+                r.iterations_per_distance,
                 if r.target_us_per_collision.is_finite() {
                     format!("<= {}", r.target_us_per_collision)
                 } else {

@@ -108,3 +108,80 @@ fn plots_are_refused_for_suites_without_them() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no plots"));
 }
+
+#[test]
+fn superellipsoid_mc_and_effects_suites_run_quick() {
+    let dir = std::env::temp_dir().join(format!("hardbody-bench-quick2-{}", std::process::id()));
+    let rows = bench("superellipsoid", &dir);
+    check_rows("superellipsoid", &rows);
+    for r in &rows {
+        let (distances, iterations) = (
+            r["distances_per_collision"].as_f64().unwrap(),
+            r["iterations_per_distance"].as_f64().unwrap(),
+        );
+        // Every collision of a general pair is located by exact distances,
+        // each at least one solver iteration.
+        assert!(distances >= 1.0 && iterations >= 1.0, "{r}");
+        assert!(r["exponent"].as_f64().is_some(), "{r}");
+    }
+    check_plot(
+        &dir.join("superellipsoid-time.svg"),
+        &["exponent p", "time per collision (us)", "X0 = 2"],
+    );
+    check_plot(
+        &dir.join("superellipsoid-iterations.svg"),
+        &["exponent p", "iterations per distance evaluation"],
+    );
+
+    let rows = bench("mc", &dir);
+    let table = |name: &str| -> Vec<&serde_json::Value> {
+        rows.iter().filter(|r| r["table"] == name).collect()
+    };
+    for r in table("speed").into_iter().chain(table("density")) {
+        assert!(r["trial_moves_per_s"].as_f64().unwrap() > 1e4, "{r}");
+    }
+    // Acceptance falls as the moves grow, for every shape.
+    let sizes = table("move size");
+    assert!(!sizes.is_empty());
+    for pair in sizes.windows(2) {
+        if pair[0]["shape"] == pair[1]["shape"] {
+            let (a, b) = (
+                pair[0]["acceptance_translate"].as_f64().unwrap(),
+                pair[1]["acceptance_translate"].as_f64().unwrap(),
+            );
+            assert!(
+                b < a,
+                "acceptance did not fall with the move size: {pair:?}"
+            );
+        }
+    }
+    assert!(!table("compression").is_empty());
+    check_plot(
+        &dir.join("mc-moves-per-second.svg"),
+        &["packing fraction", "trial moves per second", "ellipsoid"],
+    );
+    check_plot(
+        &dir.join("mc-acceptance.svg"),
+        &["move size", "fraction of moves accepted", "rotations"],
+    );
+
+    let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .args(["bench", "effects", "--quick", "--json"])
+        .output()
+        .expect("hardbody runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows.len(), 9);
+    for r in &rows {
+        let (off, on) = (r["off_us"].as_f64().unwrap(), r["on_us"].as_f64().unwrap());
+        assert!(
+            off > 0.0 && on > 0.0 && off.is_finite() && on.is_finite(),
+            "{r}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -32,9 +32,12 @@ pub struct SpeedRow {
     pub n: usize,
     /// φ.
     pub packing_fraction: f64,
-    /// Ellipsoids of revolution: the symmetry semi-axis over the others.
+    /// Bodies of revolution: the symmetry semi-axis over the others.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub aspect: Option<f64>,
+    /// Superellipsoids: the exponent p of |z/c|ᵖ.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exponent: Option<f64>,
     /// Neighbour structure of the dynamics.
     pub neighbours: String,
     /// The neighbour-list shell (None: cells).
@@ -49,6 +52,12 @@ pub struct SpeedRow {
     pub min_us_per_collision: f64,
     /// Slowest repeat.
     pub max_us_per_collision: f64,
+    /// Exact distance evaluations of the collision searches per collision
+    /// (timed repeats).
+    pub distances_per_collision: f64,
+    /// Solver iterations (Newton steps; GJK/EPA and feature iterations for
+    /// pairs with a cuboid) per exact distance evaluation.
+    pub iterations_per_distance: f64,
     /// The target on one core.
     pub target_us_per_collision: f64,
     /// Published figures to compare with.
@@ -72,8 +81,10 @@ struct Setup {
     collisions: u64,
     target: f64,
     reference: &'static str,
-    /// Ellipsoids of revolution: symmetry semi-axis over the other two.
+    /// Bodies of revolution: symmetry semi-axis over the other two.
     aspect: Option<f64>,
+    /// Superellipsoids: the exponent p of |z/c|ᵖ.
+    exponent: Option<f64>,
 }
 
 fn setups(quick: bool) -> Vec<Setup> {
@@ -89,6 +100,7 @@ fn setups(quick: bool) -> Vec<Setup> {
             target: 1.0,
             reference: "Smallenburg's single-event code ~0.8 us here; De Michele 250 us",
             aspect: None,
+            exponent: None,
         },
         Setup {
             system: "ellipsoids, aspect 2".into(),
@@ -100,6 +112,7 @@ fn setups(quick: bool) -> Vec<Setup> {
             target: 25.0,
             reference: "De Michele (Fig. 7, with NNL) 2.5 ms",
             aspect: None,
+            exponent: None,
         },
         Setup {
             system: "ellipsoids, aspect 0.5".into(),
@@ -111,6 +124,7 @@ fn setups(quick: bool) -> Vec<Setup> {
             target: 25.0,
             reference: "De Michele (Fig. 7, with NNL) 2.5 ms",
             aspect: None,
+            exponent: None,
         },
         Setup {
             system: "cubes".into(),
@@ -122,6 +136,7 @@ fn setups(quick: bool) -> Vec<Setup> {
             target: 30.0,
             reference: "a public GJK-based EDMD ~120 us here",
             aspect: None,
+            exponent: None,
         },
     ]
 }
@@ -198,6 +213,7 @@ fn time_system(
     md.run_collisions(10 * setup.n as u64 / if quick { 10 } else { 1 })
         .map_err(fail)?;
     let mut times = Vec::with_capacity(repeats);
+    let work_before = md.solver_work();
     for _ in 0..repeats {
         let clock = Instant::now();
         md.run_collisions(setup.collisions).map_err(fail)?;
@@ -205,6 +221,9 @@ fn time_system(
     }
     // Checked a moment after the last collision, whose pair touches (to
     // rounding) at it and counts as overlapping in the MC test.
+    let work = md.solver_work();
+    let distances = (work.distances - work_before.distances) as f64;
+    let iterations = (work.iterations - work_before.iterations) as f64;
     md.run_until(md.time() + 1e-3).map_err(fail)?;
     md.to_system()
         .map_err(|e| format!("{}: overlap at the end: {e}", setup.system))?;
@@ -213,6 +232,7 @@ fn time_system(
         system: setup.system.clone(),
         shape: setup.shape.clone(),
         aspect: setup.aspect,
+        exponent: setup.exponent,
         n: setup.n,
         packing_fraction: setup.phi,
         neighbours: match neighbour_shell {
@@ -225,6 +245,12 @@ fn time_system(
         median_us_per_collision: times[repeats / 2],
         min_us_per_collision: times[0],
         max_us_per_collision: times[repeats - 1],
+        distances_per_collision: distances / (repeats as u64 * setup.collisions) as f64,
+        iterations_per_distance: if distances > 0.0 {
+            iterations / distances
+        } else {
+            0.0
+        },
         target_us_per_collision: setup.target,
         reference: setup.reference.into(),
     })
@@ -239,6 +265,7 @@ fn plain(system: &str, shape: &str, n: usize, phi: f64, start: Start, collisions
         system: system.into(),
         shape: shape.into(),
         aspect: None,
+        exponent: None,
         n,
         phi,
         start,
@@ -492,6 +519,7 @@ pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
                 target: f64::NAN,
                 reference: "",
                 aspect: Some(aspect),
+                exponent: None,
             };
             let thickness = 2.0 * shape.min_half_extent();
             rows.push(time_system(&setup, &system, None, repeats, quick)?);
@@ -607,4 +635,107 @@ pub fn plot_elongation(
         &ratios,
     )?;
     Ok(vec![time, ratio])
+}
+
+/// `hardbody bench superellipsoid` (De Michele Fig. 13): time per
+/// collision, distance evaluations per collision and solver iterations per
+/// evaluation against the exponent p of superellipsoids
+/// |x/a|² + |y/b|² + |z/c|ᵖ = 1 with b = c and elongation X₀ = a/b of 0.5
+/// and 2 (the paper's N = 512 at φ = 0.256), cells and oriented-box lists.
+pub fn superellipsoid(quick: bool) -> Result<Vec<SpeedRow>, String> {
+    let repeats = if quick { 3 } else { 5 };
+    let exponents: &[f64] = if quick {
+        &[2.0, 8.0]
+    } else {
+        &[2.0, 3.0, 4.0, 6.0, 8.0, 10.0]
+    };
+    let elongations: &[f64] = if quick { &[2.0] } else { &[0.5, 2.0] };
+    let (n, collisions) = if quick { (64, 100) } else { (512, 500) };
+    let mut rows = Vec::new();
+    for &x0 in elongations {
+        for &p in exponents {
+            let text = format!(
+                "Superellipsoid(a: {}, b: 0.5, c: 0.5, exponents: (2.0, 2.0, {p:.1}))",
+                0.5 * x0
+            );
+            let mut setup = plain(
+                &format!("superellipsoids X0 {x0}, p {p}"),
+                &text,
+                n,
+                0.256,
+                Start::Lattice,
+                collisions,
+            );
+            setup.aspect = Some(x0);
+            setup.exponent = Some(p);
+            let system = start(&setup, 1)?;
+            let shape = system.species()[0].shape;
+            let thickness = 2.0 * shape.min_half_extent();
+            rows.push(time_system(&setup, &system, None, repeats, quick)?);
+            rows.push(time_system(
+                &setup,
+                &system,
+                Some(0.1 * thickness),
+                repeats,
+                quick,
+            )?);
+        }
+    }
+    Ok(rows)
+}
+
+/// Plots of the superellipsoid suite: time per collision, and solver
+/// iterations per distance evaluation, against the exponent p.
+pub fn plot_superellipsoid(
+    rows: &[SpeedRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let mut keys: Vec<(f64, bool)> = Vec::new();
+    for r in rows {
+        let key = (r.aspect.unwrap_or(f64::NAN), r.shell.is_some());
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    let series = |value: fn(&SpeedRow) -> f64| -> Vec<Series> {
+        keys.iter()
+            .map(|&(x0, lists)| Series {
+                name: format!(
+                    "X0 = {x0}, {}",
+                    if lists { "oriented-box lists" } else { "cells" }
+                ),
+                points: rows
+                    .iter()
+                    .filter(|r| r.aspect == Some(x0) && r.shell.is_some() == lists)
+                    .filter_map(|r| r.exponent.map(|p| (p, value(r))))
+                    .collect(),
+            })
+            .collect()
+    };
+    let time = dir.join("superellipsoid-time.svg");
+    line_plot(
+        &time,
+        &Figure {
+            title: "Time per collision against the exponent p, superellipsoids at phi = 0.256 (one core, medians)",
+            x_label: "exponent p of |z/c|^p",
+            y_label: "time per collision (us)",
+            log_x: false,
+            log_y: true,
+        },
+        &series(|r| r.median_us_per_collision),
+    )?;
+    let iterations = dir.join("superellipsoid-iterations.svg");
+    line_plot(
+        &iterations,
+        &Figure {
+            title: "Solver iterations per distance evaluation against the exponent p",
+            x_label: "exponent p of |z/c|^p",
+            y_label: "Newton iterations per distance evaluation",
+            log_x: false,
+            log_y: false,
+        },
+        &series(|r| r.iterations_per_distance),
+    )?;
+    Ok(vec![time, iterations])
 }

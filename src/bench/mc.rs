@@ -110,31 +110,12 @@ pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, McError>
 /// Times NVT sweeps of each shape, serial and (with more than one rayon
 /// thread) checkerboard; `quick` uses N ≈ 1400 and fewer sweeps.
 pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
-    let shapes = [
-        "Sphere(radius: 0.5)",
-        "Ellipsoid(a: 0.5, b: 0.5, c: 2.5)",
-        "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))",
-        "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
-    ];
     let (n, sweeps, repeats) = if quick { (1400, 10, 3) } else { (4096, 100, 5) };
     let mut rows = Vec::new();
-    for text in shapes {
+    for text in SHAPES {
         let shape: Shape = text.parse().expect("built-in shape");
-        let mut system = dense_start(&shape, n, 0.5)?;
+        let (mut system, sizes) = tuned(&shape, n, 0.5, if quick { 20 } else { 60 })?;
         let mut rng = Pcg64::seed_from_u64(17);
-        let mut sizes = MoveSizes {
-            translate: 0.1,
-            rotate: 0.1,
-            volume: 0.0,
-        };
-        let tuner = Tuner {
-            target: 0.3,
-            max_translate: 1.0,
-        };
-        for _ in 0..if quick { 20 } else { 60 } {
-            let c = sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
-            tuner.update(&mut sizes, &c);
-        }
         rows.push(timed_row(
             text,
             &mut system,
@@ -288,4 +269,186 @@ pub fn compression(quick: bool) -> Result<Vec<CompressRow>, String> {
         });
     }
     Ok(rows)
+}
+
+/// The shapes of the suite, in the scene spelling.
+const SHAPES: [&str; 4] = [
+    "Sphere(radius: 0.5)",
+    "Ellipsoid(a: 0.5, b: 0.5, c: 2.5)",
+    "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))",
+    "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
+];
+
+/// A dense start of `shape` tuned to 30 % acceptance (`sweeps` sweeps),
+/// with the frozen move sizes.
+fn tuned(shape: &Shape, n: usize, phi: f64, sweeps: usize) -> Result<(System, MoveSizes), McError> {
+    let mut system = dense_start(shape, n, phi)?;
+    let mut rng = Pcg64::seed_from_u64(17);
+    let mut sizes = MoveSizes {
+        translate: 0.1,
+        rotate: 0.1,
+        volume: 0.0,
+    };
+    let tuner = Tuner {
+        target: 0.3,
+        max_translate: 1.0,
+    };
+    for _ in 0..sweeps {
+        let c = sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+        tuner.update(&mut sizes, &c);
+    }
+    Ok((system, sizes))
+}
+
+/// Trial moves per second on one thread against the packing fraction, per
+/// shape (moves tuned to 30 % acceptance at each φ).
+pub fn by_density(quick: bool) -> Result<Vec<McRow>, McError> {
+    let phis: &[f64] = if quick {
+        &[0.3, 0.5]
+    } else {
+        &[0.2, 0.3, 0.4, 0.5, 0.55]
+    };
+    let (n, sweeps, repeats) = if quick { (500, 5, 3) } else { (4096, 50, 3) };
+    let mut rows = Vec::new();
+    for text in SHAPES {
+        let shape: Shape = text.parse().expect("built-in shape");
+        for &phi in phis {
+            let (mut system, sizes) = tuned(&shape, n, phi, if quick { 10 } else { 40 })?;
+            let mut rng = Pcg64::seed_from_u64(18);
+            rows.push(timed_row(text, &mut system, repeats, sweeps, 1, |s| {
+                sweep(s, &sizes, &Ensemble::Nvt, &mut rng)
+            })?);
+        }
+    }
+    Ok(rows)
+}
+
+/// Acceptance and speed at one move size.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct AcceptanceRow {
+    /// Shape, in the scene spelling.
+    pub shape: String,
+    /// Packing fraction.
+    pub packing_fraction: f64,
+    /// Side of the translation cube, in units of the smallest thickness.
+    pub translate: f64,
+    /// Largest rotation angle (radians).
+    pub rotate: f64,
+    /// Fraction of translations accepted.
+    pub acceptance_translate: f64,
+    /// Fraction of rotations accepted (NaN for spheres).
+    pub acceptance_rotate: f64,
+    /// Trial moves per second, one thread.
+    pub trial_moves_per_s: f64,
+}
+
+/// Acceptance against move size at φ = 0.5: translations from 1/50 to 1
+/// thickness, rotations of the same number of radians (spheres do not
+/// turn); what the tuner's 30 % target picks from.
+pub fn by_move_size(quick: bool) -> Result<Vec<AcceptanceRow>, McError> {
+    let steps: &[f64] = if quick {
+        &[0.05, 0.3]
+    } else {
+        &[0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
+    };
+    let (n, sweeps) = if quick { (500, 5) } else { (4096, 20) };
+    let mut rows = Vec::new();
+    for text in SHAPES {
+        let shape: Shape = text.parse().expect("built-in shape");
+        let thickness = 2.0 * shape.min_half_extent();
+        let (base, _) = tuned(&shape, n, 0.5, if quick { 10 } else { 40 })?;
+        for &step in steps {
+            let mut system = base.clone();
+            let sizes = MoveSizes {
+                translate: step * thickness,
+                rotate: step,
+                volume: 0.0,
+            };
+            let mut rng = Pcg64::seed_from_u64(19);
+            let mut counts = Counts::default();
+            let start = Instant::now();
+            for _ in 0..sweeps {
+                counts += sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+            }
+            let seconds = start.elapsed().as_secs_f64();
+            rows.push(AcceptanceRow {
+                shape: text.into(),
+                packing_fraction: system.packing_fraction(),
+                translate: step,
+                rotate: step,
+                acceptance_translate: counts.translate.rate(),
+                acceptance_rotate: counts.rotate.rate(),
+                trial_moves_per_s: (sweeps * system.len()) as f64 / seconds,
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Plots of the MC suite: trial moves per second against φ, and
+/// acceptance against move size.
+pub fn plot(
+    density: &[McRow],
+    sizes: &[AcceptanceRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let name = |text: &str| text.split('(').next().unwrap_or(text).to_lowercase();
+    let speed: Vec<Series> = SHAPES
+        .iter()
+        .map(|text| Series {
+            name: name(text),
+            points: density
+                .iter()
+                .filter(|r| r.shape == *text)
+                .map(|r| (r.packing_fraction, r.trial_moves_per_s))
+                .collect(),
+        })
+        .collect();
+    let speed_path = dir.join("mc-moves-per-second.svg");
+    line_plot(
+        &speed_path,
+        &Figure {
+            title: "Monte Carlo trial moves per second against packing fraction (one thread, medians)",
+            x_label: "packing fraction phi",
+            y_label: "trial moves per second",
+            log_x: false,
+            log_y: true,
+        },
+        &speed,
+    )?;
+    let mut acceptance = Vec::new();
+    for text in SHAPES {
+        acceptance.push(Series {
+            name: format!("{}, translations", name(text)),
+            points: sizes
+                .iter()
+                .filter(|r| r.shape == text)
+                .map(|r| (r.translate, r.acceptance_translate))
+                .collect(),
+        });
+        if !text.starts_with("Sphere") {
+            acceptance.push(Series {
+                name: format!("{}, rotations", name(text)),
+                points: sizes
+                    .iter()
+                    .filter(|r| r.shape == text)
+                    .map(|r| (r.rotate, r.acceptance_rotate))
+                    .collect(),
+            });
+        }
+    }
+    let acceptance_path = dir.join("mc-acceptance.svg");
+    line_plot(
+        &acceptance_path,
+        &Figure {
+            title: "Acceptance against move size at phi = 0.5",
+            x_label: "move size (translation: cube side in thicknesses; rotation: radians)",
+            y_label: "fraction of moves accepted",
+            log_x: true,
+            log_y: false,
+        },
+        &acceptance,
+    )?;
+    Ok(vec![speed_path, acceptance_path])
 }

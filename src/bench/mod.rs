@@ -2,6 +2,7 @@
 
 pub mod edmd;
 pub mod edmd_speed;
+pub mod effects;
 pub mod mc;
 pub mod ocsi;
 pub mod plot;

@@ -693,6 +693,12 @@ impl Dynamics {
         self.collisions
     }
 
+    /// What the collision searches have cost so far (distance
+    /// evaluations and solver iterations).
+    pub fn solver_work(&self) -> super::SolverWork {
+        self.predictor.work()
+    }
+
     /// Number of bodies.
     pub fn len(&self) -> usize {
         self.bodies.len()

@@ -20,7 +20,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use super::motion::Spin;
 use crate::geometry::pair::distance_lower_bound;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
-use crate::geometry::{Contact, DistanceOptions, Relative, Shape, WarmStart, distance};
+use crate::geometry::{Contact, DistanceOptions, Relative, Shape, Status, WarmStart, distance};
 
 type V3 = Vector3<f64>;
 
@@ -67,6 +67,17 @@ pub enum Search {
 /// free rotation; |ω| is constant in it).
 pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
 
+/// The work the searches have done: exact distances evaluated and the
+/// solver iterations they took (Newton steps, or GJK/EPA and feature
+/// iterations for pairs with a cuboid), cumulative.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SolverWork {
+    /// Exact distance evaluations.
+    pub distances: u64,
+    /// Iterations over all of them.
+    pub iterations: u64,
+}
+
 /// Predicts contacts of general pairs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Predictor {
@@ -75,6 +86,8 @@ pub struct Predictor {
     /// points and multiplier), so that the collision is computed on the
     /// same solution the prediction stopped at.
     found: Cell<Option<WarmStart>>,
+    /// What the searches have cost so far.
+    work: Cell<SolverWork>,
 }
 
 impl Predictor {
@@ -83,7 +96,13 @@ impl Predictor {
         Self {
             options,
             found: Cell::new(None),
+            work: Cell::new(SolverWork::default()),
         }
+    }
+
+    /// The work of every search so far.
+    pub fn work(&self) -> SolverWork {
+        self.work.get()
     }
 
     /// The solver state at the contact the last search found (taken).
@@ -217,6 +236,15 @@ impl Predictor {
             if contact.warm_start.is_some() {
                 warm.set(contact.warm_start);
             }
+            let mut work = self.work.get();
+            work.distances += 1;
+            work.iterations += match contact.status {
+                Status::Converged { iterations }
+                | Status::IterationCap { iterations }
+                | Status::Failed { iterations, .. } => u64::from(iterations),
+                Status::DeepOverlap => 0,
+            };
+            self.work.set(work);
             last.set(Some((t, contact)));
             if !contact.distance.is_finite() {
                 failure.set(Some(format!("{:?} at τ = {t}", contact.status)));
