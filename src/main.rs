@@ -100,7 +100,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Write the suite's plots (SVG) into this directory
-        /// (mc, edmd-shell, edmd-density, edmd-elongation, superellipsoid).
+        /// (all but scene, edmd and effects, which are tables).
         #[arg(long, value_name = "DIR")]
         plot: Option<std::path::PathBuf>,
     },
@@ -159,14 +159,16 @@ fn main() -> ExitCode {
             if let Some(dir) = &plot {
                 if !matches!(
                     suite,
-                    Suite::Mc
+                    Suite::Ocsi
+                        | Suite::Mc
                         | Suite::EdmdShell
                         | Suite::EdmdDensity
                         | Suite::EdmdElongation
                         | Suite::Superellipsoid
+                        | Suite::EdmdTolerance
                 ) {
                     return bad_input(
-                        "--plot: this suite has no plots yet (mc, edmd-shell, edmd-density, edmd-elongation and superellipsoid have)",
+                        "--plot: this suite has no plots (scene, edmd and effects are tables)",
                     );
                 }
                 if let Err(e) = std::fs::create_dir_all(dir) {
@@ -174,7 +176,7 @@ fn main() -> ExitCode {
                 }
             }
             match suite {
-                Suite::Ocsi => bench_ocsi(quick, json),
+                Suite::Ocsi => bench_ocsi(quick, json, plot.as_deref()),
                 Suite::Mc => bench_mc(quick, json, plot.as_deref()),
                 Suite::Scene => bench_scene(quick, json),
                 Suite::Edmd => bench_speed("edmd", edmd_speed::speed(quick), json, None, None),
@@ -206,7 +208,7 @@ fn main() -> ExitCode {
                     plot.as_deref(),
                     Some(edmd_speed::plot_superellipsoid),
                 ),
-                Suite::EdmdTolerance => bench_edmd_tolerance(quick, json),
+                Suite::EdmdTolerance => bench_edmd_tolerance(quick, json, plot.as_deref()),
                 Suite::Effects => bench_effects(quick, json),
             }
         }
@@ -488,7 +490,7 @@ fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> ExitCode {
     ExitCode::SUCCESS
 }
 
-fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
+fn bench_ocsi(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
     let cfg = if quick {
         OcsiBenchConfig::quick()
     } else {
@@ -507,7 +509,7 @@ fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
         esay("");
     }
     match result {
-        Ok(rows) => {
+        Ok((rows, points)) => {
             if json {
                 print_json(&rows);
             } else {
@@ -516,6 +518,19 @@ fn bench_ocsi(quick: bool, json: bool) -> ExitCode {
                     cfg.configurations, cfg.sets, cfg.lengths, cfg.non_overlap_ratio
                 ));
                 print_block(&ocsi_table(&rows));
+            }
+            if let Some(dir) = plot {
+                match hardbody::bench::ocsi::plot(&points, dir) {
+                    Ok(paths) => {
+                        for p in paths {
+                            esay(&format!("plot written: {}", p.display()));
+                        }
+                    }
+                    Err(e) => {
+                        esay(&format!("hardbody: OCSI plots failed: {e}"));
+                        return ExitCode::from(EXIT_FAILED);
+                    }
+                }
             }
             ExitCode::SUCCESS
         }
@@ -770,7 +785,7 @@ fn bench_speed(
     ExitCode::SUCCESS
 }
 
-fn bench_edmd_tolerance(quick: bool, json: bool) -> ExitCode {
+fn bench_edmd_tolerance(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
     use hardbody::bench::edmd::{loosest_safe_grazing, tolerance};
     let rows = match tolerance(quick) {
         Ok(rows) => rows,
@@ -779,17 +794,30 @@ fn bench_edmd_tolerance(quick: bool, json: bool) -> ExitCode {
             return ExitCode::from(EXIT_FAILED);
         }
     };
+    if let Some(dir) = plot {
+        match hardbody::bench::edmd::plot(&rows, dir) {
+            Ok(paths) => {
+                for p in paths {
+                    esay(&format!("plot written: {}", p.display()));
+                }
+            }
+            Err(e) => {
+                esay(&format!("hardbody: edmd-tolerance plots failed: {e}"));
+                return ExitCode::from(EXIT_FAILED);
+            }
+        }
+    }
     if json {
         print_json(&rows);
         return ExitCode::SUCCESS;
     }
     say(
-        "| aspect | N | phi | eps_d | Newton tol | collisions | us/collision | energy drift/collision | max contact-time error (first 100) | follows reference for | missed |",
+        "| aspect | N | phi | eps_d | Newton tol | collisions | us/collision, median of 10 stretches (range) | energy drift/collision | max contact-time error (first 100) | follows reference for | missed |",
     );
     say("|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &rows {
         say(&format!(
-            "| {} | {} | {} | {:.0e} | {:.0e} | {} | {:.0} | {:.1e} | {:.1e} | {} | {} |",
+            "| {} | {} | {} | {:.0e} | {:.0e} | {} | {:.0} ({:.0}-{:.0}) | {:.1e} | {:.1e} | {} | {} |",
             r.aspect,
             r.n,
             r.packing_fraction,
@@ -797,6 +825,8 @@ fn bench_edmd_tolerance(quick: bool, json: bool) -> ExitCode {
             r.newton_tolerance,
             r.collisions,
             r.us_per_collision,
+            r.us_per_collision_range.0,
+            r.us_per_collision_range.1,
             r.energy_drift_per_collision,
             r.max_contact_time_error,
             if r.reference {

@@ -102,11 +102,12 @@ fn shell_density_and_elongation_suites_run_quick_with_plots() {
 #[test]
 fn plots_are_refused_for_suites_without_them() {
     let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["bench", "ocsi", "--quick", "--plot", "/tmp/unused-plots"])
+        .args(["bench", "scene", "--quick", "--plot", "/tmp/unused-plots"])
         .output()
         .expect("hardbody runs");
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no plots"));
+    assert!(!std::path::Path::new("/tmp/unused-plots").exists());
 }
 
 #[test]

@@ -40,6 +40,10 @@ fn brute_force(
 /// compares random trial placements.
 fn check(system: &System, expect_aabb: bool, seed: u64) {
     assert_eq!(system.uses_aabb_cells(), expect_aabb);
+    check_placements(system, seed);
+}
+
+fn check_placements(system: &System, seed: u64) {
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut system = system.clone();
     let sizes = MoveSizes {
@@ -97,7 +101,7 @@ fn aabb_cells_for_needles_and_plates() {
 }
 
 #[test]
-fn aabb_cells_for_a_one_to_ten_mixture() {
+fn per_species_cells_for_a_one_to_ten_mixture() {
     // Large cubes (edge 4) on a lattice with small spheres (diameter 0.4)
     // filling the gaps: a 1:10 size ratio.
     let species = vec![
@@ -153,5 +157,102 @@ fn aabb_cells_for_a_one_to_ten_mixture() {
         kept,
     )
     .unwrap();
-    check(&system, true, 6);
+    assert!(system.uses_per_species_cells());
+    check_placements(&system, 6);
+}
+
+/// A dense 1:10 mixture (big cubes of edge 4 at φ ≈ 0.2 among small
+/// spheres of diameter 0.4 at φ ≈ 0.25): with one grid per species a small
+/// sphere's trial move looks at a few dozen candidates, where cells sized
+/// for the cubes would hand it hundreds of small spheres; and no overlap is
+/// missed (trial placements against all pairs).
+#[test]
+fn per_species_cells_keep_a_dense_one_to_ten_mixture_cheap() {
+    let species = vec![
+        Species {
+            name: "cube".into(),
+            shape: "Cuboid(a: 2.0, b: 2.0, c: 2.0)".parse().unwrap(),
+            rotation: true,
+        },
+        Species {
+            name: "sphere".into(),
+            shape: "Sphere(radius: 0.2)".parse().unwrap(),
+            rotation: false,
+        },
+    ];
+    let (n, spacing) = (3usize, 8.0);
+    let len = n as f64 * spacing;
+    let mut particles = Vec::new();
+    for c in 0..n * n * n {
+        particles.push(Particle {
+            position: Vector3::new((c % n) as f64, ((c / n) % n) as f64, (c / (n * n)) as f64)
+                * spacing
+                - Vector3::repeat(len / 2.0 - 0.1),
+            orientation: nalgebra::UnitQuaternion::identity(),
+            species: 0,
+        });
+    }
+    // Small spheres on a simple cubic lattice of spacing 0.45, outside the
+    // cubes (edge 4, so |x| > 2.2 from a cube centre along some axis).
+    let m = (len / 0.45) as usize;
+    for c in 0..m * m * m {
+        let r = Vector3::new((c % m) as f64, ((c / m) % m) as f64, (c / (m * m)) as f64) * 0.45
+            - Vector3::repeat(len / 2.0 - 0.2);
+        let clear = particles.iter().filter(|p| p.species == 0).all(|p| {
+            let d = PeriodicBox::new(Vector3::repeat(len))
+                .unwrap()
+                .minimum_image(&(r - p.position));
+            d.iter().any(|x| x.abs() > 2.25)
+        });
+        if clear {
+            particles.push(Particle {
+                position: r,
+                orientation: nalgebra::UnitQuaternion::identity(),
+                species: 1,
+            });
+        }
+    }
+    let system = System::new(
+        PeriodicBox::new(Vector3::repeat(len)).unwrap(),
+        species,
+        particles,
+    )
+    .unwrap();
+    assert!(system.uses_per_species_cells());
+    assert!(system.len() > 100_000, "{} particles", system.len());
+    let small: Vec<usize> = (0..system.len())
+        .filter(|&i| system.particles()[i].species == 1)
+        .step_by(997)
+        .collect();
+    let mean = small
+        .iter()
+        .map(|&i| system.candidates_of(i))
+        .sum::<usize>() as f64
+        / small.len() as f64;
+    // A small sphere's own grid: 27 cells of width 0.4 (~0.5 spheres each
+    // here); the cube grid: 27 cells of width 6.9 (~1 cube each).
+    assert!(mean < 60.0, "{mean} candidates per small-sphere move");
+    // Trial moves as Monte Carlo makes them (small displacements and
+    // turns), against all pairs: some overlap, some do not.
+    let mut rng = Pcg64::seed_from_u64(7);
+    let (mut hits, trials) = (0, 1500);
+    for _ in 0..trials {
+        let i = rng.gen_range(0..system.len());
+        let p = &system.particles()[i];
+        let step = Vector3::new(
+            rng.r#gen::<f64>() - 0.5,
+            rng.r#gen::<f64>() - 0.5,
+            rng.r#gen::<f64>() - 0.5,
+        ) * 0.15;
+        let position = system.periodic_box().wrap(&(p.position + step));
+        let q = nalgebra::UnitQuaternion::from_scaled_axis(step) * p.orientation;
+        let expected = brute_force(&system, i, &position, &q);
+        let got = system.overlaps_at(i, &position, &q.to_rotation_matrix().into_inner());
+        assert_eq!(got, expected, "particle {i} at {position:?}");
+        hits += expected as usize;
+    }
+    assert!(
+        hits > trials / 20 && hits < trials - trials / 20,
+        "{hits} of {trials} overlap"
+    );
 }

@@ -4,7 +4,7 @@
 //! For prolate ellipsoids of aspect 2 and 5 (b = c = 0.5) compressed by
 //! Monte Carlo to φ = 0.5, the same start and the same velocities are run
 //! for the same number of collisions with the grazing threshold ε_d from
-//! 1e-2 to 1e-8 and the Newton tolerance from 1e-6 to 1e-14, and each run is
+//! 1e-1 to 1e-8 and the Newton tolerance from 1e-6 to 1e-14, and each run is
 //! set against a reference at the tightest setting (ε_d = 1e-8, Newton
 //! 1e-14): time per collision; the largest difference in contact time over
 //! the first 100 collisions (the same pairs, before chaos spreads the
@@ -44,8 +44,10 @@ pub struct ToleranceRow {
     pub reference: bool,
     /// Collisions run.
     pub collisions: u64,
-    /// Wall time per collision.
+    /// Wall time per collision: the median over ten stretches of the run.
     pub us_per_collision: f64,
+    /// The fastest and slowest of those stretches.
+    pub us_per_collision_range: (f64, f64),
     /// |E/E₀ − 1| at the end, per collision.
     pub energy_drift_per_collision: f64,
     /// Largest |t − t_ref| over the first 100 collisions of the same pairs.
@@ -90,6 +92,8 @@ fn start(aspect: f64, n_side: usize, phi: f64, seed: u64) -> Result<(Shape, Syst
 struct Outcome {
     collisions: u64,
     seconds: f64,
+    /// Time per collision over each tenth of the run (checks excluded).
+    stretches: Vec<f64>,
     drift: f64,
     trace: Vec<(f64, u32, u32)>,
     missed: Option<String>,
@@ -113,6 +117,7 @@ fn run(system: &System, predictor: PredictorOptions, collisions: u64) -> Outcome
             return Outcome {
                 collisions: 0,
                 seconds: 0.0,
+                stretches: Vec::new(),
                 drift: 0.0,
                 trace: Vec::new(),
                 missed: Some(e.to_string()),
@@ -123,6 +128,8 @@ fn run(system: &System, predictor: PredictorOptions, collisions: u64) -> Outcome
     let e0 = md.kinetic_energy();
     let mut missed = None;
     let mut checking = 0.0;
+    let mut stretches = Vec::new();
+    let mut stretch = (0u64, 0.0f64);
     while md.collisions() < collisions {
         if let Err(e) = md.run_until(md.time() + 0.01) {
             missed = Some(e.to_string());
@@ -134,10 +141,16 @@ fn run(system: &System, predictor: PredictorOptions, collisions: u64) -> Outcome
             break;
         }
         checking += check.elapsed().as_secs_f64();
+        if md.collisions() - stretch.0 >= collisions / 10 {
+            let seconds = clock.elapsed().as_secs_f64() - checking;
+            stretches.push((seconds - stretch.1) * 1e6 / (md.collisions() - stretch.0) as f64);
+            stretch = (md.collisions(), seconds);
+        }
     }
     Outcome {
         collisions: md.collisions(),
         seconds: clock.elapsed().as_secs_f64() - checking,
+        stretches,
         drift: (md.kinetic_energy() / e0 - 1.0).abs(),
         trace: md.take_collisions(),
         missed,
@@ -155,7 +168,7 @@ pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
     let grazing: &[f64] = if quick {
         &[1e-2, 1e-4]
     } else {
-        &[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
+        &[1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
     };
     let newton: &[f64] = if quick {
         &[1e-8]
@@ -189,6 +202,7 @@ pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
                 Outcome {
                     collisions: reference.collisions,
                     seconds: reference.seconds,
+                    stretches: reference.stretches.clone(),
                     drift: reference.drift,
                     trace: reference.trace.clone(),
                     missed: None,
@@ -218,7 +232,17 @@ pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
                 newton_tolerance: t,
                 reference: is_reference,
                 collisions: o.collisions,
-                us_per_collision: o.seconds * 1e6 / o.collisions.max(1) as f64,
+                us_per_collision: if o.stretches.is_empty() {
+                    o.seconds * 1e6 / o.collisions.max(1) as f64
+                } else {
+                    super::ocsi::median(&mut o.stretches.clone())
+                },
+                us_per_collision_range: o
+                    .stretches
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(lo, hi), &t| {
+                        (lo.min(t), hi.max(t))
+                    }),
                 energy_drift_per_collision: o.drift / o.collisions.max(1) as f64,
                 max_contact_time_error: max_error,
                 departure_collisions: departure as u64,
@@ -246,4 +270,104 @@ pub fn loosest_safe_grazing(rows: &[ToleranceRow]) -> Vec<(f64, Option<f64>)> {
             (a, safe)
         })
         .collect()
+}
+
+/// A plotted quantity: file-name part, axis label, its value in a row, and
+/// a flag (for a knob: it is ε_d; for a measure: log scale).
+type Axis = (&'static str, &'static str, fn(&ToleranceRow) -> f64, bool);
+
+/// Plots of the tolerance suite (De Michele Fig. 9, extended): against
+/// ε_d and against the Newton tolerance, per aspect, the time per
+/// collision, the contact-time error on the same pairs, and how long the
+/// run follows the reference's collision sequence.
+pub fn plot(
+    rows: &[ToleranceRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let default_newton = PredictorOptions::default().distance.newton.tolerance;
+    let default_grazing = PredictorOptions::default().grazing_threshold;
+    let mut aspects: Vec<f64> = rows.iter().map(|r| r.aspect).collect();
+    aspects.dedup();
+    let mut paths = Vec::new();
+    let knobs: [Axis; 2] = [
+        (
+            "grazing",
+            "grazing threshold eps_d (relative to the smallest semi-axis)",
+            |r| r.grazing_threshold,
+            true,
+        ),
+        (
+            "newton",
+            "Newton tolerance (relative to the smallest semi-axis)",
+            |r| r.newton_tolerance,
+            false,
+        ),
+    ];
+    let measures: [Axis; 3] = [
+        (
+            "time",
+            "time per collision (us)",
+            |r| r.us_per_collision,
+            true,
+        ),
+        (
+            "error",
+            "max contact-time error on the same pairs (time units)",
+            |r| r.max_contact_time_error,
+            true,
+        ),
+        (
+            "departure",
+            "collisions before the sequence departs from the reference",
+            |r| r.departure_collisions as f64,
+            false,
+        ),
+    ];
+    for (knob, knob_label, x_of, varies_grazing) in knobs {
+        for (measure, y_label, y_of, log_y) in measures {
+            let series: Vec<Series> = aspects
+                .iter()
+                .map(|&a| {
+                    let mut points: Vec<(f64, f64)> = rows
+                        .iter()
+                        .filter(|r| r.aspect == a && !r.reference)
+                        .filter(|r| {
+                            if varies_grazing {
+                                r.newton_tolerance == default_newton
+                            } else {
+                                r.grazing_threshold == default_grazing
+                            }
+                        })
+                        .map(|r| (x_of(r), y_of(r)))
+                        .filter(|p| !log_y || p.1 > 0.0)
+                        .collect();
+                    points.sort_by(|p, q| p.0.total_cmp(&q.0));
+                    points.dedup_by(|p, q| p.0 == q.0);
+                    Series {
+                        name: format!("ellipsoids, aspect {a}"),
+                        points,
+                    }
+                })
+                .collect();
+            let path = dir.join(format!("edmd-tolerance-{knob}-{measure}.svg"));
+            let title = format!(
+                "{y_label} against the {knob} tolerance, phi = {}",
+                rows.first().map_or(0.0, |r| r.packing_fraction)
+            );
+            line_plot(
+                &path,
+                &Figure {
+                    title: &title,
+                    x_label: knob_label,
+                    y_label,
+                    log_x: true,
+                    log_y,
+                },
+                &series,
+            )?;
+            paths.push(path);
+        }
+    }
+    Ok(paths)
 }

@@ -87,6 +87,21 @@ pub struct OcsiRow {
     pub threads: usize,
 }
 
+/// One algorithm at one cuboid and radius: the median over the sets.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct OcsiPoint {
+    /// Algorithm name.
+    pub algorithm: &'static str,
+    /// Sphere radius R*.
+    pub radius: f64,
+    /// Cuboid length L* (thickness 1).
+    pub length: f64,
+    /// Cuboid width W*.
+    pub width: f64,
+    /// Median over the sets of the time per test.
+    pub ns_per_test: f64,
+}
+
 /// Volume of the cuboid (full edges `e`) dilated by a ball of radius `r`.
 fn spherocuboid_volume(e: &Vector3<f64>, r: f64) -> f64 {
     use std::f64::consts::PI;
@@ -263,11 +278,14 @@ pub struct Disagreement {
 }
 
 /// Runs the benchmark; `progress` is told each finished (L*, W*, R*).
+/// Gives the rows (per algorithm and radius, medians over the grid) and
+/// the points (per algorithm, radius and cuboid, medians over the sets).
 pub fn run(
     cfg: &OcsiBenchConfig,
     mut progress: impl FnMut(f64, f64, f64),
-) -> Result<Vec<OcsiRow>, Disagreement> {
+) -> Result<(Vec<OcsiRow>, Vec<OcsiPoint>), Disagreement> {
     let mut rows = Vec::new();
+    let mut points = Vec::new();
     let mut out = vec![false; cfg.configurations];
     for &radius in &cfg.radii {
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); ALGORITHMS.len()];
@@ -321,6 +339,16 @@ pub fn run(
                     outside += cfg.configurations - r;
                     total += cfg.configurations;
                 }
+                for (k, t) in times.iter().enumerate() {
+                    let mut here = t[t.len() - cfg.sets..].to_vec();
+                    points.push(OcsiPoint {
+                        algorithm: ALGORITHMS[k],
+                        radius,
+                        length: l,
+                        width: w,
+                        ns_per_test: median(&mut here) * 1e9 / cfg.configurations as f64,
+                    });
+                }
                 progress(l, w, radius);
             }
         }
@@ -336,7 +364,79 @@ pub fn run(
             });
         }
     }
-    Ok(rows)
+    Ok((rows, points))
+}
+
+/// Plots in the manner of Tonti & Patti's Figs. 2–3: per sphere radius R*,
+/// ns per test against the cuboid length L* (median over the widths W*)
+/// and against W* (median over L*), one line per algorithm.
+pub fn plot(
+    points: &[OcsiPoint],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, String> {
+    use super::plot::{Figure, Series, line_plot};
+    let mut radii: Vec<f64> = Vec::new();
+    for p in points {
+        if !radii.contains(&p.radius) {
+            radii.push(p.radius);
+        }
+    }
+    let mut paths = Vec::new();
+    for radius in radii {
+        for (axis, label, along_length) in [
+            ("L", "cuboid length L* (thickness 1)", true),
+            ("W", "cuboid width W* (thickness 1)", false),
+        ] {
+            let series: Vec<Series> = ALGORITHMS
+                .iter()
+                .map(|&algorithm| {
+                    let here: Vec<&OcsiPoint> = points
+                        .iter()
+                        .filter(|p| p.algorithm == algorithm && p.radius == radius)
+                        .collect();
+                    let mut xs: Vec<f64> = here
+                        .iter()
+                        .map(|p| if along_length { p.length } else { p.width })
+                        .collect();
+                    xs.sort_by(f64::total_cmp);
+                    xs.dedup();
+                    Series {
+                        name: algorithm.into(),
+                        points: xs
+                            .into_iter()
+                            .map(|x| {
+                                let mut ys: Vec<f64> = here
+                                    .iter()
+                                    .filter(|p| {
+                                        (if along_length { p.length } else { p.width }) == x
+                                    })
+                                    .map(|p| p.ns_per_test)
+                                    .collect();
+                                (x, median(&mut ys))
+                            })
+                            .collect(),
+                    }
+                })
+                .collect();
+            let path = dir.join(format!("ocsi-{axis}-R{radius}.svg"));
+            let title = format!(
+                "Cuboid-sphere overlap tests, R* = {radius}: time against {axis}* (median over the other edge)"
+            );
+            line_plot(
+                &path,
+                &Figure {
+                    title: &title,
+                    x_label: label,
+                    y_label: "time per test (ns)",
+                    log_x: false,
+                    log_y: true,
+                },
+                &series,
+            )?;
+            paths.push(path);
+        }
+    }
+    Ok(paths)
 }
 
 /// Median of the values (sorted in place).
@@ -423,8 +523,14 @@ mod tests {
             sets: 1,
             ..OcsiBenchConfig::paper()
         };
-        let rows = run(&cfg, |_, _, _| {}).unwrap();
+        let (rows, points) = run(&cfg, |_, _, _| {}).unwrap();
         assert_eq!(rows.len(), ALGORITHMS.len());
+        // One point per algorithm at the one cuboid, the same as its row.
+        assert_eq!(points.len(), ALGORITHMS.len());
+        for (p, r) in points.iter().zip(&rows) {
+            assert_eq!((p.algorithm, p.length, p.width), (r.algorithm, 3.0, 3.0));
+            assert_eq!(p.ns_per_test, r.ns_per_test);
+        }
         // 10⁵ samples: standard error of the ratio ≈ 0.0015.
         assert!(
             (rows[0].non_overlap_ratio - 0.4).abs() < 0.006,

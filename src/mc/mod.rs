@@ -83,11 +83,16 @@ pub enum McError {
 /// How candidate neighbours are found, chosen from the species (the plan):
 /// cells as wide as the largest interaction range with the 27-cell stencil
 /// for near-isotropic particles of similar size; AABB cells, much smaller,
-/// for elongated or flat particles and size-asymmetric mixtures.
+/// for elongated or flat particles; one grid per species, each as wide as
+/// that species' diameter, for size-asymmetric mixtures (a small particle
+/// then looks through small cells of its own kind and the few large cells
+/// of the large kind, never through hundreds of small particles binned in
+/// a large cell).
 #[derive(Debug, Clone)]
 enum Neighbours {
     Cells(PackedCells),
     Aabb(AabbCells),
+    PerSpecies(Vec<PackedCells>),
 }
 
 /// The neighbour structure Monte Carlo uses for a set of species, and why.
@@ -95,6 +100,9 @@ enum Neighbours {
 pub struct NeighbourPlan {
     /// AABB cells (true) or 27-stencil cells as wide as the range.
     pub aabb_cells: bool,
+    /// One grid per species (size-asymmetric mixtures); then `aabb_cells`
+    /// is false.
+    pub per_species: bool,
     /// Width of the AABB cells.
     pub aabb_width: f64,
     /// Some species is elongated or flat (bounding radius > 1.5 × its
@@ -109,7 +117,8 @@ impl NeighbourPlan {
     pub fn for_species(species: &[Species]) -> Self {
         let (aabb_cells, aabb_width, elongated, size_asymmetric) = Neighbours::plan(species);
         Self {
-            aabb_cells,
+            aabb_cells: aabb_cells && !size_asymmetric,
+            per_species: size_asymmetric,
             aabb_width,
             elongated,
             size_asymmetric,
@@ -146,19 +155,39 @@ impl Neighbours {
         )
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn build(
-        use_aabb: bool,
-        width: f64,
+        plan: &NeighbourPlan,
         range: f64,
         box_: &PeriodicBox,
         centres: &[V3],
         halves: &[V3],
-        radii: &[f64],
+        kinds: &[u16],
+        species_radii: &[f64],
     ) -> Self {
-        if use_aabb {
-            Neighbours::Aabb(AabbCells::new(box_.lengths(), width, centres, halves))
+        let radii: Vec<f64> = kinds.iter().map(|&s| species_radii[s as usize]).collect();
+        if plan.per_species {
+            let grids = (0..species_radii.len())
+                .map(|s| {
+                    let members = centres
+                        .iter()
+                        .zip(&radii)
+                        .map(|(c, r)| (*c, *r))
+                        .enumerate()
+                        .filter(move |(i, _)| kinds[*i] as usize == s);
+                    PackedCells::with_members(box_, 2.0 * species_radii[s], centres.len(), members)
+                })
+                .collect();
+            Neighbours::PerSpecies(grids)
+        } else if plan.aabb_cells {
+            Neighbours::Aabb(AabbCells::new(
+                box_.lengths(),
+                plan.aabb_width,
+                centres,
+                halves,
+            ))
         } else {
-            Neighbours::Cells(PackedCells::new(box_, range, centres, radii))
+            Neighbours::Cells(PackedCells::new(box_, range, centres, &radii))
         }
     }
 }
@@ -190,9 +219,8 @@ pub struct System {
     /// Each particle's shape as placed (for the lab-frame overlap kernels).
     placed: Vec<Placed>,
     cells: Neighbours,
-    /// AABB cells (true) or stencil cells, and the AABB cell width.
-    use_aabb: bool,
-    aabb_width: f64,
+    /// Which neighbour structure, and why.
+    plan: NeighbourPlan,
     /// Largest distance at which two centres can still touch.
     range: f64,
     /// Every species is a sphere: overlap is the distance of centres alone.
@@ -250,22 +278,11 @@ impl System {
             .zip(&rotations)
             .map(|(p, r)| Placed::new(&species[p.species as usize].shape, r))
             .collect();
-        let (use_aabb, aabb_width, _, _) = Neighbours::plan(&species);
+        let plan = NeighbourPlan::for_species(&species);
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
-        let particle_radii: Vec<f64> = particles
-            .iter()
-            .map(|p| radii[p.species as usize])
-            .collect();
+        let kinds: Vec<u16> = particles.iter().map(|p| p.species).collect();
         let all_spheres = species.iter().all(|s| s.shape.is_sphere());
-        let cells = Neighbours::build(
-            use_aabb,
-            aabb_width,
-            range,
-            &box_,
-            &positions,
-            &aabb,
-            &particle_radii,
-        );
+        let cells = Neighbours::build(&plan, range, &box_, &positions, &aabb, &kinds, &radii);
         let system = Self {
             box_,
             species,
@@ -278,8 +295,7 @@ impl System {
             aabb,
             placed,
             cells,
-            use_aabb,
-            aabb_width,
+            plan,
             range,
             all_spheres,
             ideal: false,
@@ -350,10 +366,44 @@ impl System {
         &self.species
     }
 
-    /// Whether candidates come from AABB cells (elongated or size-asymmetric
-    /// species) rather than range-wide cells.
+    /// Whether candidates come from AABB cells (elongated or flat species)
+    /// rather than range-wide cells.
     pub fn uses_aabb_cells(&self) -> bool {
-        self.use_aabb
+        self.plan.aabb_cells
+    }
+
+    /// Whether each species has a grid of its own (size-asymmetric
+    /// mixtures).
+    pub fn uses_per_species_cells(&self) -> bool {
+        self.plan.per_species
+    }
+
+    /// How many particles the neighbour structure hands to the overlap test
+    /// for particle `i` where it is (itself included): the work of one
+    /// trial move before the pair kernels.
+    pub fn candidates_of(&self, i: usize) -> usize {
+        let mut count = 0;
+        let mut seen = |_: usize, _: &V3| {
+            count += 1;
+            false
+        };
+        let position = self.positions[i];
+        let si = self.particles[i].species as usize;
+        match &self.cells {
+            Neighbours::Cells(cells) => {
+                cells.any_near(&position, &mut seen);
+            }
+            Neighbours::Aabb(cells) => {
+                let h = aabb_half_extents(&self.rotations[i], &self.obb[si]);
+                cells.any_near(&position, &h, |j| seen(j, &position));
+            }
+            Neighbours::PerSpecies(grids) => {
+                for (sj, grid) in grids.iter().enumerate() {
+                    grid.any_within(&position, self.radii[si] + self.radii[sj], &mut seen);
+                }
+            }
+        }
+        count
     }
 
     /// Number of particles.
@@ -388,14 +438,6 @@ impl System {
             return cells.sphere_overlaps(&self.box_.wrap_near(position), self.radii[si], i);
         }
         self.overlaps_at_except(i, position, rotation, |j| j == i)
-    }
-
-    /// Bounding radius of each particle.
-    fn particle_radii(&self) -> Vec<f64> {
-        self.particles
-            .iter()
-            .map(|p| self.radii[p.species as usize])
-            .collect()
     }
 
     /// Whether a body of species `s` at `position` turned by `rotation`
@@ -445,7 +487,7 @@ impl System {
         if shape_i.is_sphere() && shape_j.is_sphere() {
             return true;
         }
-        if self.use_aabb {
+        if self.plan.aabb_cells {
             // Disjoint AABBs, as the AABB cells would have told.
             let (hi, hj) = (
                 aabb_half_extents(rotation, &self.obb[si]),
@@ -518,6 +560,13 @@ impl System {
             // At the position it would be stored at (a trial translation may
             // have left the box).
             Neighbours::Cells(cells) => cells.any_near(&self.box_.wrap_near(position), test),
+            Neighbours::PerSpecies(grids) => {
+                let at = self.box_.wrap_near(position);
+                grids
+                    .iter()
+                    .enumerate()
+                    .any(|(sj, grid)| grid.any_within(&at, ri + self.radii[sj], |j, d| test(j, d)))
+            }
             Neighbours::Aabb(cells) => {
                 // Both centres lie within half a box of the box: |d| < 3L/2.
                 let separation = |j: usize| {
@@ -584,6 +633,7 @@ impl System {
         match &mut self.cells {
             Neighbours::Cells(cells) => cells.update(i, &position),
             Neighbours::Aabb(cells) => cells.update(i, &position, &h),
+            Neighbours::PerSpecies(grids) => grids[species].update(i, &position),
         }
     }
 
@@ -607,14 +657,15 @@ impl System {
         }
         let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
         trial.positions.clone_from(&positions);
+        let kinds: Vec<u16> = trial.particles.iter().map(|p| p.species).collect();
         trial.cells = Neighbours::build(
-            self.use_aabb,
-            self.aabb_width,
+            &self.plan,
             self.range,
             &new_box,
             &positions,
             &trial.aabb,
-            &trial.particle_radii(),
+            &kinds,
+            &self.radii,
         );
         // Scaling all centres up cannot create an overlap of convex bodies
         // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some

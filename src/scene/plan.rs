@@ -208,11 +208,16 @@ impl fmt::Display for Report<'_> {
         if plan.has_mc {
             let n = &plan.mc_neighbours;
             let why = match (n.elongated, n.size_asymmetric) {
-                (true, _) => "some species is elongated or flat",
-                (false, true) => "the species differ in size by more than 2:1",
+                (_, true) => "the species differ in size by more than 2:1",
+                (true, false) => "some species is elongated or flat",
                 _ => "near-isotropic species of similar size",
             };
-            if n.aabb_cells {
+            if n.per_species {
+                writeln!(
+                    f,
+                    "  Monte Carlo neighbours: one grid per species, each as wide as that species' bounding diameter ({why})"
+                )?;
+            } else if n.aabb_cells {
                 writeln!(
                     f,
                     "  Monte Carlo neighbours: cells of width {:.4} holding bounding boxes ({why}), oriented-box pre-filter",

@@ -53,16 +53,36 @@ impl PackedCells {
     /// Bins `positions` (in the box) into cells of width ≥ `range`; each
     /// particle carries its radius (for [`PackedCells::sphere_overlaps`]).
     pub fn new(box_: &PeriodicBox, range: f64, positions: &[V3], radii: &[f64]) -> Self {
+        Self::with_members(
+            box_,
+            range,
+            positions.len(),
+            positions
+                .iter()
+                .zip(radii)
+                .map(|(p, &r)| (*p, r))
+                .enumerate(),
+        )
+    }
+
+    /// Cells of width ≥ `range` holding only the listed particles (index,
+    /// (position, radius)) of `count` in all: one species' grid.
+    pub fn with_members(
+        box_: &PeriodicBox,
+        range: f64,
+        count: usize,
+        members: impl Iterator<Item = (usize, (V3, f64))> + Clone,
+    ) -> Self {
         let lengths = box_.lengths();
-        let dims = super::cell_grid(&lengths, range, positions.len());
+        let dims = super::cell_grid(&lengths, range, members.clone().count().max(1));
         let walls = box_.walls();
         let shifted = (0..3).all(|k| walls[k] || dims[k] >= 3);
-        let count = dims[0] * dims[1] * dims[2];
+        let cells = dims[0] * dims[1] * dims[2];
         let (mut neighbours, mut neighbour_counts) = (Vec::new(), Vec::new());
         if !shifted {
-            neighbours = vec![0u32; 27 * count];
-            neighbour_counts = vec![0u8; count];
-            for c in 0..count {
+            neighbours = vec![0u32; 27 * cells];
+            neighbour_counts = vec![0u8; cells];
+            for c in 0..cells {
                 let at = [
                     c % dims[0],
                     (c / dims[0]) % dims[1],
@@ -89,8 +109,8 @@ impl PackedCells {
             capacity: 4,
             slots: Vec::new(),
             members: Vec::new(),
-            counts: vec![0; count],
-            slot_of: vec![0; positions.len()],
+            counts: vec![0; dims[0] * dims[1] * dims[2]],
+            slot_of: vec![0; count],
             shifted,
             neighbours,
             neighbour_counts,
@@ -105,11 +125,8 @@ impl PackedCells {
                 *slot = step(0) + dims[0] as isize * (step(1) + dims[1] as isize * step(2));
             }
         }
-        let placed: Vec<(usize, usize, [f64; 4])> = positions
-            .iter()
-            .zip(radii)
-            .enumerate()
-            .map(|(i, (p, &r))| (i, this.cell_index(p), [p.x, p.y, p.z, r]))
+        let placed: Vec<(usize, usize, [f64; 4])> = members
+            .map(|(i, (p, r))| (i, this.cell_index(&p), [p.x, p.y, p.z, r]))
             .collect();
         this.rebin(&placed);
         this
@@ -308,6 +325,72 @@ impl PackedCells {
         false
     }
 
+    /// Calls `f(j, d)` for every listed particle j whose centre may lie
+    /// within `reach` of `r` (all in the cells the box r ± reach touches),
+    /// d its separation from `r` (the image nearest `r` for every j within
+    /// reach, which must not exceed half the box); stops early and returns
+    /// true as soon as `f` does. For reaches beyond one cell: a large body
+    /// among a grid of small ones.
+    pub fn any_within(&self, r: &V3, reach: f64, mut f: impl FnMut(usize, &V3) -> bool) -> bool {
+        let lengths = self.box_.lengths();
+        let walls = self.box_.walls();
+        // Per axis: the first unwrapped cell and how many, by the formula
+        // `coords` bins with (monotone in x; the reach grown by 1e-9 of
+        // the box covers rounding at cell faces); a periodic axis the box
+        // covers whole is walked once, its members by the minimum image.
+        let mut first = [0i64; 3];
+        let mut count = [0i64; 3];
+        let mut whole = false;
+        for k in 0..3 {
+            let n = self.dims[k] as i64;
+            let grown = reach + 1e-9 * lengths[k];
+            let cell = |x: f64| {
+                let t = (x / lengths[k] + 0.5) * n as f64;
+                let i = t as i64;
+                if (i as f64) > t { i - 1 } else { i }
+            };
+            let (mut lo, mut hi) = (cell(r[k] - grown), cell(r[k] + grown));
+            if walls[k] {
+                lo = lo.max(0);
+                hi = hi.min(n - 1);
+            } else if hi - lo + 1 >= n || !self.shifted {
+                (lo, hi) = (0, n - 1);
+                whole = true;
+            }
+            first[k] = lo;
+            count[k] = hi - lo + 1;
+        }
+        for cz in first[2]..first[2] + count[2] {
+            for cy in first[1]..first[1] + count[1] {
+                for cx in first[0]..first[0] + count[0] {
+                    let u = [cx, cy, cz];
+                    let mut shift = V3::zeros();
+                    let mut at = [0usize; 3];
+                    for k in 0..3 {
+                        let n = self.dims[k] as i64;
+                        at[k] = u[k].rem_euclid(n) as usize;
+                        if !walls[k] {
+                            shift[k] = u[k].div_euclid(n) as f64 * lengths[k];
+                        }
+                    }
+                    let cell = at[0] + self.dims[0] * (at[1] + self.dims[1] * at[2]);
+                    for s in self.range_of(cell) {
+                        let raw = position(&self.slots[s]) - r;
+                        let d = if whole {
+                            self.box_.minimum_image_near(&raw)
+                        } else {
+                            raw + shift
+                        };
+                        if f(self.members[s] as usize, &d) {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+
     /// The occupied slots of `cell`.
     #[inline]
     fn range_of(&self, cell: usize) -> std::ops::Range<usize> {
@@ -396,6 +479,57 @@ const STENCIL: [[i64; 3]; 27] = {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A grid of small particles queried from far beyond one cell (a large
+    /// body among them): every particle within the reach is handed over
+    /// with its minimum-image separation, in periodic and walled boxes.
+    #[test]
+    fn box_queries_find_everything_within_reach() {
+        let mut uniform = crate::test_support::uniform(12);
+        let mut u = || uniform() - 0.5;
+        for walls in [[false; 3], [false, false, true]] {
+            let box_ = PeriodicBox::new(Vector3::new(9.0, 10.0, 11.0))
+                .unwrap()
+                .with_walls(walls);
+            let lengths = box_.lengths();
+            let pos: Vec<V3> = (0..3000)
+                .map(|_| Vector3::new(u(), u(), u()).component_mul(&lengths))
+                .collect();
+            // Every other particle is in the grid (a species of its own).
+            let cells = PackedCells::with_members(
+                &box_,
+                0.4,
+                pos.len(),
+                pos.iter()
+                    .map(|p| (*p, 0.2))
+                    .enumerate()
+                    .filter(|(i, _)| i % 2 == 0),
+            );
+            for _ in 0..200 {
+                let r = Vector3::new(u(), u(), u()).component_mul(&lengths);
+                let reach = 0.3 + 4.0 * (u() + 0.5);
+                let mut seen = Vec::new();
+                cells.any_within(&r, reach, |j, d| {
+                    if d.norm() <= reach {
+                        seen.push((j, *d));
+                    }
+                    false
+                });
+                for (j, p) in pos.iter().enumerate() {
+                    let d = box_.minimum_image(&(p - r));
+                    let listed = seen.iter().filter(|x| x.0 == j).count();
+                    if j % 2 == 0 && d.norm() <= reach * (1.0 - 1e-12) {
+                        assert_eq!(listed, 1, "{j} at {} within {reach} missed", d.norm());
+                    } else if j % 2 == 1 {
+                        assert_eq!(listed, 0, "{j} is not in the grid");
+                    }
+                }
+                for (_, d) in &seen {
+                    assert!(d.norm() <= reach);
+                }
+            }
+        }
+    }
 
     /// Every pair within range is found once, with the separation the box's
     /// minimum image gives bit for bit, and the sphere test agrees with all
