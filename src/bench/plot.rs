@@ -28,14 +28,54 @@ pub struct Figure<'a> {
     pub log_y: bool,
 }
 
-const COLOURS: [RGBColor; 6] = [
+/// Ten distinct colours (the "tab10" palette).
+const COLOURS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
     RGBColor(214, 39, 40),
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
 ];
+
+/// Tick values for a log axis over [lo, hi]: 1, 2 and 5 times the powers
+/// of ten inside it (every integer multiple when it spans under a decade),
+/// so that a short log axis still carries several labels.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let multiples: &[f64] = if hi / lo < 10.0 {
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
+    } else {
+        &[1.0, 2.0, 5.0]
+    };
+    let mut ticks = Vec::new();
+    let mut decade = 10f64.powf(lo.log10().floor());
+    while decade <= hi {
+        for m in multiples {
+            let v = m * decade;
+            if v >= lo && v <= hi {
+                ticks.push(v);
+            }
+        }
+        decade *= 10.0;
+    }
+    ticks
+}
+
+/// A tick label: plain for 1e-3 ≤ |v| < 1e5 (no trailing zeros), else
+/// scientific.
+fn tick_label(v: &f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e5).contains(&a) {
+        format!("{v:.0e}")
+    } else {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
+}
 
 /// The range of the values, widened a little (by a factor on log axes).
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
@@ -82,6 +122,8 @@ pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), 
                 .configure_mesh()
                 .x_desc(figure.x_label)
                 .y_desc(figure.y_label)
+                .x_label_formatter(&tick_label)
+                .y_label_formatter(&tick_label)
                 .draw()
                 .map_err(|e| fail(&e))?;
             for (k, s) in series.iter().enumerate() {
@@ -106,11 +148,13 @@ pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), 
                 .map_err(|e| fail(&e))?;
         }};
     }
+    let log_x = || (x0..x1).log_scale().with_key_points(log_ticks(x0, x1));
+    let log_y = || (y0..y1).log_scale().with_key_points(log_ticks(y0, y1));
     match (figure.log_x, figure.log_y) {
         (false, false) => draw!(x0..x1, y0..y1),
-        (true, false) => draw!((x0..x1).log_scale(), y0..y1),
-        (false, true) => draw!(x0..x1, (y0..y1).log_scale()),
-        (true, true) => draw!((x0..x1).log_scale(), (y0..y1).log_scale()),
+        (true, false) => draw!(log_x(), y0..y1),
+        (false, true) => draw!(x0..x1, log_y()),
+        (true, true) => draw!(log_x(), log_y()),
     }
     root.present().map_err(|e| fail(&e))
 }
@@ -118,6 +162,19 @@ pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn short_log_axes_get_several_ticks() {
+        assert_eq!(log_ticks(150.0, 1700.0), vec![200.0, 500.0, 1000.0]);
+        assert_eq!(
+            log_ticks(150.0, 900.0),
+            vec![200.0, 300.0, 400.0, 500.0, 600.0, 700.0, 800.0, 900.0]
+        );
+        assert_eq!(log_ticks(0.01, 1.0), vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]);
+        assert_eq!(tick_label(&1000.0), "1000");
+        assert_eq!(tick_label(&0.25), "0.25");
+        assert_eq!(tick_label(&1e-9), "1e-9");
+    }
 
     /// A plot is written, with the title, labels and legend in it.
     #[test]
