@@ -170,7 +170,10 @@ mod tests {
             log_ticks(150.0, 900.0),
             vec![200.0, 300.0, 400.0, 500.0, 600.0, 700.0, 800.0, 900.0]
         );
-        assert_eq!(log_ticks(0.01, 1.0), vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]);
+        assert_eq!(
+            log_ticks(0.01, 1.0),
+            vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
+        );
         assert_eq!(tick_label(&1000.0), "1000");
         assert_eq!(tick_label(&0.25), "0.25");
         assert_eq!(tick_label(&1e-9), "1e-9");

@@ -429,14 +429,6 @@ impl System {
     /// Whether particle `i`, placed at `position` with rotation `rotation`,
     /// would overlap any other particle (periodic images included).
     pub fn overlaps_at(&self, i: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
-        if let (Neighbours::Cells(cells), true, false) = (&self.cells, self.all_spheres, self.ideal)
-        {
-            let si = self.particles[i].species as usize;
-            if self.box_.has_walls() && self.touches_wall(si, position, rotation) {
-                return true;
-            }
-            return cells.sphere_overlaps(&self.box_.wrap_near(position), self.radii[si], i);
-        }
         self.overlaps_at_except(i, position, rotation, |j| j == i)
     }
 
@@ -528,6 +520,10 @@ impl System {
         let ri = self.radii[si];
         if self.box_.has_walls() && self.touches_wall(si, position, rotation) {
             return true;
+        }
+        if let (Neighbours::Cells(cells), true) = (&self.cells, self.all_spheres) {
+            return cells
+                .sphere_overlaps_where(&self.box_.wrap_near(position), ri, |j| !skip(j as usize));
         }
         // The largest reach any partner could have: most candidates fail
         // this before their species is even looked up.
@@ -624,12 +620,18 @@ impl System {
         let position = self.box_.wrap_near(&position);
         self.particles[i].position = position;
         self.positions[i] = position;
-        self.particles[i].orientation = orientation;
-        self.rotations[i] = rotation;
         let species = self.particles[i].species as usize;
-        self.placed[i] = Placed::new(&self.species[species].shape, &rotation);
-        let h = aabb_half_extents(&rotation, &self.obb[species]);
-        self.aabb[i] = h;
+        let h = if self.all_spheres {
+            // Spheres: orientation, rotation, placed shape and box never change.
+            self.aabb[i]
+        } else {
+            self.particles[i].orientation = orientation;
+            self.rotations[i] = rotation;
+            self.placed[i] = Placed::new(&self.species[species].shape, &rotation);
+            let h = aabb_half_extents(&rotation, &self.obb[species]);
+            self.aabb[i] = h;
+            h
+        };
         match &mut self.cells {
             Neighbours::Cells(cells) => cells.update(i, &position),
             Neighbours::Aabb(cells) => cells.update(i, &position, &h),

@@ -254,19 +254,26 @@ impl PackedCells {
     /// any listed particle but `exclude`, each taken as its sphere.
     #[inline]
     pub fn sphere_overlaps(&self, r: &V3, radius: f64, exclude: usize) -> bool {
+        let exclude = exclude as u32;
+        self.sphere_overlaps_where(r, radius, |j| j != exclude)
+    }
+
+    /// As [`PackedCells::sphere_overlaps`], against the listed particles j
+    /// with `keep(j)` only (asked only of those within reach).
+    #[inline]
+    pub fn sphere_overlaps_where(&self, r: &V3, radius: f64, keep: impl Fn(u32) -> bool) -> bool {
         let at = self.coords(r);
         if !self.shifted {
             return self.any_near(r, |j, d| {
                 let reach = radius + self.slots[self.slot_of[j] as usize][3];
-                j != exclude && d.norm_squared() <= reach * reach
+                d.norm_squared() <= reach * reach && keep(j as u32)
             });
         }
-        let exclude = exclude as u32;
         self.any_shifted_cell(&at, r, |slots, members, shift| {
             slots.iter().zip(members).any(|(e, &j)| {
                 let d = (position(e) - r) + shift;
                 let reach = radius + e[3];
-                d.norm_squared() <= reach * reach && j != exclude
+                d.norm_squared() <= reach * reach && keep(j)
             })
         })
     }
