@@ -186,3 +186,61 @@ fn superellipsoid_mc_and_effects_suites_run_quick() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The table suites run quick too: OCSI (with its plots), the scene path
+/// against the library, the headline time-per-collision table and the
+/// tolerance suite (with its plots and its verdict on ε_d).
+#[test]
+fn ocsi_scene_edmd_and_tolerance_suites_run_quick() {
+    let dir = std::env::temp_dir().join(format!("hardbody-bench-quick3-{}", std::process::id()));
+    let rows = bench("ocsi", &dir);
+    assert!(rows.len() >= 7, "one row per algorithm and radius");
+    for r in &rows {
+        let ns = r["ns_per_test"].as_f64().unwrap();
+        assert!(ns > 0.0 && ns < 1e4, "{r}");
+    }
+    check_plot(
+        &dir.join("ocsi-L-R0.5.svg"),
+        &["cuboid length L*", "time per test (ns)", "ocsi", "qrf"],
+    );
+    check_plot(&dir.join("ocsi-W-R5.svg"), &["cuboid width W*"]);
+
+    let json = |suite: &str| -> Vec<serde_json::Value> {
+        let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .args(["bench", suite, "--quick", "--json"])
+            .output()
+            .expect("hardbody runs");
+        assert!(
+            out.status.success(),
+            "{suite}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).expect("a JSON array of rows")
+    };
+    let rows = json("scene");
+    assert!(!rows.is_empty());
+    for r in &rows {
+        assert!(r["us_per_collision"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    let rows = json("edmd");
+    check_rows("edmd", &rows);
+
+    let rows = bench("edmd-tolerance", &dir);
+    assert!(rows.iter().any(|r| r["reference"] == true));
+    for r in &rows {
+        assert!(
+            r["missed"].is_null(),
+            "a collision missed in the quick run: {r}"
+        );
+        assert!(r["us_per_collision"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    check_plot(
+        &dir.join("edmd-tolerance-grazing-time.svg"),
+        &["grazing threshold", "time per collision (us)", "aspect 2"],
+    );
+    check_plot(
+        &dir.join("edmd-tolerance-newton-error.svg"),
+        &["Newton tolerance", "contact-time error"],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -59,9 +59,15 @@ pub struct ToleranceRow {
     pub missed: Option<String>,
 }
 
-/// The MC start: `n` ellipsoids of `aspect` compressed to `phi`, then 500
-/// NVT sweeps.
-fn start(aspect: f64, n_side: usize, phi: f64, seed: u64) -> Result<(Shape, System), String> {
+/// The MC start: `n_side`³ ellipsoids of `aspect` compressed to `phi`,
+/// then `sweeps` NVT sweeps.
+fn start(
+    aspect: f64,
+    n_side: usize,
+    phi: f64,
+    sweeps: u64,
+    seed: u64,
+) -> Result<(Shape, System), String> {
     let shape: Shape = format!("Ellipsoid(a: {}, b: 0.5, c: 0.5)", 0.5 * aspect)
         .parse()
         .map_err(|e| format!("{e}"))?;
@@ -85,7 +91,14 @@ fn start(aspect: f64, n_side: usize, phi: f64, seed: u64) -> Result<(Shape, Syst
         target: 0.3,
         max_translate: 1.0,
     };
-    tuner.equilibrate(&mut system, &mut sizes, &Ensemble::Nvt, 500, 50, &mut rng);
+    tuner.equilibrate(
+        &mut system,
+        &mut sizes,
+        &Ensemble::Nvt,
+        sweeps,
+        50,
+        &mut rng,
+    );
     Ok((shape, system))
 }
 
@@ -157,11 +170,11 @@ fn run(system: &System, predictor: PredictorOptions, collisions: u64) -> Outcome
     }
 }
 
-/// Runs the suite; `quick` for CI smoke (φ = 0.35, 2000 collisions, three
-/// settings of each knob).
+/// Runs the suite; `quick` for CI smoke (φ = 0.35, 1000 collisions, a
+/// shorter equilibration, three settings of each knob).
 pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
     let (phi, collisions, n_side) = if quick {
-        (0.35, 2_000, 6)
+        (0.35, 1_000, 6)
     } else {
         (0.5, 100_000, 6)
     };
@@ -178,7 +191,7 @@ pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
     let (ref_grazing, ref_newton) = (1e-8, 1e-14);
     let mut rows = Vec::new();
     for aspect in [2.0, 5.0] {
-        let (shape, system) = start(aspect, n_side, phi, 7)?;
+        let (shape, system) = start(aspect, n_side, phi, if quick { 100 } else { 500 }, 7)?;
         let options = |g: f64, t: f64| {
             let mut p = PredictorOptions {
                 grazing_threshold: g,

@@ -89,11 +89,13 @@ struct Setup {
 
 fn setups(quick: bool) -> Vec<Setup> {
     let scale = if quick { 10 } else { 1 };
+    // Quick: smaller systems too (a smoke run; the compressions dominate).
+    let n = |full: usize, small: usize| if quick { small } else { full };
     vec![
         Setup {
             system: "hard spheres".into(),
             shape: "Sphere(radius: 0.5)".into(),
-            n: 4000,
+            n: n(4000, 1000),
             phi: 0.5,
             start: Start::Lattice,
             collisions: 200_000 / scale,
@@ -105,7 +107,7 @@ fn setups(quick: bool) -> Vec<Setup> {
         Setup {
             system: "ellipsoids, aspect 2".into(),
             shape: PROLATE.into(),
-            n: 256,
+            n: n(256, 64),
             phi: 0.5,
             start: Start::Compressed,
             collisions: 5000 / scale,
@@ -117,7 +119,7 @@ fn setups(quick: bool) -> Vec<Setup> {
         Setup {
             system: "ellipsoids, aspect 0.5".into(),
             shape: OBLATE.into(),
-            n: 256,
+            n: n(256, 64),
             phi: 0.5,
             start: Start::Compressed,
             collisions: 5000 / scale,
@@ -129,7 +131,7 @@ fn setups(quick: bool) -> Vec<Setup> {
         Setup {
             system: "cubes".into(),
             shape: "Cuboid(a: 0.5, b: 0.5, c: 0.5)".into(),
-            n: 1000,
+            n: n(1000, 216),
             phi: 0.5,
             start: Start::Lattice,
             collisions: 5000 / scale,
@@ -177,7 +179,8 @@ fn start(setup: &Setup, seed: u64) -> Result<System, String> {
     }
 }
 
-/// Runs the suite (`quick`: a tenth of the collisions, three repeats).
+/// Runs the suite (`quick`: smaller systems, a tenth of the collisions,
+/// three repeats).
 pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
     let repeats = if quick { 3 } else { 5 };
     let mut rows = Vec::new();
