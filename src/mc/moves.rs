@@ -124,9 +124,11 @@ pub fn sweep<R: Rng>(
 ) -> Counts {
     let mut counts = Counts::default();
     let n = system.len();
+    // Systems where nothing turns skip the species lookup of every move.
+    let any_rotates = system.species.iter().any(|s| s.rotation);
     for _ in 0..n {
         let i = rng.gen_range(0..n);
-        let rotates = system.species[system.particles[i].species as usize].rotation;
+        let rotates = any_rotates && system.species[system.particles[i].species as usize].rotation;
         if rotates && rng.r#gen::<bool>() {
             counts.rotate.record(rotate(system, i, sizes.rotate, rng));
         } else {
@@ -184,13 +186,13 @@ pub fn propose_rotation<R: Rng>(
 
 /// Translation uniform in a cube of side `size` around the old position.
 pub fn translate<R: Rng>(system: &mut System, i: usize, size: f64, rng: &mut R) -> bool {
-    let p = system.particles[i];
-    let position = propose_translation(&p.position, size, rng);
-    let rotation = system.rotations[i];
-    if system.overlaps_at(i, &position, &rotation) {
+    let position = propose_translation(&system.positions[i], size, rng);
+    if system.overlaps_at(i, &position, &system.rotations[i]) {
         return false;
     }
-    system.place(i, position, p.orientation, rotation);
+    // The orientation is read only for the moves that are kept.
+    let (orientation, rotation) = (system.particles[i].orientation, system.rotations[i]);
+    system.place(i, position, orientation, rotation);
     true
 }
 
