@@ -118,6 +118,21 @@ fn phi_0_45_matches_carnahan_starling_and_enskog_over_a_million_collisions() {
     check(0.45, 2, 1_000_000);
 }
 
+/// The issue 7 soak for spheres: 10⁷ collisions (or
+/// HARDBODY_SOAK_COLLISIONS) at φ = 0.45 with the same checks: pressure
+/// and collision rate against Carnahan–Starling and Enskog, energy and
+/// momentum conserved. `cargo test --release --test edmd_hard_spheres --
+/// --ignored`.
+#[test]
+#[ignore = "soak: about a minute in release mode"]
+fn soak_ten_million_collisions() {
+    let collisions = std::env::var("HARDBODY_SOAK_COLLISIONS")
+        .ok()
+        .map(|v| v.parse().expect("HARDBODY_SOAK_COLLISIONS: a number"))
+        .unwrap_or(10_000_000);
+    check(0.45, 3, collisions);
+}
+
 /// Bad settings are errors that say what is wrong.
 #[test]
 fn bad_settings_are_errors() {
