@@ -542,33 +542,16 @@ pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
 /// interaction range across (at least 256 bodies; fewer when `quick`),
 /// relaxed by Monte Carlo sweeps tuned to 30 % acceptance.
 fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, String> {
-    use crate::mc::moves::{Ensemble, sweep};
-    use crate::mc::tuning::Tuner;
     // Bodies needed for an edge of twice the range, with room to spare.
     let edge = 4.0 * shape.bounding_radius() * 1.3;
     let mut n = ((edge.powi(3) * phi / shape.volume()) as usize).max(if quick { 100 } else { 256 });
-    let mut system = loop {
-        match super::mc::dense_start(shape, n, phi) {
-            Ok(system) => break system,
+    loop {
+        match super::mc::tuned(shape, n, phi, if quick { 10 } else { 50 }) {
+            Ok((system, _)) => return Ok(system),
             Err(crate::mc::McError::BoxTooSmall { .. }) if n < 200_000 => n += n / 2,
             Err(e) => return Err(e.to_string()),
         }
-    };
-    let mut rng = Pcg64::seed_from_u64(5);
-    let mut sizes = MoveSizes {
-        translate: 0.05,
-        rotate: 0.05,
-        volume: 0.0,
-    };
-    let tuner = Tuner {
-        target: 0.3,
-        max_translate: 1.0,
-    };
-    for _ in 0..if quick { 10 } else { 50 } {
-        let counts = sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
-        tuner.update(&mut sizes, &counts);
     }
-    Ok(system)
 }
 
 /// Plots of the elongation suite: time per collision against the aspect

@@ -281,7 +281,12 @@ const SHAPES: [&str; 4] = [
 
 /// A dense start of `shape` tuned to 30 % acceptance (`sweeps` sweeps),
 /// with the frozen move sizes.
-fn tuned(shape: &Shape, n: usize, phi: f64, sweeps: usize) -> Result<(System, MoveSizes), McError> {
+pub fn tuned(
+    shape: &Shape,
+    n: usize,
+    phi: f64,
+    sweeps: usize,
+) -> Result<(System, MoveSizes), McError> {
     let mut system = dense_start(shape, n, phi)?;
     let mut rng = Pcg64::seed_from_u64(17);
     let mut sizes = MoveSizes {

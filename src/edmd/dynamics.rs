@@ -1429,6 +1429,18 @@ impl Dynamics {
         }
     }
 
+    /// Body `i`'s centre and orientation at time `t`, by free motion from
+    /// its stored pose.
+    fn pose_at(&self, i: usize, t: f64) -> (V3, UnitQuaternion<f64>) {
+        let b = &self.bodies[i];
+        let dt = t - b.time;
+        let r = position_after(&b.position, &b.velocity, dt);
+        let q = self.kinds[b.species as usize]
+            .spin(&b.orientation, &b.angular_velocity)
+            .orientation_after(&b.orientation, dt);
+        (r, q)
+    }
+
     /// The gap between body `i` at time `t` and the faces of its neighbour
     /// box: min over the box axes uₖ of Hₖ − |(r − c)·uₖ| − hₖ, with H the
     /// box's half-extents, c its centre and hₖ the body's extent along uₖ.
@@ -1437,11 +1449,7 @@ impl Dynamics {
         let (half, axes) = spheres.boxes.as_ref().expect("box regions");
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
-        let dt = t - b.time;
-        let r = position_after(&b.position, &b.velocity, dt);
-        let q = kind
-            .spin(&b.orientation, &b.angular_velocity)
-            .orientation_after(&b.orientation, dt);
+        let (r, q) = self.pose_at(i, t);
         let axes = &axes[i];
         let h = kind
             .shape
@@ -1486,11 +1494,7 @@ impl Dynamics {
     fn wall_gap_at(&self, i: usize, t: f64) -> (f64, usize, bool) {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
-        let dt = t - b.time;
-        let r = position_after(&b.position, &b.velocity, dt);
-        let q = kind
-            .spin(&b.orientation, &b.angular_velocity)
-            .orientation_after(&b.orientation, dt);
+        let (r, q) = self.pose_at(i, t);
         let h = kind
             .shape
             .lab_half_extents(&q.to_rotation_matrix().into_inner());
