@@ -100,7 +100,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Write the suite's plots (SVG) into this directory
-        /// (all but scene, edmd and effects, which are tables).
+        /// (all but scene and edmd, which are tables).
         #[arg(long, value_name = "DIR")]
         plot: Option<std::path::PathBuf>,
     },
@@ -166,9 +166,10 @@ fn main() -> ExitCode {
                         | Suite::EdmdElongation
                         | Suite::Superellipsoid
                         | Suite::EdmdTolerance
+                        | Suite::Effects
                 ) {
                     return bad_input(
-                        "--plot: this suite has no plots (scene, edmd and effects are tables)",
+                        "--plot: this suite has no plots (scene and edmd are tables)",
                     );
                 }
                 if let Err(e) = std::fs::create_dir_all(dir) {
@@ -209,7 +210,7 @@ fn main() -> ExitCode {
                     Some(edmd_speed::plot_superellipsoid),
                 ),
                 Suite::EdmdTolerance => bench_edmd_tolerance(quick, json, plot.as_deref()),
-                Suite::Effects => bench_effects(quick, json),
+                Suite::Effects => bench_effects(quick, json, plot.as_deref()),
             }
         }
     }
@@ -633,7 +634,7 @@ fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode
     ExitCode::SUCCESS
 }
 
-fn bench_effects(quick: bool, json: bool) -> ExitCode {
+fn bench_effects(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
     let rows = match hardbody::bench::effects::run(quick) {
         Ok(rows) => rows,
         Err(e) => {
@@ -651,6 +652,19 @@ fn bench_effects(quick: bool, json: bool) -> ExitCode {
                 "| {} | {} | {:.3} | {:.3} | {:.2} | {} |",
                 r.driver, r.effect, r.off_us, r.on_us, r.ratio, r.unit
             ));
+        }
+    }
+    if let Some(dir) = plot {
+        match hardbody::bench::effects::plot(&rows, dir) {
+            Ok(paths) => {
+                for p in paths {
+                    esay(&format!("plot written: {}", p.display()));
+                }
+            }
+            Err(e) => {
+                esay(&format!("hardbody: effects plot failed: {e}"));
+                return ExitCode::from(EXIT_FAILED);
+            }
         }
     }
     ExitCode::SUCCESS

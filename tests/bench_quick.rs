@@ -166,16 +166,7 @@ fn superellipsoid_mc_and_effects_suites_run_quick() {
         &["move size", "fraction of moves accepted", "rotations"],
     );
 
-    let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["bench", "effects", "--quick", "--json"])
-        .output()
-        .expect("hardbody runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = bench("effects", &dir);
     assert_eq!(rows.len(), 9);
     for r in &rows {
         let (off, on) = (r["off_us"].as_f64().unwrap(), r["on_us"].as_f64().unwrap());
@@ -184,6 +175,14 @@ fn superellipsoid_mc_and_effects_suites_run_quick() {
             "{r}"
         );
     }
+    check_plot(
+        &dir.join("effects.svg"),
+        &[
+            "time with the effect on / time with it off",
+            "rotation",
+            "walls",
+        ],
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -275,3 +275,20 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, String> {
     )?);
     Ok(rows)
 }
+
+/// The suite's plot: on/off cost ratio per effect (1 = free).
+pub fn plot(rows: &[EffectRow], dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
+    let bars: Vec<(String, f64)> = rows
+        .iter()
+        .map(|r| (format!("{}: {}", r.driver, r.effect), r.ratio))
+        .collect();
+    let path = dir.join("effects.svg");
+    super::plot::bar_plot(
+        &path,
+        "What each optional effect costs (prolate ellipsoids, N = 256, phi = 0.3; medians)",
+        "time with the effect on / time with it off",
+        &bars,
+        1.0,
+    )?;
+    Ok(vec![path])
+}

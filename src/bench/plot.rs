@@ -159,6 +159,63 @@ pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), 
     root.present().map_err(|e| fail(&e))
 }
 
+/// Writes a horizontal bar chart: one bar per label, of the given value,
+/// with a reference line at `reference` (e.g. a ratio of 1).
+pub fn bar_plot(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    bars: &[(String, f64)],
+    reference: f64,
+) -> Result<(), String> {
+    let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let top = bars.iter().map(|b| b.1).fold(reference, f64::max) * 1.15;
+    let height = 120 + 40 * bars.len() as u32;
+    let root = SVGBackend::new(path, (900, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| fail(&e))?;
+    let n = bars.len() as f64;
+    // Bar i spans y in [i + 0.15, i + 0.85]; its label sits at i + 0.5.
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(380)
+        .build_cartesian_2d(0.0..top, 0.0..n)
+        .map_err(|e| fail(&e))?;
+    // Ticks every half unit; the names go on the bar centres only.
+    let label = |y: &f64| {
+        if (y.fract() - 0.5).abs() < 1e-6 {
+            bars.get(y.floor() as usize)
+                .map(|b| b.0.clone())
+                .unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_desc(x_label)
+        .x_label_formatter(&tick_label)
+        .y_labels(2 * bars.len() + 1)
+        .y_label_formatter(&label)
+        .draw()
+        .map_err(|e| fail(&e))?;
+    chart
+        .draw_series(bars.iter().enumerate().map(|(i, b)| {
+            let y = i as f64;
+            Rectangle::new([(0.0, y + 0.15), (b.1, y + 0.85)], COLOURS[0].filled())
+        }))
+        .map_err(|e| fail(&e))?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![(reference, 0.0), (reference, n)],
+            BLACK.stroke_width(2),
+        )))
+        .map_err(|e| fail(&e))?;
+    root.present().map_err(|e| fail(&e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -177,6 +234,20 @@ mod tests {
         assert_eq!(tick_label(&1000.0), "1000");
         assert_eq!(tick_label(&0.25), "0.25");
         assert_eq!(tick_label(&1e-9), "1e-9");
+    }
+
+    #[test]
+    fn writes_a_labelled_bar_chart() {
+        let dir = std::env::temp_dir().join(format!("hardbody-bars-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("b.svg");
+        let bars = [("rotation".to_string(), 3.2), ("walls".to_string(), 1.0)];
+        bar_plot(&path, "cost of effects", "on / off", &bars, 1.0).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        for text in ["cost of effects", "on / off", "rotation", "walls"] {
+            assert!(svg.contains(text), "{text} missing");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// A plot is written, with the title, labels and legend in it.
