@@ -197,6 +197,27 @@ pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
     Ok(rows)
 }
 
+/// The system timed with cells, then with neighbour lists of `shell`.
+fn cells_and_lists(
+    setup: &Setup,
+    system: &System,
+    shell: f64,
+    repeats: usize,
+    quick: bool,
+) -> Result<[SpeedRow; 2], String> {
+    Ok([
+        time_system(setup, system, None, repeats, quick)?,
+        time_system(setup, system, Some(shell), repeats, quick)?,
+    ])
+}
+
+/// The shell the dynamics picks by itself for `system` (for bodies, a tenth
+/// of the thinnest thickness).
+fn auto_shell(system: &System) -> Result<f64, String> {
+    crate::edmd::automatic_neighbour_shell(system.species(), system.packing_fraction())
+        .ok_or_else(|| "no automatic neighbour lists for this system".to_string())
+}
+
 /// Times one system with one neighbour structure: 10 collisions per body
 /// to forget the start, then `repeats` timed runs.
 fn time_system(
@@ -364,11 +385,10 @@ pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
             compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)
                 .map_err(|e| e.to_string())?;
             let setup = plain(name, shape, 256, phi, Start::Compressed, collisions);
-            rows.push(time_system(&setup, &system, None, repeats, quick)?);
-            rows.push(time_system(
+            rows.extend(cells_and_lists(
                 &setup,
                 &system,
-                Some(0.05 * diameter),
+                0.05 * diameter,
                 repeats,
                 quick,
             )?);
@@ -524,12 +544,10 @@ pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
                 aspect: Some(aspect),
                 exponent: None,
             };
-            let thickness = 2.0 * shape.min_half_extent();
-            rows.push(time_system(&setup, &system, None, repeats, quick)?);
-            rows.push(time_system(
+            rows.extend(cells_and_lists(
                 &setup,
                 &system,
-                Some(0.1 * thickness),
+                auto_shell(&system)?,
                 repeats,
                 quick,
             )?);
@@ -655,13 +673,10 @@ pub fn superellipsoid(quick: bool) -> Result<Vec<SpeedRow>, String> {
             setup.aspect = Some(x0);
             setup.exponent = Some(p);
             let system = start(&setup, 1)?;
-            let shape = system.species()[0].shape;
-            let thickness = 2.0 * shape.min_half_extent();
-            rows.push(time_system(&setup, &system, None, repeats, quick)?);
-            rows.push(time_system(
+            rows.extend(cells_and_lists(
                 &setup,
                 &system,
-                Some(0.1 * thickness),
+                auto_shell(&system)?,
                 repeats,
                 quick,
             )?);
