@@ -40,7 +40,7 @@ fn check(ka: Kind, kb: Kind, tag: u64) {
             // exact distance.
             // Overlapping, it must not be positive (its negative values are
             // not a depth).
-            let bound = distance_lower_bound(&a, &b, &rel);
+            let (bound, _) = distance_lower_bound(&a, &b, &rel);
             if bound > delta.max(0.0) + 1e-12 * len {
                 why.push(format!(
                     "lower bound {bound:e} above the distance {delta:e}"

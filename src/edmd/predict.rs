@@ -262,12 +262,70 @@ impl Predictor {
         // Far from contact the cheap lower bound is enough to step with
         // (a step d/ḋ_max is safe for any d below the distance).
         let exact_below = self.options.exact_below * scale;
-        let step_distance = |t: f64| -> f64 {
-            let bound = distance_lower_bound(shape_a, shape_b, &pose(t));
-            if bound > exact_below { bound } else { dist(t) }
+        // With the distance (or its bound), a direction along which the
+        // bodies are well apart: the contact normal, or the bound's.
+        let step_distance = |t: f64| -> (f64, V3) {
+            let (bound, normal) = distance_lower_bound(shape_a, shape_b, &pose(t));
+            if bound > exact_below {
+                (bound, normal)
+            } else {
+                let exact = dist(t);
+                (exact, last.get().map_or(normal, |(_, c)| c.normal))
+            }
+        };
+        // How long the bodies surely stay apart from τ = t: along a fixed
+        // lab direction n the separation φ(τ) = n·r − h_A(n) − h_B(−n) of
+        // the support planes is a lower bound on the distance, n·r changes
+        // at n·Δv exactly, and each support value grows as
+        // Shape::support_growth bounds it; φ(0) is the distance when n is
+        // the contact normal, and then φ′(0) = ḋ (so a receding pair is
+        // cleared at once, and an approaching one is followed to its
+        // contact in steps that shrink quadratically, not geometrically).
+        let apart_for = |t: f64, normal: &V3| -> f64 {
+            let qa_t = w_a.orientation_after(q_a, t);
+            let qb_t = w_b.orientation_after(q_b, t);
+            let n = qa_t * normal;
+            let growth = |shape: &Shape, q: &UnitQuaternion<f64>, spin: &Spin, dir: &V3| {
+                let omega = spin.angular_velocity(q);
+                let speed = omega.norm();
+                // |ü| ≤ |ω|² + |ω̇_body|, and |ω̇_body| ≤ |ω| |ω_lab part|
+                // for a symmetric top (0 for a spherical one).
+                let precession = if spin.body == V3::zeros() {
+                    0.0
+                } else {
+                    spin.lab.norm()
+                };
+                let u = q.inverse_transform_vector(dir);
+                let u_dot = u.cross(&q.inverse_transform_vector(&omega));
+                shape.support_growth(&u, &u_dot, speed, speed * (speed + precession))
+            };
+            let ga = growth(shape_a, &qa_t, w_a, &n);
+            let gb = growth(shape_b, &qb_t, w_b, &-n);
+            let phi = n.dot(&(d + dv * t)) - ga.value - gb.value;
+            // (NaN included: no time is sure then.)
+            if phi.is_nan() || phi <= 0.0 {
+                return 0.0;
+            }
+            // Until the bound falls to a level short of zero (half of φ, at
+            // most ε_d/2): a step never lands on a contact the bound sees
+            // exactly (a face meeting a face along n), where the distance
+            // may round to zero.
+            let phi = phi - (0.5 * phi).min(0.5 * eps);
+            let approach = n.dot(dv);
+            let mut kinks = [(0.0, 0.0, 0.0); 6];
+            kinks[..3].copy_from_slice(&ga.kinks);
+            kinks[3..].copy_from_slice(&gb.kinks);
+            let quadratic = first_zero(
+                phi,
+                approach - ga.slope - gb.slope,
+                &kinks,
+                ga.curvature + gb.curvature,
+            );
+            let linear = time_to_zero(phi, approach - ga.lipschitz - gb.lipschitz, 0.0);
+            quadratic.max(linear)
         };
         let mut t = t1;
-        let mut d_t = step_distance(t);
+        let (mut d_t, mut normal_t) = step_distance(t);
         failed(d_t)?;
         // The speed at which the contact points close along the normal
         // (ḋ = −closing), from the contact found at τ = t.
@@ -290,6 +348,9 @@ impl Predictor {
         if d_t <= tol && d_t > 0.0 {
             // A lower bound this small says nothing: look at the distance.
             d_t = dist(t);
+            if let Some((_, c)) = last.get() {
+                normal_t = c.normal;
+            }
             failed(d_t)?;
         }
         if d_t <= tol {
@@ -323,8 +384,14 @@ impl Predictor {
                 return Ok(Search::Unfinished(t));
             }
             steps += 1;
-            let step = if d_t > eps { d_t } else { eps } / rate_bound;
-            if d_t > eps && t + step >= t2 {
+            // A step that cannot jump over a contact: d/ḋ_max (eq. 39), or
+            // longer where the support planes keep the bodies apart; close
+            // to contact with neither long enough, ε_d/ḋ_max and a look for
+            // a grazing contact within it.
+            let safe = (d_t.max(0.0) / rate_bound).max(apart_for(t, &normal_t));
+            let sure = d_t > eps || safe >= eps / rate_bound;
+            let step = if sure { safe } else { eps / rate_bound };
+            if sure && t + step >= t2 {
                 // Apart until t2: the distance cannot close within the step.
                 break;
             }
@@ -332,7 +399,7 @@ impl Predictor {
             if t_next <= t {
                 break;
             }
-            let d_next = step_distance(t_next);
+            let (d_next, normal_next) = step_distance(t_next);
             failed(d_next)?;
             if d_next < 0.0 {
                 if d_t > 0.0 {
@@ -362,7 +429,7 @@ impl Predictor {
                 self.found.set(None);
                 return Ok(Search::Contact(hi));
             }
-            if d_t < eps && d_next < eps {
+            if !sure && d_next < eps {
                 // A grazing contact may hide between t and t_next (step 6).
                 // The stepping may have used lower bounds: the parabola
                 // needs the distances themselves (a lower bound far below
@@ -410,8 +477,72 @@ impl Predictor {
             }
             t = t_next;
             d_t = d_next;
+            normal_t = normal_next;
         }
         Ok(Search::Apart)
+    }
+}
+
+/// The first τ > 0 at which the concave bound
+/// φ + slope τ − Σ w (|c + rτ| − |c|) − ½ curvature τ² reaches 0 (φ > 0;
+/// the kinks are a cuboid's support value, see `Shape::support_growth`):
+/// between consecutive kinks it is a parabola, solved exactly.
+fn first_zero(phi: f64, slope: f64, kinks: &[(f64, f64, f64); 6], curvature: f64) -> f64 {
+    let bound = |tau: f64| {
+        let bent: f64 = kinks
+            .iter()
+            .map(|&(w, c, r)| w * ((c + r * tau).abs() - c.abs()))
+            .sum();
+        phi + slope * tau - bent - 0.5 * curvature * tau * tau
+    };
+    // Where the kinks ahead bend the bound down, in order.
+    let mut breaks = [f64::INFINITY; 7];
+    for (k, &(w, c, r)) in kinks.iter().enumerate() {
+        if w > 0.0 && c * r < 0.0 {
+            breaks[k] = -c / r;
+        }
+    }
+    breaks[..6].sort_unstable_by(f64::total_cmp);
+    let (mut lo, mut f_lo) = (0.0, phi);
+    for &hi in &breaks {
+        // The bound's slope just after lo: each kink's sign there.
+        let probe = if hi.is_finite() {
+            0.5 * (lo + hi)
+        } else {
+            lo + 1.0
+        };
+        let bend: f64 = kinks
+            .iter()
+            .map(|&(w, c, r)| if c + r * probe < 0.0 { -w * r } else { w * r })
+            .sum();
+        let x = time_to_zero(f_lo, slope - bend - curvature * lo, curvature);
+        if lo + x <= hi {
+            return lo + x;
+        }
+        f_lo = bound(hi);
+        lo = hi;
+        if f_lo <= 0.0 {
+            // Rounding at the kink: the bound is down to zero there.
+            return lo;
+        }
+    }
+    f64::INFINITY
+}
+
+/// The first τ > 0 at which φ + slope τ − ½ curvature τ² reaches 0 (φ > 0,
+/// curvature ≥ 0), infinite if never; written without cancellation.
+fn time_to_zero(phi: f64, slope: f64, curvature: f64) -> f64 {
+    if curvature > 0.0 {
+        let root = (slope * slope + 2.0 * curvature * phi).sqrt();
+        if slope < 0.0 {
+            2.0 * phi / (root - slope)
+        } else {
+            (slope + root) / curvature
+        }
+    } else if slope < 0.0 {
+        phi / -slope
+    } else {
+        f64::INFINITY
     }
 }
 
@@ -426,6 +557,49 @@ mod tests {
 
     /// Two spheres given as ellipsoids: the general search finds the
     /// closed-form contact time.
+    /// The first zero of the kinked bound against a fine scan of it: the
+    /// bound is positive before the time returned and zero there.
+    #[test]
+    fn first_zero_of_the_kinked_bound_matches_a_scan() {
+        let mut u = crate::test_support::uniform(31);
+        for case in 0..3000 {
+            let phi = 1e-3 + u();
+            let slope = 4.0 * (u() - 0.5);
+            let curvature = if case % 3 == 0 { 0.0 } else { 3.0 * u() };
+            let mut kinks = [(0.0, 0.0, 0.0); 6];
+            for kink in kinks.iter_mut().take(1 + case % 6) {
+                *kink = (u(), 2.0 * (u() - 0.5), 4.0 * (u() - 0.5));
+            }
+            let bound = |tau: f64| {
+                let bent: f64 = kinks
+                    .iter()
+                    .map(|&(w, c, r)| w * ((c + r * tau).abs() - c.abs()))
+                    .sum();
+                phi + slope * tau - bent - 0.5 * curvature * tau * tau
+            };
+            let tau = first_zero(phi, slope, &kinks, curvature);
+            let horizon = if tau.is_finite() { tau } else { 50.0 };
+            for k in 0..2000 {
+                let s = horizon * k as f64 / 2000.0;
+                assert!(
+                    bound(s) > -1e-12,
+                    "case {case}: bound {} at {s} before {tau}",
+                    bound(s)
+                );
+            }
+            if tau.is_finite() {
+                assert!(
+                    bound(tau).abs() < 1e-9,
+                    "case {case}: bound {} at {tau}",
+                    bound(tau)
+                );
+            } else {
+                // Never zero: the bound does not turn down at all.
+                assert!(curvature == 0.0 && bound(1e3) > 0.0, "case {case}");
+            }
+        }
+    }
+
     #[test]
     fn spheres_as_ellipsoids_match_the_closed_form() {
         let p = Predictor::new(PredictorOptions::default());

@@ -128,41 +128,60 @@ pub fn max_axis_separation_with_feature(
     r: &Matrix3<f64>,
     t: &Vector3<f64>,
 ) -> (f64, Vector3<f64>, SeparatingFeature) {
+    // Gottschalk's form: every projection from the entries of R, no axis
+    // normalised but the best (the box radii on an axis are linear in it).
+    let abs_r = r.abs();
     let mut best = f64::NEG_INFINITY;
-    let mut best_axis = Vector3::x();
+    let mut best_axis = (Vector3::x(), 1.0);
     let mut best_feature = SeparatingFeature::FaceA(0);
-    let mut consider = |axis: Vector3<f64>, feature: SeparatingFeature| {
-        let len = axis.norm();
-        if len < 1e-9 {
-            return; // parallel edges: the face axes cover this direction
-        }
-        let l = axis / len;
-        let ra = a.x * l.x.abs() + a.y * l.y.abs() + a.z * l.z.abs();
-        let lb = r.tr_mul(&l);
-        let rb = b.x * lb.x.abs() + b.y * lb.y.abs() + b.z * lb.z.abs();
-        let proj = t.dot(&l);
-        let sep = proj.abs() - ra - rb;
+    // A's face normals eᵢ.
+    for i in 0..3 {
+        let rb = b.x * abs_r[(i, 0)] + b.y * abs_r[(i, 1)] + b.z * abs_r[(i, 2)];
+        let sep = t[i].abs() - a[i] - rb;
         if sep > best {
             best = sep;
-            best_axis = if proj >= 0.0 { l } else { -l };
-            best_feature = feature;
+            best_axis = (Vector3::ith(i, 1.0), t[i]);
+            best_feature = SeparatingFeature::FaceA(i);
         }
-    };
-    for i in 0..3 {
-        consider(Vector3::ith(i, 1.0), SeparatingFeature::FaceA(i));
     }
+    // B's face normals Rⱼ.
     for j in 0..3 {
-        consider(r.column(j).into_owned(), SeparatingFeature::FaceB(j));
-    }
-    for i in 0..3 {
-        for j in 0..3 {
-            consider(
-                Vector3::<f64>::ith(i, 1.0).cross(&r.column(j)),
-                SeparatingFeature::Edges(i, j),
-            );
+        let ra = a.x * abs_r[(0, j)] + a.y * abs_r[(1, j)] + a.z * abs_r[(2, j)];
+        let tj = t.x * r[(0, j)] + t.y * r[(1, j)] + t.z * r[(2, j)];
+        let sep = tj.abs() - ra - b[j];
+        if sep > best {
+            best = sep;
+            best_axis = (r.column(j).into_owned(), tj);
+            best_feature = SeparatingFeature::FaceB(j);
         }
     }
-    (best, best_axis, best_feature)
+    // Edge–edge axes eᵢ × Rⱼ = (component i1: −R_{i2 j}, i2: R_{i1 j}),
+    // of length √(R_{i1 j}² + R_{i2 j}²); B's radius on it from
+    // Rₗ·(eᵢ × Rⱼ) = eᵢ·(Rⱼ × Rₗ) = ±R_{i m}.
+    for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        for j in 0..3 {
+            let len = r[(i1, j)].hypot(r[(i2, j)]);
+            if len < 1e-9 {
+                continue; // parallel edges: the face axes cover this direction
+            }
+            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+            let ra = a[i1] * abs_r[(i2, j)] + a[i2] * abs_r[(i1, j)];
+            let rb = b[j1] * abs_r[(i, j2)] + b[j2] * abs_r[(i, j1)];
+            let proj = t[i2] * r[(i1, j)] - t[i1] * r[(i2, j)];
+            let sep = (proj.abs() - ra - rb) / len;
+            if sep > best {
+                best = sep;
+                let mut axis = Vector3::zeros();
+                axis[i1] = -r[(i2, j)] / len;
+                axis[i2] = r[(i1, j)] / len;
+                best_axis = (axis, proj);
+                best_feature = SeparatingFeature::Edges(i, j);
+            }
+        }
+    }
+    let (axis, proj) = best_axis;
+    (best, if proj >= 0.0 { axis } else { -axis }, best_feature)
 }
 
 #[cfg(test)]
@@ -193,6 +212,45 @@ mod tests {
             max_axis_separation(&a, &a, &Matrix3::identity(), &Vector3::new(1.9, 0.1, 0.0));
         assert!((sep + 0.1).abs() < 1e-12);
         assert!((axis - Vector3::x()).norm() < 1e-12);
+    }
+
+    /// The entries-of-R form agrees with projecting both boxes on each of
+    /// the 15 axes, normalised, one by one; and the axis returned, pointing
+    /// from A to B, has that separation.
+    #[test]
+    fn separation_matches_the_axes_one_by_one() {
+        let mut u = crate::test_support::uniform(21);
+        let radius = |l: &Vector3<f64>, h: &Vector3<f64>| h.dot(&l.abs());
+        for case in 0..2000 {
+            let a = Vector3::new(0.1 + u(), 0.1 + u(), 0.1 + u());
+            let b = Vector3::new(0.1 + u(), 0.1 + u(), 0.1 + u());
+            let r = if case % 10 == 0 {
+                Matrix3::identity() // parallel edges: cross axes skipped
+            } else {
+                *Rotation3::from_euler_angles(7.0 * u(), 7.0 * u(), 7.0 * u()).matrix()
+            };
+            let t = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 6.0;
+            let mut axes: Vec<Vector3<f64>> = (0..3).map(|i| Vector3::ith(i, 1.0)).collect();
+            axes.extend((0..3).map(|j| r.column(j).into_owned()));
+            for i in 0..3 {
+                for j in 0..3 {
+                    let c = Vector3::<f64>::ith(i, 1.0).cross(&r.column(j));
+                    if c.norm() >= 1e-9 {
+                        axes.push(c.normalize());
+                    }
+                }
+            }
+            let along =
+                |l: &Vector3<f64>| t.dot(l).abs() - radius(l, &a) - radius(&(r.tr_mul(l)), &b);
+            let brute = axes.iter().map(along).fold(f64::NEG_INFINITY, f64::max);
+            let (sep, axis) = max_axis_separation(&a, &b, &r, &t);
+            assert!((sep - brute).abs() < 1e-12, "case {case}: {sep} vs {brute}");
+            assert!(
+                (axis.norm() - 1.0).abs() < 1e-12 && t.dot(&axis) >= 0.0,
+                "case {case}"
+            );
+            assert!((along(&axis) - sep).abs() < 1e-12, "case {case}: axis");
+        }
     }
 
     #[test]

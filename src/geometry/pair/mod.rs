@@ -309,8 +309,11 @@ pub fn distance(
 /// the largest gap of their oriented bounding boxes over the 15 separating
 /// axes (each the separation of the projections on one axis, which no two
 /// points of the bodies can beat). Not positive when it cannot tell the
-/// bodies apart (a negative value is not a penetration depth).
-pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> f64 {
+/// bodies apart (a negative value is not a penetration depth). With it, a
+/// unit direction (A's frame, from A towards B) along which the bodies are
+/// well separated: the Perram–Wertheim normal, the centre line or the best
+/// box axis, a start for bounds on the separation along a fixed direction.
+pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> (f64, V3) {
     use Shape::*;
     if let (Sphere(_) | Ellipsoid(_), Sphere(_) | Ellipsoid(_)) = (a, b) {
         // Tight for ellipsoids side by side; the others add little.
@@ -318,20 +321,24 @@ pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> f64 {
     }
     let t = rel.translation;
     let len = t.norm();
-    let along_centres = if len > 0.0 {
+    let (along_centres, u) = if len > 0.0 {
         let u = t / len;
         let u_b = -rel.rotation.tr_mul(&u);
-        len - u.dot(&a.support(&u)) - u_b.dot(&b.support(&u_b))
+        (len - u.dot(&a.support(&u)) - u_b.dot(&b.support(&u_b)), u)
     } else {
-        f64::NEG_INFINITY
+        (f64::NEG_INFINITY, V3::x())
     };
-    let (boxes, _) = crate::geometry::obb::max_axis_separation(
+    let (boxes, axis) = crate::geometry::obb::max_axis_separation(
         &a.obb_half_extents(),
         &b.obb_half_extents(),
         &rel.rotation,
         &t,
     );
-    along_centres.max(boxes)
+    if boxes > along_centres {
+        (boxes, axis)
+    } else {
+        (along_centres, u)
+    }
 }
 
 /// The centre–centre distance at which `a` and `b` touch, where it does not

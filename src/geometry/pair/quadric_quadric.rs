@@ -70,6 +70,57 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
     true
 }
 
+/// The Perram–Wertheim contact point as a start for the distance solver:
+/// at the maximiser λ* of F the point
+/// x = (1−λ*) M_A C(λ*)⁻¹ r (A at the origin) is where A and B, each
+/// scaled by μ = √F(λ*) about its centre, touch; scaled back, x/μ on A and
+/// r + (x − r)/μ on B are surface points whose normals are both along
+/// C⁻¹r (scaling about the centre keeps normals), so the pair is close to
+/// the solution of the distance equations when the bodies are close.
+/// Returns (point on A, point on B), both in A's frame; `None` for
+/// coincident centres or a singular C.
+pub fn contact_points_guess(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+) -> Option<(Vector3<f64>, Vector3<f64>)> {
+    let ma = shape_matrix(a);
+    let r = &rel.rotation;
+    let mb = r * shape_matrix(b) * r.transpose();
+    let t = &rel.translation;
+    let contact = ContactFunction::new(&ma, &mb, t);
+    // F is concave on [0, 1]: Newton on F′, kept inside a bracket.
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    let mut l = sphere_optimum(&ma, &mb, t);
+    for _ in 0..50 {
+        let (_, f1, f2) = contact.eval(l)?;
+        if f1 > 0.0 {
+            lo = l;
+        } else {
+            hi = l;
+        }
+        let newton = if f2 < 0.0 { l - f1 / f2 } else { f64::NAN };
+        let next = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        let done = (next - l).abs() <= 1e-12 || hi - lo <= 1e-12;
+        l = next;
+        if done {
+            break;
+        }
+    }
+    let (f, _, _) = contact.eval(l)?;
+    let mu = f.sqrt();
+    let c = ma * (1.0 - l) + mb * l;
+    let x = ma * c.lu().solve(t)? * (1.0 - l);
+    if !(mu > 0.0 && x.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    Some((x / mu, t + (x - t) / mu))
+}
+
 /// The contact function F(λ) = λ(1−λ) rᵀ C(λ)⁻¹ r with C(λ) = (1−λ)M_A +
 /// λM_B, as the rational function it is: C⁻¹ = adj C / det C, with C
 /// linear in λ, so det C a cubic and rᵀ adj C r a quadratic. They are
@@ -195,8 +246,10 @@ fn sphere_optimum(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> f64
 /// times its smallest semi-axis (it holds that ball about its centre), so
 /// the distance is at least (μ − 1)(s_A + s_B). A few Newton steps on F′
 /// from the sphere optimum (exact for spheres, and for ellipsoids side by
-/// side); negative when the bodies may overlap.
-pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> f64 {
+/// side); negative when the bodies may overlap. With it, the direction
+/// C(λ)⁻¹r (unit, A to B) of the common normal of the two scaled bodies at
+/// their Perram–Wertheim contact: near contact, the normal of the bodies.
+pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> (f64, Vector3<f64>) {
     let ma = shape_matrix(a);
     let r = &rel.rotation;
     let mb = r * shape_matrix(b) * r.transpose();
@@ -204,17 +257,28 @@ pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> f64 {
     let contact = ContactFunction::new(&ma, &mb, t);
     let mut l = sphere_optimum(&ma, &mb, t);
     let mut best = 0.0f64;
+    let mut best_l = l;
     for _ in 0..2 {
         let Some((f, f1, f2)) = contact.eval(l) else {
             break;
         };
-        best = best.max(f);
+        if f > best {
+            best = f;
+            best_l = l;
+        }
         if f2 >= 0.0 {
             break;
         }
         l = (l - f1 / f2).clamp(1e-6, 1.0 - 1e-6);
     }
-    (best.sqrt() - 1.0) * (a.min_half_extent() + b.min_half_extent())
+    // adj C r ∝ C⁻¹ r (det C > 0): no division needed for a direction.
+    let normal = (adjugate(&(ma * (1.0 - best_l) + mb * best_l)) * t)
+        .try_normalize(0.0)
+        .unwrap_or_else(|| t.try_normalize(0.0).unwrap_or_else(Vector3::x));
+    (
+        (best.sqrt() - 1.0) * (a.min_half_extent() + b.min_half_extent()),
+        normal,
+    )
 }
 
 #[cfg(test)]

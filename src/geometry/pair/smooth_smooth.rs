@@ -3,8 +3,8 @@
 //! overlap of pairs with a superellipsoid (GJK, then Newton where GJK cannot
 //! decide).
 
-use super::convex;
 use super::{Contact, DistanceOptions, Relative, Status};
+use super::{convex, quadric_quadric};
 use crate::geometry::implicit::SmoothSurface;
 use crate::geometry::newton::{SteepestDescent, WarmStart, newton_distance};
 use crate::geometry::shape::Shape;
@@ -68,7 +68,25 @@ fn robust<A: SmoothSurface, B: SmoothSurface>(
     warm: Option<&WarmStart>,
 ) -> Contact {
     if rel.translation.norm_squared() > 0.0 {
-        let c = newton_distance(a, b, rel, &opts.newton, warm);
+        // Spheres and ellipsoids start cold from the Perram–Wertheim contact
+        // point (close to the solution for close bodies) rather than from
+        // the centre line and a descent.
+        let guess = match warm {
+            None if is_quadric(shape_a) && is_quadric(shape_b) => {
+                quadric_quadric::contact_points_guess(shape_a, shape_b, rel).map(|(xa, xb)| {
+                    let na = a.implicit(&xa).gradient.norm();
+                    let local_b = rel.rotation.tr_mul(&(xb - rel.translation));
+                    let nb = b.implicit(&local_b).gradient.norm();
+                    WarmStart {
+                        point_a: xa,
+                        point_b: local_b,
+                        alpha: (na / nb).sqrt(),
+                    }
+                })
+            }
+            _ => None,
+        };
+        let c = newton_distance(a, b, rel, &opts.newton, warm.or(guess.as_ref()));
         if c.is_converged() {
             return c;
         }
@@ -97,4 +115,9 @@ fn robust<A: SmoothSurface, B: SmoothSurface>(
         status: Status::DeepOverlap,
         ..g
     }
+}
+
+/// Spheres and ellipsoids: the bodies the Perram–Wertheim function covers.
+fn is_quadric(s: &Shape) -> bool {
+    matches!(s, Shape::Sphere(_) | Shape::Ellipsoid(_))
 }
