@@ -213,12 +213,22 @@ impl Predictor {
         let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
         let eps = self.options.grazing_threshold * scale;
         let tol = self.options.contact_tolerance * scale;
+        // Both orientations at τ, kept for the last τ asked (the pose, the
+        // bounds and the closing speed at one τ share them).
+        let turned: Cell<(f64, UnitQuaternion<f64>, UnitQuaternion<f64>)> =
+            Cell::new((0.0, *q_a, *q_b));
+        let orientations = |t: f64| {
+            let (at, qa, qb) = turned.get();
+            if at == t {
+                return (qa, qb);
+            }
+            let (qa, qb) = (w_a.orientation_after(q_a, t), w_b.orientation_after(q_b, t));
+            turned.set((t, qa, qb));
+            (qa, qb)
+        };
         let pose = |t: f64| {
-            Relative::new(
-                &(d + dv * t),
-                &w_a.orientation_after(q_a, t),
-                &w_b.orientation_after(q_b, t),
-            )
+            let (qa_t, qb_t) = orientations(t);
+            Relative::new(&(d + dv * t), &qa_t, &qb_t)
         };
         let warm: Cell<Option<WarmStart>> = Cell::new(None);
         let failure: Cell<Option<String>> = Cell::new(None);
@@ -282,8 +292,7 @@ impl Predictor {
         // cleared at once, and an approaching one is followed to its
         // contact in steps that shrink quadratically, not geometrically).
         let apart_for = |t: f64, normal: &V3| -> f64 {
-            let qa_t = w_a.orientation_after(q_a, t);
-            let qb_t = w_b.orientation_after(q_b, t);
+            let (qa_t, qb_t) = orientations(t);
             let n = qa_t * normal;
             let growth = |shape: &Shape, q: &UnitQuaternion<f64>, spin: &Spin, dir: &V3| {
                 let omega = spin.angular_velocity(q);
@@ -325,6 +334,14 @@ impl Predictor {
             quadratic.max(linear)
         };
         let mut t = t1;
+        // Most pairs of a list are cleared by the support planes across the
+        // line of centres alone, before any contact function is built.
+        let across = orientations(t).0.inverse_transform_vector(&(d + dv * t));
+        if let Some(across) = across.try_normalize(0.0)
+            && t + apart_for(t, &across) >= t2
+        {
+            return Ok(Search::Apart);
+        }
         let (mut d_t, mut normal_t) = step_distance(t);
         failed(d_t)?;
         // The speed at which the contact points close along the normal
@@ -337,8 +354,7 @@ impl Predictor {
                     last.get().expect("just computed").1
                 }
             };
-            let qa_t = w_a.orientation_after(q_a, t);
-            let qb_t = w_b.orientation_after(q_b, t);
+            let (qa_t, qb_t) = orientations(t);
             let normal = qa_t * contact.normal;
             let arm_a = qa_t * (0.5 * (contact.point_a + contact.point_b));
             let arm_b = arm_a - (d + dv * t);

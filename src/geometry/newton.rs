@@ -269,7 +269,7 @@ fn solve_reduced<A: SmoothSurface, B: SmoothSurface>(
         j[(4, 4)] = gb.gradient.dot(&fa.gradient);
         let residual = fa.gradient + gb.gradient * a2;
         let f = SVector::<f64, 5>::new(residual.x, residual.y, residual.z, fa.value, gb.value);
-        let Some(step) = j.lu().solve(&-f) else {
+        let Some(step) = solve_blocked(&j, &-f) else {
             return failed(Failure::SingularJacobian, it);
         };
         let dx = step.fixed_rows::<3>(0).into_owned();
@@ -362,7 +362,7 @@ fn solve_full<A: SmoothSurface, B: SmoothSurface>(
         let f = SVector::<f64, 8>::from_column_slice(&[
             r1.x, r1.y, r1.z, fa.value, gb.value, r4.x, r4.y, r4.z,
         ]);
-        let Some(step) = j.lu().solve(&-f) else {
+        let Some(step) = solve_pivoted(j, -f) else {
             return failed(Failure::SingularJacobian, it);
         };
         let dxa = step.fixed_rows::<3>(0).into_owned();
@@ -411,6 +411,110 @@ fn solve_full<A: SmoothSurface, B: SmoothSurface>(
         };
     }
     c
+}
+
+/// x with J x = b for the reduced system's 5 × 5 Jacobian, by its 3 + 2
+/// blocks: the 3 × 3 block H (the Hessians) inverted through its
+/// adjugate, then the 2 × 2 Schur complement: no branches, one division
+/// each. Where H or the complement is nearly singular (overlapping bodies
+/// can make H indefinite), the pivoted elimination instead.
+#[inline]
+fn solve_blocked(j: &SMatrix<f64, 5, 5>, b: &SVector<f64, 5>) -> Option<SVector<f64, 5>> {
+    let h = j.fixed_view::<3, 3>(0, 0).into_owned();
+    let c = j.fixed_view::<3, 2>(0, 3).into_owned();
+    let p = j.fixed_view::<2, 3>(3, 0).into_owned();
+    let d = j.fixed_view::<2, 2>(3, 3).into_owned();
+    let adj = Matrix3::new(
+        h.m22 * h.m33 - h.m23 * h.m32,
+        h.m13 * h.m32 - h.m12 * h.m33,
+        h.m12 * h.m23 - h.m13 * h.m22,
+        h.m23 * h.m31 - h.m21 * h.m33,
+        h.m11 * h.m33 - h.m13 * h.m31,
+        h.m13 * h.m21 - h.m11 * h.m23,
+        h.m21 * h.m32 - h.m22 * h.m31,
+        h.m12 * h.m31 - h.m11 * h.m32,
+        h.m11 * h.m22 - h.m12 * h.m21,
+    );
+    let det = h.m11 * adj.m11 + h.m12 * adj.m21 + h.m13 * adj.m31;
+    let scale = h.abs().max();
+    // (NaN entries fail the test too.)
+    if det.is_nan() || det.abs() <= 1e-10 * scale * scale * scale {
+        return solve_pivoted(*j, *b);
+    }
+    let inv = adj / det;
+    let r1 = b.fixed_rows::<3>(0).into_owned();
+    let r2 = b.fixed_rows::<2>(3).into_owned();
+    let inv_c = inv * c;
+    let inv_r1 = inv * r1;
+    let schur = d - p * inv_c;
+    let rhs = r2 - p * inv_r1;
+    let det_s = schur.m11 * schur.m22 - schur.m12 * schur.m21;
+    let scale_s = schur
+        .abs()
+        .max()
+        .max(d.abs().max())
+        .max((p * inv_c).abs().max());
+    if det_s.is_nan() || det_s.abs() <= 1e-10 * scale_s * scale_s {
+        return solve_pivoted(*j, *b);
+    }
+    let y = nalgebra::Vector2::new(
+        (schur.m22 * rhs.x - schur.m12 * rhs.y) / det_s,
+        (schur.m11 * rhs.y - schur.m21 * rhs.x) / det_s,
+    );
+    let x = inv_r1 - inv_c * y;
+    Some(SVector::<f64, 5>::new(x.x, x.y, x.z, y.x, y.y))
+}
+
+/// x with J x = b by Gaussian elimination with partial pivoting, on the
+/// stack and unrolled for the small Newton systems (nalgebra's general LU
+/// was a sixth of the time of a body collision); `None` when a pivot is
+/// exactly zero, as for the general LU.
+#[inline]
+fn solve_pivoted<const N: usize>(
+    j: SMatrix<f64, N, N>,
+    b: SVector<f64, N>,
+) -> Option<SVector<f64, N>> {
+    // Rows as arrays, so that an exchange moves one array.
+    let mut m = [[0.0; N]; N];
+    let mut x = [0.0; N];
+    for r in 0..N {
+        for c in 0..N {
+            m[r][c] = j[(r, c)];
+        }
+        x[r] = b[r];
+    }
+    let mut inverse_pivots = [0.0; N];
+    for k in 0..N {
+        let mut pivot = k;
+        for r in k + 1..N {
+            if m[r][k].abs() > m[pivot][k].abs() {
+                pivot = r;
+            }
+        }
+        if m[pivot][k] == 0.0 {
+            return None;
+        }
+        m.swap(k, pivot);
+        x.swap(k, pivot);
+        let row = m[k];
+        let inv = 1.0 / row[k];
+        inverse_pivots[k] = inv;
+        for r in k + 1..N {
+            let factor = m[r][k] * inv;
+            for c in k + 1..N {
+                m[r][c] -= factor * row[c];
+            }
+            x[r] -= factor * x[k];
+        }
+    }
+    for k in (0..N).rev() {
+        let mut sum = x[k];
+        for c in k + 1..N {
+            sum -= m[k][c] * x[c];
+        }
+        x[k] = sum * inverse_pivots[k];
+    }
+    Some(SVector::from(x))
 }
 
 /// The damping factor ξ ∈ (0, 1]: the largest step such that no
@@ -486,5 +590,61 @@ fn finish<A: SmoothSurface, B: SmoothSurface>(
             point_b: rel.rotation.tr_mul(&(xb - rel.translation)),
             alpha,
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pivoted elimination and the blocked solve find what nalgebra's
+    /// LU finds (random systems, ones that need row exchanges, ones whose
+    /// Hessian block is singular), and refuse a singular matrix.
+    #[test]
+    fn pivoted_elimination_solves_the_newton_systems() {
+        let mut u = crate::test_support::uniform(41);
+        for case in 0..500 {
+            let mut j = SMatrix::<f64, 5, 5>::from_fn(|_, _| u() - 0.5);
+            if case % 5 == 0 {
+                j[(0, 0)] = 0.0; // the first pivot must come from below
+            }
+            if case % 7 == 0 {
+                // A singular 3 × 3 block: the blocked solve falls back.
+                j.fixed_view_mut::<1, 3>(2, 0).fill(0.0);
+            }
+            let x = SVector::<f64, 5>::from_fn(|_, _| u() - 0.5);
+            let b = j * x;
+            let ours = solve_pivoted(j, b).expect("regular");
+            let theirs = j.lu().solve(&b).expect("regular");
+            let cond = j.norm() * j.try_inverse().unwrap().norm();
+            assert!((ours - x).norm() <= 1e-13 * cond * x.norm(), "case {case}");
+            assert!(
+                (ours - theirs).norm() <= 1e-13 * cond * x.norm(),
+                "case {case}"
+            );
+            let blocked = solve_blocked(&j, &b).expect("regular");
+            assert!(
+                (blocked - x).norm() <= 1e-12 * cond * x.norm(),
+                "case {case}: blocked"
+            );
+            let j8 = SMatrix::<f64, 8, 8>::from_fn(|_, _| u() - 0.5);
+            let x8 = SVector::<f64, 8>::from_fn(|_, _| u() - 0.5);
+            let cond8 = j8.norm() * j8.try_inverse().unwrap().norm();
+            let ours8 = solve_pivoted(j8, j8 * x8).expect("regular");
+            assert!(
+                (ours8 - x8).norm() <= 1e-13 * cond8 * x8.norm(),
+                "case {case}"
+            );
+        }
+        let mut singular = SMatrix::<f64, 5, 5>::identity();
+        singular.set_row(3, &singular.row(1).clone_owned());
+        assert_eq!(
+            solve_pivoted(singular, SVector::<f64, 5>::repeat(1.0)),
+            None
+        );
+        assert_eq!(
+            solve_blocked(&singular, &SVector::<f64, 5>::repeat(1.0)),
+            None
+        );
     }
 }
