@@ -451,12 +451,14 @@ impl Predictor {
                 // needs the distances themselves (a lower bound far below
                 // the distance bent it wrongly and let a vertex graze of two
                 // cuboids through).
+                // Each closing speed right after its distance, from the
+                // same solution.
                 let d_t = dist(t);
                 failed(d_t)?;
+                let closing_at_t = closing_speed(t);
                 let d_next = dist(t_next);
                 failed(d_next)?;
                 let closing_at_next = closing_speed(t_next);
-                let closing_at_t = closing_speed(t);
                 let t_mid = 0.5 * (t + t_next);
                 let d_mid = dist(t_mid);
                 failed(d_mid)?;

@@ -161,7 +161,9 @@ pub fn max_axis_separation_with_feature(
     for i in 0..3 {
         let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
         for j in 0..3 {
-            let len = r[(i1, j)].hypot(r[(i2, j)]);
+            // (Entries of a rotation: no overflow to guard against, so
+            // not the slow libm hypot.)
+            let len = (r[(i1, j)] * r[(i1, j)] + r[(i2, j)] * r[(i2, j)]).sqrt();
             if len < 1e-9 {
                 continue; // parallel edges: the face axes cover this direction
             }
