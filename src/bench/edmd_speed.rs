@@ -559,7 +559,7 @@ pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
 /// An aligned lattice of `shape` at `phi` in a box at least twice the
 /// interaction range across (at least 256 bodies; fewer when `quick`),
 /// relaxed by Monte Carlo sweeps tuned to 30 % acceptance.
-fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, String> {
+pub fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, String> {
     // Bodies needed for an edge of twice the range, with room to spare.
     let edge = 4.0 * shape.bounding_radius() * 1.3;
     let mut n = ((edge.powi(3) * phi / shape.volume()) as usize).max(if quick { 100 } else { 256 });

@@ -153,17 +153,23 @@ pub const SPHERE_LISTS_FROM: f64 = 0.45;
 /// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
 /// lists (bounding spheres) with a shell of a quarter of the diameter
 /// above; for every other system, oriented-box lists with a shell of a
-/// tenth of the thinnest body's thickness (twice its smallest half-extent).
+/// tenth of the thinnest body's thickness (twice its smallest half-extent)
+/// times the square root of the largest elongation (longest over shortest
+/// half-extent): long and flat bodies rebuild their boxes often, and
+/// since the support-plane searches made each pair cheap, a wider shell
+/// pays for them.
 /// Measured (`hardbody bench edmd-shell`, `edmd-density`,
 /// `edmd-elongation`, one core; docs/ACCURACY.md): hard spheres N = 4000
 /// at φ = 0.5, 2.48–2.50 µs per collision at shells 0.2–0.3 against 3.39
 /// with cells; at φ = 0.4 no better than cells within the noise; at
 /// φ = 0.3 cells win (2.98 against 3.96 at best). Bodies at φ = 0.5 with
-/// box lists, thickness 1 unless said: prolate 2:1 177 µs at shells
-/// 0.04–0.1 against 254 with cells; needles 5:1 239 at 0.1 against 566;
-/// needles 10:1 285–288 at 0.1–0.2 against 1109; plates 1:10 (thickness
-/// 0.1) 228 at 0.01 against 455; cubes 124–129 at 0.04–0.09 against 216;
-/// larger shells slower in every case.
+/// box lists (`bench edmd`, 2026-11-21 after the support-plane searches),
+/// thickness 1: prolate 2:1 38.7 µs at 0.1, 45.6 at 0.2, 54.8 at 0.5;
+/// oblate 1:2 35.8 at 0.1, 41.0 at 0.05, 49.0 at 0.25; cubes 72.5 at 0.087,
+/// 81.2 at 0.17. Aligned needles and plates (side by side, one core):
+/// needles 10:1 at φ = 0.3 86 µs at shell 0.1 and 71 at 0.25, at φ = 0.5
+/// 71 and 69; plates 1:10 (thickness 0.1) at φ = 0.3 54 at 0.01 and 44 at
+/// 0.025; prolate 2:1 at φ = 0.5 39 at 0.1 and 40 at 0.25.
 pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
     if species.iter().all(|s| s.shape.is_sphere()) {
         let diameter = species
@@ -176,7 +182,14 @@ pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> 
             .iter()
             .map(|s| 2.0 * s.shape.min_half_extent())
             .fold(f64::INFINITY, f64::min);
-        Some(0.1 * thickness)
+        let elongation = species
+            .iter()
+            .map(|s| {
+                let h = s.shape.obb_half_extents();
+                h.max() / h.min()
+            })
+            .fold(1.0, f64::max);
+        Some(0.1 * thickness * elongation.sqrt())
     }
 }
 
@@ -1892,8 +1905,12 @@ fn link_overlapping(
                 continue;
             }
             let sj = bodies[j].species as usize;
-            let d = box_.minimum_image(&(spheres.centres[j] - centre));
-            if d.norm() > reach + spheres.reach[sj] {
+            // Centres are wrapped into the box: the near form of the minimum
+            // image (no rounding call) and squared lengths serve the many
+            // candidates of long bodies' wide cells.
+            let d = box_.minimum_image_near(&(spheres.centres[j] - centre));
+            let contact = reach + spheres.reach[sj];
+            if d.norm_squared() > contact * contact {
                 continue;
             }
             if let Some((half, axes)) = &spheres.boxes {

@@ -506,13 +506,7 @@ impl Predictor {
 /// the kinks are a cuboid's support value, see `Shape::support_growth`):
 /// between consecutive kinks it is a parabola, solved exactly.
 fn first_zero(phi: f64, slope: f64, kinks: &[(f64, f64, f64); 6], curvature: f64) -> f64 {
-    let bound = |tau: f64| {
-        let bent: f64 = kinks
-            .iter()
-            .map(|&(w, c, r)| w * ((c + r * tau).abs() - c.abs()))
-            .sum();
-        phi + slope * tau - bent - 0.5 * curvature * tau * tau
-    };
+    let bound = |tau: f64| kinked_bound(phi, slope, kinks, curvature, tau);
     // Where the kinks ahead bend the bound down, in order.
     let mut breaks = [f64::INFINITY; 7];
     for (k, &(w, c, r)) in kinks.iter().enumerate() {
@@ -545,6 +539,22 @@ fn first_zero(phi: f64, slope: f64, kinks: &[(f64, f64, f64); 6], curvature: f64
         }
     }
     f64::INFINITY
+}
+
+/// φ + slope τ − Σ w (|c + rτ| − |c|) − ½ curvature τ² at τ.
+#[inline]
+fn kinked_bound(
+    phi: f64,
+    slope: f64,
+    kinks: &[(f64, f64, f64); 6],
+    curvature: f64,
+    tau: f64,
+) -> f64 {
+    let bent: f64 = kinks
+        .iter()
+        .map(|&(w, c, r)| w * ((c + r * tau).abs() - c.abs()))
+        .sum();
+    phi + slope * tau - bent - 0.5 * curvature * tau * tau
 }
 
 /// The first τ > 0 at which φ + slope τ − ½ curvature τ² reaches 0 (φ > 0,
@@ -588,13 +598,7 @@ mod tests {
             for kink in kinks.iter_mut().take(1 + case % 6) {
                 *kink = (u(), 2.0 * (u() - 0.5), 4.0 * (u() - 0.5));
             }
-            let bound = |tau: f64| {
-                let bent: f64 = kinks
-                    .iter()
-                    .map(|&(w, c, r)| w * ((c + r * tau).abs() - c.abs()))
-                    .sum();
-                phi + slope * tau - bent - 0.5 * curvature * tau * tau
-            };
+            let bound = |tau: f64| kinked_bound(phi, slope, &kinks, curvature, tau);
             let tau = first_zero(phi, slope, &kinks, curvature);
             let horizon = if tau.is_finite() { tau } else { 50.0 };
             for k in 0..2000 {

@@ -640,6 +640,15 @@ mod tests {
     use super::*;
     use std::f64::consts::PI;
 
+    /// One body of each kind, the ellipsoids prolate-ish and flat.
+    const SHAPES: [&str; 5] = [
+        "Sphere(radius: 0.7)",
+        "Ellipsoid(a: 1.3, b: 0.7, c: 0.4)",
+        "Ellipsoid(a: 0.2, b: 2.0, c: 2.0)",
+        "Superellipsoid(a: 1.0, b: 0.6, c: 0.3, exponents: (4.0, 4.0, 4.0))",
+        "Cuboid(a: 1.0, b: 0.6, c: 0.3)",
+    ];
+
     /// The support value of a body turning at a constant body-frame ω
     /// (u(τ) = u₀ rotated by −ωτ) stays under both bounds of
     /// `support_growth` over several turns, and the quadratic bound is
@@ -647,16 +656,9 @@ mod tests {
     #[test]
     fn support_growth_bounds_a_turning_body() {
         use nalgebra::UnitQuaternion;
-        let shapes = [
-            "Sphere(radius: 0.7)",
-            "Ellipsoid(a: 1.3, b: 0.7, c: 0.4)",
-            "Ellipsoid(a: 0.2, b: 2.0, c: 2.0)",
-            "Superellipsoid(a: 1.0, b: 0.6, c: 0.3, exponents: (4.0, 4.0, 4.0))",
-            "Cuboid(a: 1.0, b: 0.6, c: 0.3)",
-        ];
         let mut r = crate::test_support::uniform(12);
         let mut unit = || Vector3::new(r() - 0.5, r() - 0.5, r() - 0.5).normalize();
-        for text in shapes {
+        for text in SHAPES {
             let shape: Shape = text.parse().unwrap();
             for case in 0..200 {
                 // Every fourth direction along an axis or a face diagonal
@@ -713,15 +715,8 @@ mod tests {
     #[test]
     fn moment_arm_bounds_the_surface_and_is_tight_for_ellipsoids() {
         use crate::geometry::implicit::SmoothSurface;
-        let shapes = [
-            "Sphere(radius: 0.7)",
-            "Ellipsoid(a: 1.3, b: 0.7, c: 0.4)",
-            "Ellipsoid(a: 0.2, b: 2.0, c: 2.0)",
-            "Superellipsoid(a: 1.0, b: 0.6, c: 0.3, exponents: (4.0, 4.0, 4.0))",
-            "Cuboid(a: 1.0, b: 0.6, c: 0.3)",
-        ];
         let mut u = crate::test_support::uniform(11);
-        for text in shapes {
+        for text in SHAPES {
             let shape: Shape = text.parse().unwrap();
             let mut largest: f64 = 0.0;
             for _ in 0..20_000 {

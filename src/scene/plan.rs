@@ -249,7 +249,7 @@ impl fmt::Display for Report<'_> {
                         )
                     },
                     if how == Neighbours::Auto {
-                        "automatic: oriented boxes grown by a tenth of the thinnest body's thickness; for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the dynamics starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                        "automatic: oriented boxes grown by a tenth of the thinnest body's thickness times the square root of the largest elongation; for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the dynamics starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
                     } else {
                         "accuracy.neighbours"
                     }
