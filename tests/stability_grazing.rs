@@ -187,3 +187,64 @@ fn grazing_spheres_in_closed_form() {
         }
     }
 }
+
+/// Regression (issue 7, found by `bench edmd-tolerance`): prolate
+/// ellipsoids of aspect 2 at φ = 0.5 with the grazing threshold ε_d = 1e-1,
+/// a thousand times the default. A pair collided, receded from the contact
+/// and came back into overlap within one step of ε_d/ḋ_max; the root finder
+/// started at the contact the pair had just left (distance within the
+/// tolerance) and returned it, so the same collision was processed at the
+/// same instant again and again until the stall guard stopped the run
+/// (here after about 40 000 collisions). The narrowing now first finds a
+/// time the pair is clearly apart. Every 0.01 time units the state is
+/// checked for overlaps by the MC kernels.
+#[test]
+fn loose_grazing_threshold_neither_stalls_nor_overlaps() {
+    use hardbody::edmd::{Dynamics, DynamicsOptions};
+    use hardbody::mc::Species;
+    use hardbody::mc::compress::{CompressOptions, compress};
+    use hardbody::mc::moves::{Ensemble, MoveSizes};
+    use hardbody::mc::tuning::Tuner;
+    use rand::SeedableRng;
+    use rand_pcg::Pcg64;
+    let shape: Shape = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)".parse().unwrap();
+    let species = vec![Species {
+        name: "ellipsoid".into(),
+        shape,
+        rotation: true,
+    }];
+    // The start of `bench edmd-tolerance` (aspect 2, seed 7).
+    let mut rng = Pcg64::seed_from_u64(7);
+    let mut system = hardbody::mc::start::dilute_lattice(6, species, |_| 0, &mut rng).unwrap();
+    let sizes = MoveSizes {
+        translate: 0.3,
+        rotate: 0.3,
+        volume: 0.0,
+    };
+    let mut sizes = compress(&mut system, sizes, &CompressOptions::to(0.5), &mut rng)
+        .unwrap()
+        .sizes;
+    let tuner = Tuner {
+        target: 0.3,
+        max_translate: 1.0,
+    };
+    tuner.equilibrate(&mut system, &mut sizes, &Ensemble::Nvt, 500, 50, &mut rng);
+    let options = DynamicsOptions {
+        predictor: PredictorOptions {
+            grazing_threshold: 1e-1,
+            ..PredictorOptions::default()
+        },
+        ..DynamicsOptions::default()
+    };
+    let mut rng = Pcg64::seed_from_u64(99);
+    let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
+    let e0 = md.kinetic_energy();
+    while md.collisions() < 45_000 {
+        md.run_until(md.time() + 0.01)
+            .unwrap_or_else(|e| panic!("after {} collisions: {e}", md.collisions()));
+        md.to_system()
+            .unwrap_or_else(|e| panic!("at t = {}: {e}", md.time()));
+    }
+    let drift = (md.kinetic_energy() / e0 - 1.0).abs();
+    assert!(drift < 1e-9, "energy drift {drift:e}");
+}

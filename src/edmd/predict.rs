@@ -384,8 +384,46 @@ impl Predictor {
         let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Search, String> {
             // The lower end's value may be a lower bound on the distance
             // (all the stepping needed); the root finder needs the distance.
-            let lo = (lo.0, dist(lo.0));
+            let mut lo = (lo.0, dist(lo.0));
             failed(lo.1)?;
+            let mut hi = hi;
+            if lo.1 > 0.0 && lo.1 <= tol {
+                let touching = lo.0;
+                // Touching to the tolerance at the lower end (a contact the
+                // pair recedes from) and overlapping at the upper: it came
+                // back within the step. The root finder would stop at the
+                // lower end at once, the collision would be processed
+                // again at the same instant, and again (the stall of
+                // ε_d = 1e-1, aspect 2, φ = 0.5): find a time the pair is
+                // clearly apart, and narrow from there.
+                let mut apart = false;
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo.0 + hi.0);
+                    if mid <= lo.0 || mid >= hi.0 {
+                        break;
+                    }
+                    let d_mid = dist(mid);
+                    failed(d_mid)?;
+                    if d_mid > tol {
+                        lo = (mid, d_mid);
+                        apart = true;
+                        break;
+                    }
+                    if d_mid < 0.0 {
+                        hi = (mid, d_mid);
+                    } else {
+                        lo = (mid, d_mid);
+                    }
+                }
+                if !apart {
+                    // Within the tolerance until it overlaps: the contact is
+                    // where the narrowing started (as the root finder
+                    // would have said).
+                    failed(dist(touching))?;
+                    self.found.set(warm.get());
+                    return Ok(Search::Contact(touching));
+                }
+            }
             let (lo, f_lo, _, f_hi, _) = narrow_sign_change(&dist, lo, hi, tol, 200);
             failed(f_lo)?;
             failed(f_hi)?;
@@ -419,6 +457,8 @@ impl Predictor {
             failed(d_next)?;
             if d_next < 0.0 {
                 if d_t > 0.0 {
+                    // (From a contact the pair receded from too: see
+                    // `narrow`.)
                     return narrow((t, d_t), (t_next, d_next));
                 }
                 // From a receding round-off contact into overlap within one
