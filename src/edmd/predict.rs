@@ -18,7 +18,7 @@ use std::cell::Cell;
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::motion::Spin;
-use crate::geometry::pair::distance_lower_bound;
+use crate::geometry::pair::{distance_lower_bound_near, support_points_start};
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
 use crate::geometry::{Contact, DistanceOptions, Relative, Shape, Status, WarmStart, distance};
 
@@ -233,9 +233,15 @@ impl Predictor {
         let warm: Cell<Option<WarmStart>> = Cell::new(None);
         let failure: Cell<Option<String>> = Cell::new(None);
         let last: Cell<Option<(f64, Contact)>> = Cell::new(None);
+        // The last normal seen (A's frame): where the next bound's ascent
+        // and a cold distance start (pairs with a superellipsoid).
+        let hint: Cell<Option<V3>> = Cell::new(None);
         let dist = |t: f64| -> f64 {
             let rel = pose(t);
-            let start = warm.get();
+            let start = warm.get().or_else(|| {
+                hint.get()
+                    .and_then(|n| support_points_start(shape_a, shape_b, &rel, &n))
+            });
             let contact = distance(
                 shape_a,
                 shape_b,
@@ -275,12 +281,17 @@ impl Predictor {
         // With the distance (or its bound), a direction along which the
         // bodies are well apart: the contact normal, or the bound's.
         let step_distance = |t: f64| -> (f64, V3) {
-            let (bound, normal) = distance_lower_bound(shape_a, shape_b, &pose(t));
+            let rel = pose(t);
+            let (bound, normal) =
+                distance_lower_bound_near(shape_a, shape_b, &rel, hint.get().as_ref());
+            hint.set(Some(normal));
             if bound > exact_below {
                 (bound, normal)
             } else {
                 let exact = dist(t);
-                (exact, last.get().map_or(normal, |(_, c)| c.normal))
+                let normal = last.get().map_or(normal, |(_, c)| c.normal);
+                hint.set(Some(normal));
+                (exact, normal)
             }
         };
         // How long the bodies surely stay apart from τ = t: along a fixed

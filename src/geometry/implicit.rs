@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::roots::solve_power_sum;
+use super::roots::{power, solve_power_sum};
 use super::shape::{Ellipsoid, Sphere, Superellipsoid};
 
 /// Value, gradient and Hessian of an implicit surface function at a point.
@@ -87,7 +87,7 @@ impl SmoothSurface for Superellipsoid {
         for i in 0..3 {
             let u = (x[i] / a[i]).abs();
             // u^{n-2} computed once; u^{n-1} and u^n from it.
-            let un2 = if n[i] == 2.0 { 1.0 } else { u.powf(n[i] - 2.0) };
+            let un2 = power(u, n[i] - 2.0);
             let un1 = un2 * u;
             value += un1 * u;
             gradient[i] = (n[i] * un1 / a[i]).copysign(x[i]);
@@ -103,9 +103,9 @@ impl SmoothSurface for Superellipsoid {
         let a = self.semi_axes();
         let n = self.exponents();
         let c = Vector3::new(
-            (dir.x / a.x).abs().powf(n.x),
-            (dir.y / a.y).abs().powf(n.y),
-            (dir.z / a.z).abs().powf(n.z),
+            power((dir.x / a.x).abs(), n.x),
+            power((dir.y / a.y).abs(), n.y),
+            power((dir.z / a.z).abs(), n.z),
         );
         dir * solve_power_sum(&c, &n)
     }

@@ -10,7 +10,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use statrs::function::gamma::ln_gamma;
 
-use super::roots::{brent_minimize, solve_power_sum};
+use super::roots::{brent_minimize, power, solve_power_sum};
 
 /// A shape that cannot be built, with the parameter at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -589,10 +589,10 @@ impl Support for Superellipsoid {
         let n = self.exponents;
         if n.x == n.y && n.y == n.z {
             // Equal exponents, closed form: yᵢ ∝ eᵢ^{1/(n−1)} normalised so
-            // that Σ yᵢⁿ = 1.
+            // that Σ yᵢⁿ = 1 (yᵢⁿ = eᵢ yᵢ).
             let r = 1.0 / (n.x - 1.0);
-            let y = e.map(|v| if v > 0.0 { v.powf(r) } else { 0.0 });
-            let norm = y.map(|v| v.powf(n.x)).sum().powf(-1.0 / n.x);
+            let y = e.map(|v| if v > 0.0 { power(v, r) } else { 0.0 });
+            let norm = power(e.dot(&y), -1.0 / n.x);
             return Vector3::new(
                 (self.semi_axes.x * y.x * norm).copysign(dir.x),
                 (self.semi_axes.y * y.y * norm).copysign(dir.y),
@@ -601,14 +601,14 @@ impl Support for Superellipsoid {
         }
         let q = n.map(|n| n / (n - 1.0));
         let c = Vector3::new(
-            (e.x / n.x).powf(q.x),
-            (e.y / n.y).powf(q.y),
-            (e.z / n.z).powf(q.z),
+            power(e.x / n.x, q.x),
+            power(e.y / n.y, q.y),
+            power(e.z / n.z, q.z),
         );
         let t = solve_power_sum(&c, &q);
         let mut x = Vector3::zeros();
         for i in 0..3 {
-            let y = (t * e[i] / n[i]).powf(1.0 / (n[i] - 1.0));
+            let y = power(t * e[i] / n[i], 1.0 / (n[i] - 1.0));
             x[i] = (self.semi_axes[i] * y).copysign(dir[i]);
         }
         x

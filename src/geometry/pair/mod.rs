@@ -21,6 +21,7 @@ use super::newton::{NewtonOptions, WarmStart};
 use super::shape::Shape;
 
 pub use quadric_quadric::perram_wertheim;
+pub use smooth_smooth::support_points_start;
 
 type V3 = Vector3<f64>;
 
@@ -314,12 +315,40 @@ pub fn distance(
 /// well separated: the Perram–Wertheim normal, the centre line or the best
 /// box axis, a start for bounds on the separation along a fixed direction.
 pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> (f64, V3) {
+    distance_lower_bound_near(a, b, rel, None)
+}
+
+/// [`distance_lower_bound`], told a direction (A's frame) along which the
+/// bodies were well apart a moment ago, e.g. the previous step's normal in
+/// a collision search: pairs with a superellipsoid start their ascent of
+/// the support-plane gap there instead of at the centre line.
+pub fn distance_lower_bound_near(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+    hint: Option<&V3>,
+) -> (f64, V3) {
     use Shape::*;
     if let (Sphere(_) | Ellipsoid(_), Sphere(_) | Ellipsoid(_)) = (a, b) {
         // Tight for ellipsoids side by side; the others add little.
         return quadric_quadric::distance_lower_bound(a, b, rel);
     }
     let t = rel.translation;
+    let smooth = !matches!(a, Cuboid(_)) && !matches!(b, Cuboid(_));
+    if let (Some(hint), true) = (hint, smooth) {
+        let (boxes, axis) = crate::geometry::obb::max_axis_separation(
+            &a.obb_half_extents(),
+            &b.obb_half_extents(),
+            &rel.rotation,
+            &t,
+        );
+        let (gap, normal) = support_gap_ascent(a, b, rel, *hint, 0.05);
+        return if boxes > gap {
+            (boxes, axis)
+        } else {
+            (gap, normal)
+        };
+    }
     let len = t.norm();
     let (along_centres, u) = if len > 0.0 {
         let u = t / len;
@@ -334,11 +363,78 @@ pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> (f64, V3) {
         &rel.rotation,
         &t,
     );
-    if boxes > along_centres {
+    let (best, normal) = if boxes > along_centres {
         (boxes, axis)
     } else {
         (along_centres, u)
+    };
+    if !smooth {
+        // A cuboid's support point jumps from vertex to vertex: the ascent
+        // below has no gradient to follow.
+        return (best, normal);
     }
+    let (gap, normal) = support_gap_ascent(a, b, rel, normal, 0.05);
+    (gap.max(best), normal)
+}
+
+/// Raises the support-plane gap f(n) = n·t − h_A(n) − h_B(−n) (a lower
+/// bound on the distance for every unit n; its maximum is the distance, or
+/// minus the penetration depth of overlapping bodies, at the contact
+/// normal) by gradient ascent on the unit sphere from the direction `n`
+/// (A's frame). The gradient of f is w = x_B(−n) − x_A(n), the vector
+/// between the support points, and f = n·w; on the sphere the Hessian is
+/// −(ρ_A + ρ_B + f) across n (ρ the radii of curvature at the support
+/// points), so the step is the tangential part of w over an estimate of
+/// ρ_A + ρ_B + f (the bounding radii: exact for spheres); too short a step
+/// only slows the ascent, and a step that lowers f is halved. Stops when a
+/// full step promises less than `relative` of the gap (or after 8 steps
+/// for a bound, 40 otherwise: see the callers). Smooth bodies only (a
+/// cuboid's support map is piecewise constant). Returns the best f(n) less
+/// a rounding margin, so that it stays a lower bound, and its n.
+pub fn support_gap_ascent(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+    mut n: V3,
+    relative: f64,
+) -> (f64, V3) {
+    let radii = a.bounding_radius() + b.bounding_radius();
+    let margin = 1e-12 * (rel.translation.norm() + radii);
+    let gap = |n: &V3| -> (f64, V3) {
+        let x_a = a.support(n);
+        let x_b = rel.b_to_a(&b.support(&rel.rotation.tr_mul(&-n)));
+        let w = x_b - x_a;
+        (n.dot(&w), w)
+    };
+    let (mut value, mut w) = gap(&n);
+    // ρ_A + ρ_B: the bounding radii at first, then the curvature the last
+    // step met, −Δw·Δn/|Δn|² (w changes by −(∇²h_A + ∇²h_B) Δn), which
+    // follows a superellipsoid from its sharp edges to its flat faces.
+    let mut rho = radii;
+    let steps = if relative >= 0.01 { 8 } else { 40 };
+    for _ in 0..steps {
+        let tangent = w - n * value;
+        let stiffness = rho + value.max(0.0);
+        // The gain a full step promises, |g|²/2(ρ + f): once it is a small
+        // part of the gap, the bound is as good as the caller needs.
+        let gain = tangent.norm_squared() / (2.0 * stiffness);
+        if gain <= 1e-12 * radii || gain <= relative * value.abs() {
+            break;
+        }
+        let trial = (n + tangent / stiffness).normalize();
+        let (v, w_trial) = gap(&trial);
+        if v > value {
+            let dn = trial - n;
+            let curvature = -(w_trial - w).dot(&dn) / dn.norm_squared();
+            rho = curvature.max(1e-3 * radii);
+            n = trial;
+            value = v;
+            w = w_trial;
+        } else {
+            rho *= 4.0;
+        }
+    }
+    (value - margin, n)
 }
 
 /// The centre–centre distance at which `a` and `b` touch, where it does not
