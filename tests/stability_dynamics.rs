@@ -80,15 +80,15 @@ fn zero_relative_velocity_never_collides_or_stalls() {
     assert!((d - V3::new(0.0, 1.0 + gap, 0.0)).norm() < 1e-12, "{d}");
 }
 
-/// Known failure (issue 7): two cubes resting face to face (1e-12 apart,
-/// faces exactly parallel) are hit by the gas at t = 2.1; the elastic
-/// single-point impulses then alternate between corners of the shared face
-/// without end (an elastic flat impact has no sequence of point impulses
-/// that ends), and the stall guard stops the run: "5201 events at
-/// t = 2.0993878520982436 without time advancing (last: particles 0 and
-/// 1)". Needs simultaneous impulses over the contact face.
+/// Two cubes resting face to face (1e-12 apart, faces exactly parallel)
+/// in a gas of cubes. Regression (issue 7): when the gas hit them at
+/// t = 2.1, elastic single-point impulses alternated between the corners
+/// of the shared face without end (each set the cube turning about the
+/// corner it acted at, and the next corner came in) until the stall guard
+/// stopped the run ("5201 events at t = 2.0993878520982436 without time
+/// advancing"). A flat contact now takes simultaneous impulses at the
+/// corners of the shared region (`collision::collide_patch`).
 #[test]
-#[ignore = "known failure: face-to-face resting cubes hit by the gas stall (needs simultaneous impulses)"]
 fn bodies_at_rest_in_contact_stay_put_among_moving_ones() {
     // Cubes face to face 1e-12 apart, at rest, in a gas of moving cubes.
     let mut rng = Pcg64::seed_from_u64(2);
@@ -111,8 +111,17 @@ fn bodies_at_rest_in_contact_stay_put_among_moving_ones() {
     v[0] = (V3::zeros(), V3::zeros());
     v[1] = (V3::zeros(), V3::zeros());
     md.set_velocities(&v).unwrap();
+    md.record_collisions(true);
     run_checked(&mut md, 20.0, 100, "cubes at rest in contact");
     assert!(md.collisions() > 100, "the gas moves: {}", md.collisions());
+    // The resting pair was disturbed and met again, face to face.
+    let pair = md
+        .take_collisions()
+        .iter()
+        .filter(|&&(_, i, j)| (i, j) == (0, 1))
+        .count();
+    assert!(pair > 0, "the resting pair never collided");
+    eprintln!("resting pair: {pair} collisions");
 }
 
 #[test]

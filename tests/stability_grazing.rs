@@ -95,7 +95,7 @@ fn grazing_cases(ka: Kind, kb: Kind, cases: u64, tally: &mut Tally) {
                     (&b, &q, &still),
                     &r0,
                     &v,
-                    0.0,
+                    None,
                     -2.0 * t0,
                     u32::MAX,
                 )

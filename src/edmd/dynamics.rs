@@ -8,9 +8,9 @@ use rand::Rng;
 use rand_distr::StandardNormal;
 
 use super::calendar::{Calendar, EventKind};
-use super::collision::{Kinetics, collide, collide_spheres};
+use super::collision::{Kinetics, collide, collide_patch, collide_spheres};
 use super::motion::{Spin, position_after};
-use super::predict::{Predictor, PredictorOptions, Search};
+use super::predict::{Predictor, PredictorOptions, Progress, Search};
 use crate::analysis::order::{legendre_p2, nematic_order};
 use crate::geometry::pair::contact_sum;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
@@ -370,7 +370,6 @@ pub struct Dynamics {
     now: f64,
     /// Absolute time of `now` = 0 (moved forward at rebases).
     origin: f64,
-    events_since_rebase: u64,
     /// Collisions at the last rebase.
     collisions_at_rebase: u64,
     collisions: u64,
@@ -393,8 +392,9 @@ pub struct Dynamics {
     /// The distance solver's state at each scheduled collision's predicted
     /// contact, by (first, second) body: the collision starts from it.
     found: std::collections::HashMap<(u32, u32), WarmStart>,
-    /// Scratch: searches put off until the cheap ones are done.
-    deferred: Vec<(u32, f64)>,
+    /// Scratch: searches put off until the cheap ones are done (partner,
+    /// the time it got to, where to resume it).
+    deferred: Vec<(u32, f64, Progress)>,
     /// Events processed at the current instant (a guard against loops).
     events_at_now: u64,
     /// The options it was built with (to rebuild itself).
@@ -412,6 +412,18 @@ enum WallContact {
     None,
     /// The search stopped here without deciding.
     SearchedTo(f64),
+}
+
+/// How a pair's search ended (times absolute).
+#[allow(clippy::large_enum_variant)] // as `Search`
+#[derive(Debug, Clone, Copy)]
+enum PairSearch {
+    /// A contact at this time, with the solver state there.
+    Contact(f64, Option<WarmStart>),
+    /// None before the horizon.
+    Apart,
+    /// Out of budget at this time; resume from the progress.
+    Unfinished(f64, Progress),
 }
 
 /// Steps a pair's contact search may take before it is put off behind the
@@ -658,7 +670,6 @@ impl Dynamics {
             predictor: Predictor::new(options.predictor),
             now: 0.0,
             origin: 0.0,
-            events_since_rebase: 0,
             collisions_at_rebase: 0,
             collisions: 0,
             interval: Interval::default(),
@@ -991,21 +1002,15 @@ impl Dynamics {
             EventKind::Wall { axis, up } => self.hit_wall(e.i as usize, axis as usize, up)?,
             EventKind::WallSearch => {
                 let i = e.i as usize;
-                self.advance(i);
                 self.calendar.invalidate(i);
                 self.schedule_crossing(i);
                 self.schedule_collisions(i, None, false)?;
             }
         }
-        self.events_since_rebase += 1;
-        // Closed-form pairs rebase at a collision (an instant both
-        // neighbour structures share; see `closed_form`), others at any event.
-        let due = if self.closed_form {
-            self.collisions - self.collisions_at_rebase > 32 * self.bodies.len() as u64
-                && matches!(e.kind, EventKind::Collision)
-        } else {
-            self.events_since_rebase > 64 * self.bodies.len() as u64
-        };
+        // At a collision (an instant both neighbour structures share; see
+        // `closed_form`).
+        let due = self.collisions - self.collisions_at_rebase > 32 * self.bodies.len() as u64
+            && matches!(e.kind, EventKind::Collision);
         if due {
             self.rebase()?;
         }
@@ -1048,21 +1053,21 @@ impl Dynamics {
         self.interval.ke_since -= shift;
         self.origin += shift;
         self.now = 0.0;
-        self.events_since_rebase = 0;
         self.collisions_at_rebase = self.collisions;
-        if self.closed_form {
-            // Every prediction again from the new poses: an event predicted
-            // before and shifted can differ in its last bit from the same
-            // event predicted after (see `closed_form`).
-            for b in &mut self.bodies {
-                b.horizon = f64::INFINITY;
-            }
-            self.schedule_everything()?;
+        // Every prediction again from the new poses: an event predicted
+        // before and shifted can differ in its last bit from the same event
+        // predicted after (see `closed_form`).
+        for b in &mut self.bodies {
+            b.horizon = f64::INFINITY;
         }
+        self.schedule_everything()?;
         Ok(())
     }
 
     fn collide(&mut self, i: usize, j: usize) -> Result<(), EdmdError> {
+        // The body of lower index first, whichever body's search found the
+        // pair: the same bits for the same collision (see `closed_form`).
+        let (i, j) = (i.min(j), i.max(j));
         self.advance(i);
         self.advance(j);
         let (si, sj) = (
@@ -1072,7 +1077,7 @@ impl Dynamics {
         let d = self
             .box_
             .minimum_image(&(self.bodies[j].position - self.bodies[i].position));
-        if self.closed_form {
+        {
             // New stored poses: wrapped into the box here, and only here;
             // with cells, in the image of the body's cell.
             for k in [i, j] {
@@ -1131,7 +1136,7 @@ impl Dynamics {
         // The pair itself last, within both horizons: a pair that has just
         // touched stays within ε_d for a while, where the search is slow.
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
-        if let (Search::Contact(t), warm) = self.predict_pair(i, j, self.now, horizon, u32::MAX)? {
+        if let PairSearch::Contact(t, warm) = self.predict_pair(i, j, horizon, u32::MAX, None)? {
             schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
         }
         Ok(())
@@ -1178,6 +1183,33 @@ impl Dynamics {
             );
             (normal, arm_a, closing)
         };
+        let kinetics = |b: &Body, k: &Kind| Kinetics {
+            velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
+            inverse_mass: k.inverse_mass,
+            inverse_inertia: k.inverse_inertia(&b.orientation),
+        };
+        // A face or an edge lying on a face: the impact acts on all the
+        // corners of the shared region at once (see `collide_patch`).
+        let patch = crate::geometry::pair::contact_patch(
+            &ki.shape,
+            &kj.shape,
+            &rel,
+            &contact.normal,
+            self.predictor.contact_tolerance() * scale,
+        );
+        if patch.points().len() >= 2 {
+            let normal = bi.orientation * contact.normal;
+            let mut arms = [(V3::zeros(), V3::zeros()); 8];
+            for (arm, p) in arms.iter_mut().zip(patch.points()) {
+                let arm_a = bi.orientation * p;
+                *arm = (arm_a, arm_a - d);
+            }
+            let mut ka = kinetics(&bi, ki);
+            let mut kb = kinetics(&bj, kj);
+            let jn = collide_patch(&mut ka, &mut kb, &arms[..patch.points().len()], &normal);
+            return Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)));
+        }
         let (mut normal, mut arm_a, closing) = lab(&contact);
         if closing <= 0.0 {
             // Touching, but not where the bodies close in: at a contact
@@ -1211,18 +1243,26 @@ impl Dynamics {
             }
         }
         let arm_b = arm_a - d;
-        let kinetics = |b: &Body, k: &Kind| Kinetics {
-            velocity: b.velocity,
-            angular_velocity: b.angular_velocity,
-            inverse_mass: k.inverse_mass,
-            inverse_inertia: k.inverse_inertia(&b.orientation),
-        };
         let mut ka = kinetics(&bi, ki);
         let mut kb = kinetics(&bj, kj);
-        let ke_before = 0.5
-            * (ka.velocity.norm_squared() / ka.inverse_mass
-                + kb.velocity.norm_squared() / kb.inverse_mass);
         let jn = collide(&mut ka, &mut kb, &arm_a, &arm_b, &normal);
+        Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)))
+    }
+
+    /// Stores bodies `i` and `j`'s velocities after a collision (`ka`,
+    /// `kb`) and the change of the translational kinetic energy; passes
+    /// the virial term through.
+    fn apply_impulse(
+        &mut self,
+        i: usize,
+        j: usize,
+        ka: Kinetics,
+        kb: Kinetics,
+        virial: f64,
+    ) -> f64 {
+        let ke_before = 0.5
+            * (self.bodies[i].velocity.norm_squared() / ka.inverse_mass
+                + self.bodies[j].velocity.norm_squared() / kb.inverse_mass);
         let ke_after = 0.5
             * (ka.velocity.norm_squared() / ka.inverse_mass
                 + kb.velocity.norm_squared() / kb.inverse_mass);
@@ -1232,16 +1272,12 @@ impl Dynamics {
             self.bodies[idx].velocity = k.velocity;
             self.bodies[idx].angular_velocity = k.angular_velocity;
         }
-        Ok(jn * d.dot(&normal))
+        virial
     }
 
     fn cross(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
-        // Closed-form pairs keep the stored pose (see `closed_form`): a
-        // periodic crossing moves `cell_shifts`, not the pose.
-        let keep_pose = self.closed_form;
-        if !keep_pose {
-            self.advance(i);
-        }
+        // The stored pose stays (see `closed_form`): a periodic crossing
+        // moves `cell_shifts`, not the pose.
         let dims = self.cells.dims();
         let mut c = self.cells.coords_of(self.cells.cell_of(i));
         let l = self.box_.lengths()[axis];
@@ -1259,12 +1295,7 @@ impl Dynamics {
             c[axis] -= 1;
         }
         if shift != 0.0 {
-            if keep_pose {
-                self.cell_shifts[i][axis] += shift;
-            } else {
-                self.bodies[i].position[axis] += shift;
-                self.images[i][axis] -= shift;
-            }
+            self.cell_shifts[i][axis] += shift;
         }
         let cell = self.cells.index_of(c);
         self.cells.move_to(i, cell);
@@ -1288,18 +1319,9 @@ impl Dynamics {
     /// Body `i` has moved the shell from its neighbour sphere's centre: the
     /// sphere is rebuilt around it, and `i` searches its new list.
     fn escape(&mut self, i: usize) -> Result<(), EdmdError> {
-        let wrapped = if self.closed_form {
-            // The stored pose stays (see `closed_form`).
-            let b = &self.bodies[i];
-            self.box_
-                .wrap(&position_after(&b.position, &b.velocity, self.now - b.time))
-        } else {
-            self.advance(i);
-            let wrapped = self.box_.wrap(&self.bodies[i].position);
-            self.images[i] += self.bodies[i].position - wrapped;
-            self.bodies[i].position = wrapped;
-            wrapped
-        };
+        // The stored pose stays (see `closed_form`).
+        let (centre, orientation) = self.pose_at(i, self.now);
+        let wrapped = self.box_.wrap(&centre);
         self.cells.update(i, &wrapped);
         let spheres = self
             .neighbours
@@ -1307,7 +1329,7 @@ impl Dynamics {
             .expect("escapes come with neighbour lists");
         spheres.centres[i] = wrapped;
         if let Some((_, axes)) = &mut spheres.boxes {
-            axes[i] = self.bodies[i].orientation.to_rotation_matrix().into_inner();
+            axes[i] = orientation.to_rotation_matrix().into_inner();
         }
         spheres.lists.unlink_all(i);
         link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
@@ -1571,7 +1593,11 @@ impl Dynamics {
             let (_, axis, up) = self.wall_gap_at(i, lo);
             WallContact::At { time: lo, axis, up }
         };
-        let (mut t, mut g) = (b.time, gap(b.time));
+        // From now: the pose is kept through the events that renew this
+        // search (see `closed_form`), and the body is clear of the walls
+        // up to now (a search that stopped renews itself from there).
+        let start = self.now.max(b.time);
+        let (mut t, mut g) = (start, gap(start));
         for _ in 0..64 {
             let t1 = (t + g.max(eps) / rate).min(t_end);
             let g1 = gap(t1);
@@ -1656,9 +1682,6 @@ impl Dynamics {
         skip: Option<usize>,
         once: bool,
     ) -> Result<(), EdmdError> {
-        if !self.closed_form {
-            self.advance(i);
-        }
         let keep = |j: usize| j != i && Some(j) != skip && !(once && j < i);
         if self.closed_form {
             // Every search is one closed-form solve, exact whenever it is
@@ -1709,37 +1732,39 @@ impl Dynamics {
             // Past j's own horizon, j's first event will have changed it
             // or renewed its search (which covers this pair).
             let horizon = horizon_i.min(self.bodies[j].horizon);
-            match self.predict_pair(i, j, self.now, horizon, CHEAP_SEARCH)? {
-                (Search::Contact(t), warm) => {
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, None)? {
+                PairSearch::Contact(t, warm) => {
                     earliest = Some((t, j, warm));
                     horizon_i = t;
                 }
-                (Search::Apart, _) => {}
-                (Search::Unfinished(t), _) => deferred.push((j as u32, t)),
+                PairSearch::Apart => {}
+                PairSearch::Unfinished(t, progress) => deferred.push((j as u32, t, progress)),
             }
         }
         self.candidates = candidates;
         // The put-off searches race: the least advanced one takes the next
         // few steps, so that the first contact among them is found before
-        // any of them searches past it (it becomes everyone's horizon).
+        // any of them searches past it (it becomes everyone's horizon). A
+        // search resumes with its solver state: the same steps as if it
+        // had not stopped (see `predict_pair`).
         while !deferred.is_empty() {
-            let (k, &(j, from)) = deferred
+            let (k, &(j, _, progress)) = deferred
                 .iter()
                 .enumerate()
                 .min_by(|a, b| a.1.1.total_cmp(&b.1.1))
                 .expect("not empty");
             let j = j as usize;
             let horizon = horizon_i.min(self.bodies[j].horizon);
-            match self.predict_pair(i, j, from, horizon, CHEAP_SEARCH)? {
-                (Search::Contact(t), warm) => {
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, Some(&progress))? {
+                PairSearch::Contact(t, warm) => {
                     earliest = Some((t, j, warm));
                     horizon_i = t;
                     deferred.swap_remove(k);
                 }
-                (Search::Apart, _) => {
+                PairSearch::Apart => {
                     deferred.swap_remove(k);
                 }
-                (Search::Unfinished(t), _) => deferred[k].1 = t,
+                PairSearch::Unfinished(t, progress) => deferred[k] = (j as u32, t, progress),
             }
         }
         self.deferred = deferred;
@@ -1806,46 +1831,52 @@ impl Dynamics {
         crate::geometry::pair::sphere_contact_time(&d, &dv, sigma).map(|t| (t0 + t).max(self.now))
     }
 
-    /// The contact time of bodies `i` (at the current time) and `j` if it
-    /// comes before `horizon`, searched from the time `from` (apart before
-    /// it) with about `budget` distance evaluations.
+    /// The contact time of bodies `i` and `j` if it comes before
+    /// `horizon`, with about `budget` steps (else how far the search got,
+    /// to resume it from there with `resume`). Canonical (see
+    /// `closed_form`): searched from the later of the two stored poses, the
+    /// body of lower index as A, on a step grid the horizon does not cut,
+    /// and resumed with its solver state; so the time found is a function
+    /// of the two stored poses alone, whenever and from whichever body the
+    /// search runs.
     fn predict_pair(
         &self,
         i: usize,
         j: usize,
-        from: f64,
         horizon: f64,
         budget: u32,
-    ) -> Result<(Search, Option<WarmStart>), EdmdError> {
-        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-        // B's centre now, relative to A's, and the relative velocity.
-        let dt_j = self.now - bj.time;
-        let rj = position_after(&bj.position, &bj.velocity, dt_j);
-        let d = self.box_.minimum_image_near(&(rj - bi.position));
-        let dv = bj.velocity - bi.velocity;
-        let pair = bi.species as usize * self.kinds.len() + bj.species as usize;
+        resume: Option<&Progress>,
+    ) -> Result<PairSearch, EdmdError> {
+        let (a, b) = (i.min(j), i.max(j));
+        let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
+        let t0 = ba.time.max(bb.time);
+        let (ra, qa) = self.pose_at(a, t0);
+        let (rb, qb) = self.pose_at(b, t0);
+        let dv = bb.velocity - ba.velocity;
+        // The image nearest now (as for closed-form pairs).
+        let raw = rb - ra;
+        let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
+        let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
         let found = if let Some(sigma) = self.contact_sums[pair] {
             match crate::geometry::pair::sphere_contact_time(&d, &dv, sigma) {
                 Some(t) => Search::Contact(t),
                 None => Search::Apart,
             }
         } else {
-            // A free rotation's two parts are constants of the motion.
-            let spin_j = body_spin(&self.kinds, bj);
-            let orientation_j = spin_j.orientation_after(&bj.orientation, dt_j);
-            let spin_i = body_spin(&self.kinds, bi);
-            let (ki, kj) = (
-                &self.kinds[bi.species as usize],
-                &self.kinds[bj.species as usize],
+            let (ka, kb) = (
+                &self.kinds[ba.species as usize],
+                &self.kinds[bb.species as usize],
             );
+            // A free rotation's two parts are constants of the motion.
+            let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
             self.predictor
                 .search(
-                    (&ki.shape, &bi.orientation, &spin_i),
-                    (&kj.shape, &orientation_j, &spin_j),
+                    (&ka.shape, &qa, &spin_a),
+                    (&kb.shape, &qb, &spin_b),
                     &d,
                     &dv,
-                    from - self.now,
-                    horizon - self.now,
+                    resume,
+                    horizon - t0,
                     budget,
                 )
                 .map_err(|why| EdmdError::Solver {
@@ -1857,9 +1888,12 @@ impl Dynamics {
         };
         let warm = self.predictor.take_found();
         Ok(match found {
-            Search::Contact(t) if self.now + t < horizon => (Search::Contact(self.now + t), warm),
-            Search::Contact(_) | Search::Apart => (Search::Apart, None),
-            Search::Unfinished(t) => (Search::Unfinished(self.now + t), None),
+            // Not before now (rounding at a contact found right now).
+            Search::Contact(t) if t0 + t < horizon => {
+                PairSearch::Contact((t0 + t).max(self.now), warm)
+            }
+            Search::Contact(_) | Search::Apart => PairSearch::Apart,
+            Search::Unfinished(progress) => PairSearch::Unfinished(t0 + progress.time(), progress),
         })
     }
 }
@@ -1942,7 +1976,8 @@ fn schedule_collision(
 ) {
     calendar.schedule(t, EventKind::Collision, i, j);
     if let Some(w) = warm {
-        found.insert((i as u32, j as u32), w);
+        // Found with the body of lower index as A (see `predict_pair`).
+        found.insert((i.min(j) as u32, i.max(j) as u32), w);
     }
 }
 

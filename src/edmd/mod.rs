@@ -12,4 +12,4 @@ pub mod motion;
 pub mod predict;
 
 pub use dynamics::{Dynamics, DynamicsOptions, EdmdError, Sample, automatic_neighbour_shell};
-pub use predict::{Predictor, PredictorOptions, Search, SolverWork};
+pub use predict::{Predictor, PredictorOptions, Progress, Search, SolverWork};

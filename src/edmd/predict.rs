@@ -53,14 +53,38 @@ impl Default for PredictorOptions {
 }
 
 /// How a search for a contact ended.
+// Returned once per search and moved, never stored in bulk: the few hundred
+// bytes of an unfinished search's state cost less than a box for it.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Search {
     /// The bodies touch at this time.
     Contact(f64),
     /// They stay apart up to the horizon.
     Apart,
-    /// Out of budget: apart up to this time at least.
-    Unfinished(f64),
+    /// Out of budget: apart up to `progress.time()` at least; the search
+    /// resumes from `progress` exactly as if it had not stopped.
+    Unfinished(Progress),
+}
+
+/// Where an unfinished search stopped: the step it had reached and the
+/// solver state it carries (warm starts), so that a resumed search takes
+/// the same steps, to the bit, as one that never stopped.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress {
+    t: f64,
+    distance: f64,
+    normal: V3,
+    warm: Option<WarmStart>,
+    hint: Option<V3>,
+    last: Option<(f64, Contact)>,
+}
+
+impl Progress {
+    /// The time (from the search's origin) it got to.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
 }
 
 /// A body's shape and rotation, for prediction: (shape, orientation now,
@@ -152,18 +176,17 @@ impl Predictor {
         dv: &V3,
         horizon: f64,
     ) -> Result<Option<f64>, String> {
-        match self.search(a, b, d, dv, 0.0, horizon, u32::MAX)? {
+        match self.search(a, b, d, dv, None, horizon, u32::MAX)? {
             Search::Contact(t) => Ok(Some(t)),
             Search::Apart => Ok(None),
             Search::Unfinished(_) => unreachable!("an unlimited search finishes"),
         }
     }
 
-    /// [`Predictor::contact_time`] from τ = `from` (the pair known to be
-    /// apart on [0, `from`)) with at most about `budget` distance
-    /// evaluations: a search that runs out says how far it got, so that it
-    /// can be resumed, perhaps with a shorter horizon, once cheaper pairs
-    /// have been searched.
+    /// [`Predictor::contact_time`] with at most about `budget` steps: a
+    /// search that runs out says how far it got, so that it can be resumed
+    /// (`resume`, with the same pair and motion), perhaps with a shorter
+    /// horizon, once cheaper pairs have been searched.
     #[allow(clippy::too_many_arguments)]
     pub fn search(
         &self,
@@ -171,11 +194,11 @@ impl Predictor {
         (shape_b, q_b, w_b): Rotor,
         d: &V3,
         dv: &V3,
-        from: f64,
+        resume: Option<&Progress>,
         horizon: f64,
         budget: u32,
     ) -> Result<Search, String> {
-        if horizon <= from {
+        if horizon <= resume.map_or(0.0, |p| p.t) {
             return Ok(Search::Apart);
         }
         let (la, lb) = (shape_a.bounding_radius(), shape_b.bounding_radius());
@@ -196,7 +219,11 @@ impl Predictor {
         } else {
             (0.0, f64::INFINITY)
         };
-        let t1 = t1.max(from);
+        // Steps are cut where the bounding spheres part, never at the
+        // horizon, which only says where to stop: the steps, and so the
+        // contact found, do not depend on the horizon (a search is
+        // canonical, see `Dynamics::predict_pair`).
+        let t_exit = t2;
         let t2 = t2.min(horizon);
         if t1 > t2 {
             return Ok(Search::Apart);
@@ -344,17 +371,6 @@ impl Predictor {
             let linear = time_to_zero(phi, approach - ga.lipschitz - gb.lipschitz, 0.0);
             quadratic.max(linear)
         };
-        let mut t = t1;
-        // Most pairs of a list are cleared by the support planes across the
-        // line of centres alone, before any contact function is built.
-        let across = orientations(t).0.inverse_transform_vector(&(d + dv * t));
-        if let Some(across) = across.try_normalize(0.0)
-            && t + apart_for(t, &across) >= t2
-        {
-            return Ok(Search::Apart);
-        }
-        let (mut d_t, mut normal_t) = step_distance(t);
-        failed(d_t)?;
         // The speed at which the contact points close along the normal
         // (ḋ = −closing), from the contact found at τ = t.
         let closing_speed = |t: f64| -> f64 {
@@ -372,26 +388,6 @@ impl Predictor {
             let (omega_a, omega_b) = (w_a.angular_velocity(&qa_t), w_b.angular_velocity(&qb_t));
             -normal.dot(&(dv + omega_b.cross(&arm_b) - omega_a.cross(&arm_a)))
         };
-        if d_t <= tol && d_t > 0.0 {
-            // A lower bound this small says nothing: look at the distance.
-            d_t = dist(t);
-            if let Some((_, c)) = last.get() {
-                normal_t = c.normal;
-            }
-            failed(d_t)?;
-        }
-        if d_t <= tol {
-            if d_t < -tol.max(eps * 1e-3) {
-                return Err(format!("the pair overlaps by {:e} at τ = {t}", -d_t));
-            }
-            // In contact to round-off: a collision now if the contact points
-            // approach (after a collision they recede, so a pair is never
-            // made to collide twice at one time), else follow the pair.
-            if closing_speed(t) > 0.0 {
-                self.found.set(warm.get());
-                return Ok(Search::Contact(t));
-            }
-        }
         let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Search, String> {
             // The lower end's value may be a lower bound on the distance
             // (all the stepping needed); the root finder needs the distance.
@@ -443,10 +439,62 @@ impl Predictor {
             self.found.set(warm.get());
             Ok(Search::Contact(lo))
         };
+        // Where the stepping starts: from the bounding spheres' first
+        // touch, or where an unfinished search stopped, with its solver
+        // state (the same steps as if it had not stopped).
+        let (mut t, mut d_t, mut normal_t) = match resume {
+            Some(p) => {
+                warm.set(p.warm);
+                hint.set(p.hint);
+                last.set(p.last);
+                (p.t, p.distance, p.normal)
+            }
+            None => {
+                let t = t1;
+                // Most pairs of a list are cleared by the support planes across the
+                // line of centres alone, before any contact function is built.
+                let across = orientations(t).0.inverse_transform_vector(&(d + dv * t));
+                if let Some(across) = across.try_normalize(0.0)
+                    && t + apart_for(t, &across) >= t2
+                {
+                    return Ok(Search::Apart);
+                }
+                let (mut d_t, mut normal_t) = step_distance(t);
+                failed(d_t)?;
+                if d_t <= tol && d_t > 0.0 {
+                    // A lower bound this small says nothing: look at the distance.
+                    d_t = dist(t);
+                    if let Some((_, c)) = last.get() {
+                        normal_t = c.normal;
+                    }
+                    failed(d_t)?;
+                }
+                if d_t <= tol {
+                    if d_t < -tol.max(eps * 1e-3) {
+                        return Err(format!("the pair overlaps by {:e} at τ = {t}", -d_t));
+                    }
+                    // In contact to round-off: a collision now if the contact points
+                    // approach (after a collision they recede, so a pair is never
+                    // made to collide twice at one time), else follow the pair.
+                    if closing_speed(t) > 0.0 {
+                        self.found.set(warm.get());
+                        return Ok(Search::Contact(t));
+                    }
+                }
+                (t, d_t, normal_t)
+            }
+        };
         let mut steps = 0u32;
         while t < t2 {
             if steps >= budget {
-                return Ok(Search::Unfinished(t));
+                return Ok(Search::Unfinished(Progress {
+                    t,
+                    distance: d_t,
+                    normal: normal_t,
+                    warm: warm.get(),
+                    hint: hint.get(),
+                    last: last.get(),
+                }));
             }
             steps += 1;
             // A step that cannot jump over a contact: d/ḋ_max (eq. 39), or
@@ -460,7 +508,7 @@ impl Predictor {
                 // Apart until t2: the distance cannot close within the step.
                 break;
             }
-            let t_next = (t + step).min(t2);
+            let t_next = (t + step).min(t_exit);
             if t_next <= t {
                 break;
             }

@@ -20,6 +20,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use super::newton::{NewtonOptions, WarmStart};
 use super::shape::Shape;
 
+pub use cuboid_cuboid::ContactPatch;
 pub use quadric_quadric::perram_wertheim;
 pub use smooth_smooth::support_points_start;
 
@@ -300,6 +301,26 @@ pub fn distance(
         (Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => {
             cuboid_smooth::distance(b, a, &rel.inverse(), opts).swapped(rel)
         }
+    }
+}
+
+/// Where bodies touching with `normal` (A → B, A's frame) touch along a
+/// flat feature of each (two cuboids, a face or an edge of each within
+/// `tolerance` of the contact plane): the corners of the shared region, on
+/// which a collision acts at once (see [`ContactPatch`]). Empty for every
+/// other pair and contact: smooth bodies touch at a point.
+pub fn contact_patch(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+    normal: &V3,
+    tolerance: f64,
+) -> ContactPatch {
+    match (a, b) {
+        (Shape::Cuboid(p), Shape::Cuboid(q)) => {
+            cuboid_cuboid::cuboid_patch(p, q, rel, normal, tolerance)
+        }
+        _ => ContactPatch::none(),
     }
 }
 
