@@ -520,20 +520,10 @@ fn bench_ocsi(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCo
                 ));
                 print_block(&ocsi_table(&rows));
             }
-            if let Some(dir) = plot {
-                match hardbody::bench::ocsi::plot(&points, dir) {
-                    Ok(paths) => {
-                        for p in paths {
-                            esay(&format!("plot written: {}", p.display()));
-                        }
-                    }
-                    Err(e) => {
-                        esay(&format!("hardbody: OCSI plots failed: {e}"));
-                        return ExitCode::from(EXIT_FAILED);
-                    }
-                }
+            match plot {
+                Some(dir) => report_plots("OCSI", hardbody::bench::ocsi::plot(&points, dir)),
+                None => ExitCode::SUCCESS,
             }
-            ExitCode::SUCCESS
         }
         Err(e) => {
             esay(&format!("hardbody: OCSI benchmark failed: {e}"));
@@ -621,17 +611,10 @@ fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode
             ));
         }
     }
-    if let Some(dir) = plot {
-        match mc::plot(&density, &sizes, dir) {
-            Ok(paths) => {
-                for p in paths {
-                    esay(&format!("plot written: {}", p.display()));
-                }
-            }
-            Err(e) => return failed("plot", &e),
-        }
+    match plot {
+        Some(dir) => report_plots("MC", mc::plot(&density, &sizes, dir)),
+        None => ExitCode::SUCCESS,
     }
-    ExitCode::SUCCESS
 }
 
 fn bench_effects(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
@@ -654,20 +637,30 @@ fn bench_effects(quick: bool, json: bool, plot: Option<&std::path::Path>) -> Exi
             ));
         }
     }
-    if let Some(dir) = plot {
-        match hardbody::bench::effects::plot(&rows, dir) {
-            Ok(paths) => {
-                for p in paths {
-                    esay(&format!("plot written: {}", p.display()));
-                }
+    match plot {
+        Some(dir) => report_plots("effects", hardbody::bench::effects::plot(&rows, dir)),
+        None => ExitCode::SUCCESS,
+    }
+}
+
+/// Says which plots a suite wrote, or why it could not (then the run
+/// fails: the user asked for them).
+fn report_plots<E: std::fmt::Display>(
+    suite: &str,
+    written: Result<Vec<std::path::PathBuf>, E>,
+) -> ExitCode {
+    match written {
+        Ok(paths) => {
+            for p in paths {
+                esay(&format!("plot written: {}", p.display()));
             }
-            Err(e) => {
-                esay(&format!("hardbody: effects plot failed: {e}"));
-                return ExitCode::from(EXIT_FAILED);
-            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            esay(&format!("hardbody: {suite} plots failed: {e}"));
+            ExitCode::from(EXIT_FAILED)
         }
     }
-    ExitCode::SUCCESS
 }
 
 fn bench_scene(quick: bool, json: bool) -> ExitCode {
@@ -783,20 +776,10 @@ fn bench_speed(
             ));
         }
     }
-    if let (Some(dir), Some(plotter)) = (plot, plotter) {
-        match plotter(&rows, dir) {
-            Ok(paths) => {
-                for p in paths {
-                    esay(&format!("plot written: {}", p.display()));
-                }
-            }
-            Err(e) => {
-                esay(&format!("hardbody: {name} plots failed: {e}"));
-                return ExitCode::from(EXIT_FAILED);
-            }
-        }
+    match (plot, plotter) {
+        (Some(dir), Some(plotter)) => report_plots(name, plotter(&rows, dir)),
+        _ => ExitCode::SUCCESS,
     }
-    ExitCode::SUCCESS
 }
 
 fn bench_edmd_tolerance(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
@@ -809,16 +792,9 @@ fn bench_edmd_tolerance(quick: bool, json: bool, plot: Option<&std::path::Path>)
         }
     };
     if let Some(dir) = plot {
-        match hardbody::bench::edmd::plot(&rows, dir) {
-            Ok(paths) => {
-                for p in paths {
-                    esay(&format!("plot written: {}", p.display()));
-                }
-            }
-            Err(e) => {
-                esay(&format!("hardbody: edmd-tolerance plots failed: {e}"));
-                return ExitCode::from(EXIT_FAILED);
-            }
+        let code = report_plots("edmd-tolerance", hardbody::bench::edmd::plot(&rows, dir));
+        if code != ExitCode::SUCCESS {
+            return code;
         }
     }
     if json {

@@ -29,7 +29,7 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
 /// Stops as soon as some λ has F(λ) > 1 (separated) or concavity bounds the
 /// maximum below 1 (F(λ*) ≤ F(λ) + |F′(λ)| · bracket width).
 pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> bool {
-    let mut l = sphere_optimum(ma, mb, r);
+    let l = sphere_optimum(ma, mb, r);
     // Most pairs that get this far are apart, and F at the sphere optimum
     // already says so (it is exact for aligned equal bodies): one solve
     // before the coefficients of the whole function.
@@ -41,33 +41,19 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
         return false;
     }
     let contact = ContactFunction::new(ma, mb, r);
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    for _ in 0..200 {
-        let Some((f, f1, f2)) = contact.eval(l) else {
-            return true; // singular C: degenerate, treat as overlap
-        };
-        if f > 1.0 {
-            return false;
-        }
-        if f1 > 0.0 {
-            lo = l;
+    let decided = contact.maximise(l, 200, |step| {
+        if step.f > 1.0 {
+            Some(false)
+        } else if step.f + step.f1.abs() * step.width <= 1.0 {
+            Some(true)
+        } else if step.width <= 4.0 * f64::EPSILON {
+            Some(step.f <= 1.0)
         } else {
-            hi = l;
+            None
         }
-        if f + f1.abs() * (hi - lo) <= 1.0 {
-            return true;
-        }
-        if hi - lo <= 4.0 * f64::EPSILON {
-            return f <= 1.0;
-        }
-        let newton = if f2 < 0.0 { l - f1 / f2 } else { f64::NAN };
-        l = if newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-    }
-    true
+    });
+    // Singular C (degenerate) or undecided: treat as overlap.
+    !matches!(decided, Some((false, _)))
 }
 
 /// The Perram–Wertheim contact point as a start for the distance solver:
@@ -89,28 +75,10 @@ pub fn contact_points_guess(
     let mb = r * shape_matrix(b) * r.transpose();
     let t = &rel.translation;
     let contact = ContactFunction::new(&ma, &mb, t);
-    // F is concave on [0, 1]: Newton on F′, kept inside a bracket.
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    let mut l = sphere_optimum(&ma, &mb, t);
-    for _ in 0..50 {
-        let (_, f1, f2) = contact.eval(l)?;
-        if f1 > 0.0 {
-            lo = l;
-        } else {
-            hi = l;
-        }
-        let newton = if f2 < 0.0 { l - f1 / f2 } else { f64::NAN };
-        let next = if newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-        let done = (next - l).abs() <= 1e-12 || hi - lo <= 1e-12;
-        l = next;
-        if done {
-            break;
-        }
-    }
+    // To convergence of λ.
+    let (_, l) = contact.maximise(sphere_optimum(&ma, &mb, t), 50, |step| {
+        ((step.next - step.lambda).abs() <= 1e-12 || step.width <= 1e-12).then_some(())
+    })?;
     let (f, _, _) = contact.eval(l)?;
     let mu = f.sqrt();
     let c = ma * (1.0 - l) + mb * l;
@@ -161,6 +129,47 @@ impl ContactFunction {
 
     /// F(λ), F′(λ), F″(λ); `None` where C(λ) is singular.
     #[inline]
+    /// Newton's method on F′ from λ = `start`, kept inside the bracket of
+    /// the maximiser (F is concave on [0, 1]; bisection where Newton leaves
+    /// it), for at most `steps` evaluations: after each, `stop` may end the
+    /// search with its answer. Returns that answer and the λ it came at;
+    /// `None` if C is singular or `stop` never answered.
+    fn maximise<T>(
+        &self,
+        start: f64,
+        steps: usize,
+        mut stop: impl FnMut(MaximiserStep) -> Option<T>,
+    ) -> Option<(T, f64)> {
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        let mut l = start;
+        for _ in 0..steps {
+            let (f, f1, f2) = self.eval(l)?;
+            if f1 > 0.0 {
+                lo = l;
+            } else {
+                hi = l;
+            }
+            let newton = if f2 < 0.0 { l - f1 / f2 } else { f64::NAN };
+            let next = if newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
+            let step = MaximiserStep {
+                lambda: l,
+                f,
+                f1,
+                width: hi - lo,
+                next,
+            };
+            if let Some(answer) = stop(step) {
+                return Some((answer, l));
+            }
+            l = next;
+        }
+        None
+    }
+
     fn eval(&self, l: f64) -> Option<(f64, f64, f64)> {
         let [q0, q1, q2] = self.q;
         let [p0, p1, p2, p3] = self.p;
@@ -226,6 +235,17 @@ fn adjugate(m: &Matrix3<f64>) -> Matrix3<f64> {
     )
 }
 
+/// One evaluation of [`ContactFunction::maximise`]: λ, F(λ), F′(λ), the
+/// width of the bracket on the maximiser, and the λ it goes to next.
+#[derive(Debug, Clone, Copy)]
+struct MaximiserStep {
+    lambda: f64,
+    f: f64,
+    f1: f64,
+    width: f64,
+    next: f64,
+}
+
 /// The maximiser of F for two spheres of the radii along r,
 /// λ = ρ_A/(ρ_A + ρ_B): the start of the search.
 #[inline]
@@ -255,22 +275,17 @@ pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> (f64, Vecto
     let mb = r * shape_matrix(b) * r.transpose();
     let t = &rel.translation;
     let contact = ContactFunction::new(&ma, &mb, t);
-    let mut l = sphere_optimum(&ma, &mb, t);
-    let mut best = 0.0f64;
-    let mut best_l = l;
-    for _ in 0..2 {
-        let Some((f, f1, f2)) = contact.eval(l) else {
-            break;
-        };
-        if f > best {
-            best = f;
-            best_l = l;
+    let start = sphere_optimum(&ma, &mb, t);
+    // Two evaluations (every F(λ) bounds max F from below), the best kept.
+    let (mut best, mut best_l) = (0.0f64, start);
+    let mut evaluations = 0;
+    contact.maximise(start, 2, |step| {
+        if step.f > best {
+            (best, best_l) = (step.f, step.lambda);
         }
-        if f2 >= 0.0 {
-            break;
-        }
-        l = (l - f1 / f2).clamp(1e-6, 1.0 - 1e-6);
-    }
+        evaluations += 1;
+        (evaluations == 2).then_some(())
+    });
     // adj C r ∝ C⁻¹ r (det C > 0): no division needed for a direction.
     let normal = (adjugate(&(ma * (1.0 - best_l) + mb * best_l)) * t)
         .try_normalize(0.0)
