@@ -252,6 +252,21 @@ mod tests {
         (centre, k)
     }
 
+    /// Total momentum of two bodies.
+    fn momentum(a: &Kinetics, b: &Kinetics) -> V3 {
+        a.velocity / a.inverse_mass + b.velocity / b.inverse_mass
+    }
+
+    /// Total angular momentum about the origin of two bodies centred at
+    /// `ra` and `rb`.
+    fn angular_momentum(ra: &V3, a: &Kinetics, rb: &V3, b: &Kinetics) -> V3 {
+        let spin = |k: &Kinetics| k.inverse_inertia.try_inverse().unwrap() * k.angular_velocity;
+        ra.cross(&(a.velocity / a.inverse_mass))
+            + spin(a)
+            + rb.cross(&(b.velocity / b.inverse_mass))
+            + spin(b)
+    }
+
     /// The simultaneous impacts of a flat contact conserve momentum,
     /// angular momentum and energy; every point that approached separates
     /// at least as fast; and a square face meeting a face head on without
@@ -276,15 +291,7 @@ mod tests {
                 *arm = (x - ra, x - rb);
             }
             let arms = &arms[..m];
-            let momentum = |a: &Kinetics, b: &Kinetics| {
-                a.velocity / a.inverse_mass + b.velocity / b.inverse_mass
-            };
-            let angular = |a: &Kinetics, b: &Kinetics| {
-                ra.cross(&(a.velocity / a.inverse_mass))
-                    + a.inverse_inertia.try_inverse().unwrap() * a.angular_velocity
-                    + rb.cross(&(b.velocity / b.inverse_mass))
-                    + b.inverse_inertia.try_inverse().unwrap() * b.angular_velocity
-            };
+            let angular = |a: &Kinetics, b: &Kinetics| angular_momentum(&ra, a, &rb, b);
             let approach = |a: &Kinetics, b: &Kinetics| {
                 arms.iter()
                     .map(|(arm_a, arm_b)| {
@@ -369,16 +376,7 @@ mod tests {
             let xc = (ra + rb) * 0.5 + V3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 0.3;
             let normal = (V3::new(u() - 0.5, u() - 0.5, u() - 0.5) + (rb - ra)).normalize();
             let (arm_a, arm_b) = (xc - ra, xc - rb);
-            let momentum = |a: &Kinetics, b: &Kinetics| {
-                a.velocity / a.inverse_mass + b.velocity / b.inverse_mass
-            };
-            let angular = |a: &Kinetics, b: &Kinetics| {
-                let la = ra.cross(&(a.velocity / a.inverse_mass))
-                    + a.inverse_inertia.try_inverse().unwrap() * a.angular_velocity;
-                let lb = rb.cross(&(b.velocity / b.inverse_mass))
-                    + b.inverse_inertia.try_inverse().unwrap() * b.angular_velocity;
-                la + lb
-            };
+            let angular = |a: &Kinetics, b: &Kinetics| angular_momentum(&ra, a, &rb, b);
             let approach = |a: &Kinetics, b: &Kinetics| {
                 (a.velocity + a.angular_velocity.cross(&arm_a)
                     - b.velocity
