@@ -116,6 +116,9 @@ pub enum Method {
     /// Largest gap between support planes over a cuboid's features (exact
     /// cuboid–smooth distance near contact).
     SupportGap,
+    /// Closest features of two boxes by enumeration (cuboid–cuboid where
+    /// GJK stalls).
+    Features,
 }
 
 /// Signed distance of two bodies and where it is attained, in A's frame.
@@ -141,6 +144,16 @@ impl Contact {
     /// Whether the result can be used: converged or closed form.
     pub fn is_converged(&self) -> bool {
         matches!(self.status, Status::Converged { .. })
+    }
+
+    /// The solver iterations it took (0 where none were counted).
+    pub fn iterations(&self) -> u32 {
+        match self.status {
+            Status::Converged { iterations }
+            | Status::IterationCap { iterations }
+            | Status::Failed { iterations, .. } => iterations,
+            Status::DeepOverlap => 0,
+        }
     }
 
     /// This contact, computed with the bodies in the order (B, A) and frame
