@@ -461,6 +461,18 @@ fn inspect(path: &std::path::Path) -> ExitCode {
         say("last stats:");
         say(&serde_json::to_string_pretty(last).expect("stats serialise"));
     }
+    if let Some((_, failure)) = &contents.failure {
+        say(&format!(
+            "failed in stage {}: {}{}",
+            failure.stage_index,
+            failure.message,
+            if failure.dump.is_some() {
+                " (the dynamics' stored state at the failure is in /failure)"
+            } else {
+                ""
+            }
+        ));
+    }
     ExitCode::SUCCESS
 }
 

@@ -59,8 +59,18 @@ fn run_from(
     let started = std::time::Instant::now();
     while md.collisions() < collisions {
         let next = md.time() + frame;
-        md.run_until(next)
-            .unwrap_or_else(|e| panic!("{shapes:?}: {e}"));
+        if let Err(e) = md.run_until(next) {
+            // The stored state at the failure, to replay it (`from_dump`).
+            let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+                .join(format!("edmd-failure-seed-{seed}.json"));
+            let written = serde_json::to_string(&md.dump())
+                .map_err(|e| e.to_string())
+                .and_then(|json| std::fs::write(&path, json).map_err(|e| e.to_string()));
+            panic!(
+                "{shapes:?}: {e} (state dumped to {}: {written:?})",
+                path.display()
+            );
+        }
         frames += 1;
         if let Err(e) = md.to_system() {
             panic!("{shapes:?} at t = {}: {e}", md.time());
@@ -210,6 +220,49 @@ fn neighbour_lists_give_the_same_collisions_as_cells() {
                 "{shapes:?}, shell {shell}: sequences part after {same} collisions"
             );
         }
+    }
+}
+
+/// A dump (what a failing run writes) brings back the run it was taken
+/// from: the dynamics rebuilt from it, through JSON, makes the same
+/// collisions bit for bit, with cells and with lists.
+#[test]
+fn a_dump_replays_the_run_bit_for_bit() {
+    for (shapes, phi, seed, shell) in [
+        (&[CUBE][..], 0.50, 4, None),
+        (&[PROLATE][..], 0.50, 1, Some(0.2)),
+    ] {
+        let system = compressed_state(shapes, 6, phi, seed);
+        let options = DynamicsOptions {
+            neighbour_shell: shell,
+            ..DynamicsOptions::default()
+        };
+        let mut rng = Pcg64::seed_from_u64(seed + 50);
+        let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
+        // Past a rebase (every 32 N collisions), mid-flight.
+        md.run_collisions(7_000).unwrap();
+        let json = serde_json::to_string(&md.dump()).unwrap();
+        let dump = serde_json::from_str(&json).unwrap();
+        let mut replay = Dynamics::from_dump(system.species(), &dump, &options).unwrap();
+        assert_eq!(replay.time(), md.time());
+        assert!(replay.dump() == md.dump(), "{shapes:?}: the stored state");
+        let trace = |md: &mut Dynamics| {
+            md.record_collisions(true);
+            md.run_collisions(3_000).unwrap();
+            md.take_collisions()
+        };
+        let (first, second) = (trace(&mut md), trace(&mut replay));
+        let same = first
+            .iter()
+            .zip(&second)
+            .take_while(|(a, b)| a == b)
+            .count();
+        assert_eq!(
+            same,
+            first.len(),
+            "{shapes:?}: parted after {same} collisions"
+        );
+        assert_eq!(md.kinetic_energy(), replay.kinetic_energy());
     }
 }
 

@@ -9,7 +9,7 @@ use std::sync::atomic::AtomicBool;
 
 use hardbody::log::read::read_log;
 use hardbody::log::{StateRecord, partial_path};
-use hardbody::run::{RunError, Silent, run_scene, system_from_record};
+use hardbody::run::{RunError, Silent, resume_run, run_scene, system_from_record};
 use hardbody::scene::plan::Plan;
 use hardbody::scene::{Scene, SceneError};
 use rand::{Rng, SeedableRng};
@@ -228,10 +228,22 @@ fn a_failing_run_leaves_an_existing_log_alone() {
         RunError::Stage { index, partial, .. } => {
             assert_eq!(*index, 0);
             assert_eq!(*partial, partial_path(&path));
-            // The partial log is complete and readable.
+            // The partial log is complete and readable, and says why.
             let log = read_log(partial, false).unwrap();
             assert!(!log.truncated);
             assert!(log.last_state.is_some());
+            let (_, failure) = log.failure.as_ref().expect("a /failure message");
+            assert_eq!(failure.stage_index, 0);
+            assert!(failure.message.contains("5 sweeps"), "{}", failure.message);
+            // Only dynamics failures carry a dump.
+            assert_eq!(failure.dump, None);
+            // Resumed, it fails the same way; the new log keeps the old
+            // frames but not the old failure.
+            let again = dir.join("again.mcap");
+            let err = resume_run(partial, &again, &mut Silent, &AtomicBool::new(false));
+            assert!(matches!(err, Err(RunError::Stage { .. })), "{err:?}");
+            let log = read_log(&partial_path(&again), false).unwrap();
+            assert_eq!(log.counts.get("/failure"), Some(&1));
         }
         other => panic!("{other}"),
     }

@@ -94,6 +94,9 @@ pub enum EdmdError {
     /// shell every body would rebuild its list at every instant).
     #[error("the neighbour shell must be a finite length > 0, got {0}")]
     BadShell(f64),
+    /// A dump that cannot be a dynamics state.
+    #[error("invalid dump: {0}")]
+    BadDump(String),
     /// The distance solver failed at a collision or a prediction.
     #[error("distance of particles {i} and {j} at t = {time} could not be computed: {why}")]
     Solver {
@@ -330,6 +333,50 @@ pub struct Sample {
     pub nematic_order: Option<f64>,
 }
 
+/// One body as the dynamics stores it: the pose at its own time (not the
+/// common time), and its velocities.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BodyDump {
+    /// Species index.
+    pub species: u16,
+    /// The time the pose belongs to (relative to `time_origin`).
+    pub time: f64,
+    /// Centre at `time`.
+    pub position: [f64; 3],
+    /// [w, x, y, z] at `time`.
+    pub orientation: [f64; 4],
+    /// Velocity.
+    pub velocity: [f64; 3],
+    /// Angular velocity, lab frame, at `time`.
+    pub angular_velocity: [f64; 3],
+}
+
+/// Everything the predictions depend on, to the bit: each body's stored
+/// pose and time (they differ from body to body between events), the
+/// clock and the box. Written when a run fails so that the failure can be
+/// replayed: [`Dynamics::from_dump`] predicts every event again from the
+/// same stored poses, and predictions are canonical (a function of the
+/// two stored poses alone; see `closed_form`), so the failing event comes
+/// back.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DynamicsDump {
+    /// Absolute time of `now` = 0.
+    pub time_origin: f64,
+    /// The clock, relative to `time_origin`.
+    pub now: f64,
+    /// Collisions so far.
+    pub collisions: u64,
+    /// Collisions at the last rebase (the next comes 32 N collisions
+    /// after it).
+    pub collisions_at_rebase: u64,
+    /// Box edges.
+    pub box_lengths: [f64; 3],
+    /// Hard walls per axis.
+    pub walls: [bool; 3],
+    /// Per body.
+    pub bodies: Vec<BodyDump>,
+}
+
 /// Event-driven molecular dynamics of hard bodies in a periodic box.
 #[derive(Debug, Clone)]
 pub struct Dynamics {
@@ -342,13 +389,17 @@ pub struct Dynamics {
     /// whenever it is found, so searches need no horizon, and a body that
     /// crosses into a cell searches only the layer of cells it now
     /// neighbours (Smallenburg's scheme); otherwise a crossing renews the
-    /// whole search, which stopped at it. Closed-form predictions are also
-    /// canonical: a body's stored pose changes only at its collisions and
-    /// wall bounces (wrapped into the box there) and at rebases (at a
-    /// collision), never at crossings or list rebuilds, and a pair is
-    /// solved from the later of its two stored poses; so the predicted
-    /// times, and the trajectory, do not depend on when searches run or on
-    /// the neighbour structure.
+    /// whole search, which stopped at it.
+    ///
+    /// Every prediction, closed form or searched, is canonical: a body's
+    /// stored pose changes only at its collisions and wall bounces
+    /// (wrapped into the box there) and at rebases (at a collision), never
+    /// at crossings or list rebuilds, and a pair is solved from the later
+    /// of its two stored poses (searches: with the lower index as A, on a
+    /// step grid the horizon does not cut, resumed with their solver
+    /// state; see `predict_pair`); so the predicted times, and the
+    /// trajectory, do not depend on when searches run or on the neighbour
+    /// structure.
     closed_form: bool,
     bodies: Vec<Body>,
     /// Cells over the bodies' centres (with crossing events), or with
@@ -501,7 +552,16 @@ impl Dynamics {
             b.velocity *= scale;
             b.angular_velocity *= scale;
         }
-        Self::assemble(system, species, kinds, bodies, dof, rotors > 0, options)
+        Self::assemble(
+            system,
+            species,
+            kinds,
+            bodies,
+            dof,
+            rotors > 0,
+            options,
+            0.0,
+        )
     }
 
     /// The dynamics of `system` with velocities and angular velocities
@@ -550,11 +610,150 @@ impl Dynamics {
             .collect();
         let rotors = kinds_rotating(&bodies, &kinds);
         let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
-        let mut dynamics =
-            Self::assemble(system, species, kinds, bodies, dof, rotors > 0, options)?;
+        let mut dynamics = Self::assemble(
+            system,
+            species,
+            kinds,
+            bodies,
+            dof,
+            rotors > 0,
+            options,
+            0.0,
+        )?;
         dynamics.origin = time;
         dynamics.collisions = collisions;
         dynamics.collisions_at_rebase = collisions;
+        Ok(dynamics)
+    }
+
+    /// Every body's stored pose and time, and the clock: what
+    /// [`Dynamics::from_dump`] rebuilds the predictions from, bit for bit.
+    pub fn dump(&self) -> DynamicsDump {
+        let triple = |v: &V3| [v.x, v.y, v.z];
+        DynamicsDump {
+            time_origin: self.origin,
+            now: self.now,
+            collisions: self.collisions,
+            collisions_at_rebase: self.collisions_at_rebase,
+            box_lengths: triple(&self.box_.lengths()),
+            walls: self.box_.walls(),
+            bodies: self
+                .bodies
+                .iter()
+                .map(|b| {
+                    let q = b.orientation.quaternion();
+                    BodyDump {
+                        species: b.species,
+                        time: b.time,
+                        position: triple(&b.position),
+                        orientation: [q.w, q.i, q.j, q.k],
+                        velocity: triple(&b.velocity),
+                        angular_velocity: triple(&b.angular_velocity),
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// The dynamics a [`Dynamics::dump`] was taken from, with every event
+    /// predicted again from the dumped stored poses: the events it had
+    /// scheduled come back at the same times (to replay a failure). The
+    /// species and options must be those of the dumped run.
+    pub fn from_dump(
+        species: &[Species],
+        dump: &DynamicsDump,
+        options: &DynamicsOptions,
+    ) -> Result<Self, EdmdError> {
+        let n = dump.bodies.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let kinds = kinds_for(species, options)?;
+        let bad = |why: String| EdmdError::BadDump(why);
+        if !(dump.now.is_finite() && dump.time_origin.is_finite()) {
+            return Err(bad(format!(
+                "clock {} + {} is not finite",
+                dump.time_origin, dump.now
+            )));
+        }
+        let mut bodies = Vec::with_capacity(n);
+        for (k, b) in dump.bodies.iter().enumerate() {
+            let finite = b
+                .position
+                .iter()
+                .chain(&b.orientation)
+                .chain(&b.velocity)
+                .chain(&b.angular_velocity)
+                .all(|x| x.is_finite());
+            if !finite || !b.time.is_finite() || b.time > dump.now {
+                return Err(bad(format!(
+                    "body {k}: values must be finite and its time at most now ({})",
+                    dump.now
+                )));
+            }
+            let Some(kind) = kinds.get(b.species as usize) else {
+                return Err(bad(format!(
+                    "body {k}: species {} of {}",
+                    b.species,
+                    kinds.len()
+                )));
+            };
+            let [w, x, y, z] = b.orientation;
+            let q = nalgebra::Quaternion::new(w, x, y, z);
+            if (q.norm() - 1.0).abs() > 1e-9 {
+                return Err(bad(format!(
+                    "body {k}: orientation {:?} is not a unit quaternion",
+                    b.orientation
+                )));
+            }
+            let angular_velocity = V3::from(b.angular_velocity);
+            if !kind.rotates && angular_velocity != V3::zeros() {
+                return Err(EdmdError::BadVelocities(n));
+            }
+            bodies.push(Body {
+                position: V3::from(b.position),
+                velocity: V3::from(b.velocity),
+                time: b.time,
+                // As stored, to the bit (renormalising would move it).
+                orientation: UnitQuaternion::new_unchecked(q),
+                angular_velocity,
+                species: b.species,
+                crossing_time: f64::INFINITY,
+                horizon: f64::INFINITY,
+            });
+        }
+        let box_ = PeriodicBox::new(V3::from(dump.box_lengths))
+            .map_err(|e| bad(format!("box: {e}")))?
+            .with_walls(dump.walls);
+        let particles: Vec<Particle> = bodies
+            .iter()
+            .map(|b| {
+                let dt = dump.now - b.time;
+                Particle {
+                    position: box_.wrap(&position_after(&b.position, &b.velocity, dt)),
+                    orientation: kinds[b.species as usize]
+                        .spin(&b.orientation, &b.angular_velocity)
+                        .orientation_after(&b.orientation, dt),
+                    species: b.species,
+                }
+            })
+            .collect();
+        let system = System::new(box_, species.to_vec(), particles)?;
+        let rotors = kinds_rotating(&bodies, &kinds);
+        let dof = degrees_of_freedom(&box_, n, rotors);
+        let mut dynamics = Self::assemble(
+            &system,
+            species.to_vec(),
+            kinds,
+            bodies,
+            dof,
+            rotors > 0,
+            options,
+            dump.now,
+        )?;
+        dynamics.origin = dump.time_origin;
+        dynamics.collisions = dump.collisions;
+        dynamics.collisions_at_rebase = dump.collisions_at_rebase.min(dump.collisions);
         Ok(dynamics)
     }
 
@@ -587,7 +786,8 @@ impl Dynamics {
         Ok(())
     }
 
-    /// Everything but the velocities: cells, calendar, first predictions.
+    /// Everything but the velocities: cells, calendar, first predictions,
+    /// with the clock at `now` (the bodies' stored times are at most it).
     #[allow(clippy::too_many_arguments)]
     fn assemble(
         system: &System,
@@ -597,6 +797,7 @@ impl Dynamics {
         dof: f64,
         rotating: bool,
         options: &DynamicsOptions,
+        now: f64,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let ns = species.len();
@@ -626,15 +827,41 @@ impl Dynamics {
                 .collect()
         };
         let range = 2.0 * reach.iter().copied().fold(0.0, f64::max);
-        let positions: Vec<V3> = bodies.iter().map(|b| b.position).collect();
+        // Where the bodies are now (their stored poses, at a fresh start).
+        let poses: Vec<(V3, UnitQuaternion<f64>)> = bodies
+            .iter()
+            .map(|b| {
+                if b.time == now {
+                    return (b.position, b.orientation);
+                }
+                let dt = now - b.time;
+                let spin = kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
+                (
+                    box_.wrap(&position_after(&b.position, &b.velocity, dt)),
+                    spin.orientation_after(&b.orientation, dt),
+                )
+            })
+            .collect();
+        let positions: Vec<V3> = poses.iter().map(|(r, _)| *r).collect();
+        // Per body: the stored position in the image of the cell it is in
+        // now (whole box lengths).
+        let cell_shifts: Vec<V3> = bodies
+            .iter()
+            .zip(&positions)
+            .map(|(b, r)| {
+                let moved = position_after(&b.position, &b.velocity, now - b.time);
+                let l = box_.lengths();
+                V3::from_fn(|k, _| ((r[k] - moved[k]) / l[k]).round() * l[k])
+            })
+            .collect();
         let cells = CellList::new(box_.lengths(), range, &positions);
         let cell_lengths = cells.cell_lengths();
         let neighbours = match options.neighbour_shell {
             Some(shell) => {
                 let boxes = box_regions.then(|| {
-                    let axes = bodies
+                    let axes = poses
                         .iter()
-                        .map(|b| b.orientation.to_rotation_matrix().into_inner())
+                        .map(|(_, q)| q.to_rotation_matrix().into_inner())
                         .collect();
                     (box_half, axes)
                 });
@@ -665,10 +892,10 @@ impl Dynamics {
             cell_lengths,
             neighbours,
             candidates: Vec::new(),
-            cell_shifts: vec![V3::zeros(); n],
+            cell_shifts,
             calendar: Calendar::new(n),
             predictor: Predictor::new(options.predictor),
-            now: 0.0,
+            now,
             origin: 0.0,
             collisions_at_rebase: 0,
             collisions: 0,
@@ -1068,6 +1295,43 @@ impl Dynamics {
         // The body of lower index first, whichever body's search found the
         // pair: the same bits for the same collision (see `closed_form`).
         let (i, j) = (i.min(j), i.max(j));
+        // A collision that fails leaves both bodies as they were, so that a
+        // dump taken then replays it (see `DynamicsDump`).
+        let kept = [i, j].map(|k| (self.bodies[k], self.cell_shifts[k], self.images[k]));
+        let impulse = match self.impulse_at_contact(i, j) {
+            Ok(impulse) => impulse,
+            Err(e) => {
+                for (k, (body, shift, image)) in [i, j].into_iter().zip(kept) {
+                    (self.bodies[k], self.cell_shifts[k], self.images[k]) = (body, shift, image);
+                }
+                return Err(e);
+            }
+        };
+        self.interval.virial += impulse;
+        self.interval.collisions += 1;
+        self.collisions += 1;
+        if let Some(trace) = self.trace.as_mut() {
+            trace.push((self.origin + self.now, i.min(j) as u32, i.max(j) as u32));
+        }
+        self.calendar.invalidate(i);
+        self.calendar.invalidate(j);
+        self.schedule_crossing(i);
+        self.schedule_crossing(j);
+        self.schedule_collisions(i, Some(j), false)?;
+        self.schedule_collisions(j, Some(i), false)?;
+        // The pair itself last, within both horizons: a pair that has just
+        // touched stays within ε_d for a while, where the search is slow.
+        let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
+        if let PairSearch::Contact(t, warm) = self.predict_pair(i, j, horizon, u32::MAX, None)? {
+            schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
+        }
+        Ok(())
+    }
+
+    /// Advances bodies `i` < `j` to now, where they touch, and applies the
+    /// impulse; returns (r_B − r_A)·J n̂ for the virial. Changes nothing
+    /// but the two bodies, and their velocities only if it succeeds.
+    fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<f64, EdmdError> {
         self.advance(i);
         self.advance(j);
         let (si, sj) = (
@@ -1077,26 +1341,24 @@ impl Dynamics {
         let d = self
             .box_
             .minimum_image(&(self.bodies[j].position - self.bodies[i].position));
-        {
-            // New stored poses: wrapped into the box here, and only here;
-            // with cells, in the image of the body's cell.
-            for k in [i, j] {
-                let p = self.bodies[k].position;
-                let wrapped = match self.neighbours {
-                    Some(_) => self.box_.wrap(&p),
-                    None => {
-                        let l = self.box_.lengths();
-                        let c = self.cells.coords_of(self.cells.cell_of(k));
-                        let centre = V3::from_fn(|a, _| {
-                            -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a]
-                        });
-                        p + self.box_.image_shift(&(p - centre))
-                    }
-                };
-                self.images[k] += p - wrapped;
-                self.bodies[k].position = wrapped;
-                self.cell_shifts[k] = V3::zeros();
-            }
+        // New stored poses: wrapped into the box here, and only here;
+        // with cells, in the image of the body's cell.
+        for k in [i, j] {
+            let p = self.bodies[k].position;
+            let wrapped = match self.neighbours {
+                Some(_) => self.box_.wrap(&p),
+                None => {
+                    let l = self.box_.lengths();
+                    let c = self.cells.coords_of(self.cells.cell_of(k));
+                    let centre = V3::from_fn(|a, _| {
+                        -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a]
+                    });
+                    p + self.box_.image_shift(&(p - centre))
+                }
+            };
+            self.images[k] += p - wrapped;
+            self.bodies[k].position = wrapped;
+            self.cell_shifts[k] = V3::zeros();
         }
         let impulse = if let Some(sigma) = self.contact_sums[si * self.kinds.len() + sj] {
             let len = d.norm();
@@ -1121,25 +1383,7 @@ impl Dynamics {
         } else {
             self.collide_bodies(i, j, &d)?
         };
-        self.interval.virial += impulse;
-        self.interval.collisions += 1;
-        self.collisions += 1;
-        if let Some(trace) = self.trace.as_mut() {
-            trace.push((self.origin + self.now, i.min(j) as u32, i.max(j) as u32));
-        }
-        self.calendar.invalidate(i);
-        self.calendar.invalidate(j);
-        self.schedule_crossing(i);
-        self.schedule_crossing(j);
-        self.schedule_collisions(i, Some(j), false)?;
-        self.schedule_collisions(j, Some(i), false)?;
-        // The pair itself last, within both horizons: a pair that has just
-        // touched stays within ε_d for a while, where the search is slow.
-        let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
-        if let PairSearch::Contact(t, warm) = self.predict_pair(i, j, horizon, u32::MAX, None)? {
-            schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
-        }
-        Ok(())
+        Ok(impulse)
     }
 
     /// The collision of two bodies with at least one non-sphere: contact

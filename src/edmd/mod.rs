@@ -11,5 +11,7 @@ pub mod dynamics;
 pub mod motion;
 pub mod predict;
 
-pub use dynamics::{Dynamics, DynamicsOptions, EdmdError, Sample, automatic_neighbour_shell};
+pub use dynamics::{
+    BodyDump, Dynamics, DynamicsDump, DynamicsOptions, EdmdError, Sample, automatic_neighbour_shell,
+};
 pub use predict::{Predictor, PredictorOptions, Progress, Search, SolverWork};

@@ -1,7 +1,9 @@
 //! MCAP logs (DESIGN.md contract): `/stats` (JSON), `/scene`
 //! (`foxglove.SceneUpdate`, protobuf, for the 3D panel) and `/state` (JSON,
 //! full precision), with the scene text and the program version in the
-//! metadata, in zstd chunks.
+//! metadata, in zstd chunks. A run that fails in a dynamics stage adds one
+//! `/failure` message (JSON): the error and the dynamics' stored state at
+//! it, to replay it ([`FailureRecord`]).
 //!
 //! Log time: Monte Carlo stages advance it by 1 ms per sweep, dynamics
 //! stages by 1 s per unit of simulated time; stages follow one another on
@@ -242,6 +244,30 @@ impl StateRecord {
     }
 }
 
+/// Why a run stopped, with what replays it: written once, to `/failure`,
+/// when a stage fails (the log stays at `<path>.partial`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FailureRecord {
+    /// Index of the stage in the scene.
+    pub stage_index: usize,
+    /// The error, as reported.
+    pub message: String,
+    /// The dynamics as it stood at the failure, every body's stored pose
+    /// and time to the bit (`Dynamics::from_dump` predicts the failing
+    /// event again from it); absent for failures outside the dynamics.
+    pub dump: Option<crate::edmd::DynamicsDump>,
+}
+
+const FAILURE_SCHEMA: &str = r#"{
+  "type": "object",
+  "description": "why a hardbody run failed; dump: the dynamics' stored state (per body its own time, pose, velocities), to replay the failure",
+  "properties": {
+    "stage_index": {"type": "integer"},
+    "message": {"type": "string"},
+    "dump": {"type": ["object", "null"]}
+  }
+}"#;
+
 const STATS_SCHEMA: &str = r#"{
   "type": "object",
   "properties": {
@@ -439,6 +465,27 @@ impl LogWriter {
             path: self.partial.clone(),
             source,
         })
+    }
+
+    /// The `/failure` message at `log_time` (its channel is added here:
+    /// logs of runs that succeed have none).
+    pub fn failure(&mut self, log_time: u64, failure: &FailureRecord) -> Result<(), LogError> {
+        let partial = self.partial.clone();
+        let mcap_err = |source| LogError::Mcap {
+            path: partial.clone(),
+            source,
+        };
+        let schema = self
+            .writer
+            .add_schema("hardbody.Failure", "jsonschema", FAILURE_SCHEMA.as_bytes())
+            .map_err(mcap_err)?;
+        let channel = self
+            .writer
+            .add_channel(schema, "/failure", "json", &BTreeMap::new())
+            .map_err(mcap_err)?;
+        let data = serde_json::to_vec(failure).expect("failures serialise");
+        self.write(channel, log_time, &data)?;
+        self.writer.flush().map_err(mcap_err)
     }
 
     /// Completes the log and renames it to its path.

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::{LogError, StateRecord, Stats};
+use super::{FailureRecord, LogError, StateRecord, Stats};
 
 /// What a log holds.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,6 +19,8 @@ pub struct LogContents {
     pub last_state: Option<(u64, StateRecord)>,
     /// Every `/state` (only when asked for).
     pub states: Vec<(u64, StateRecord)>,
+    /// Why the run failed, if it did (`/failure`).
+    pub failure: Option<(u64, FailureRecord)>,
     /// Whether the file ended before the MCAP footer (a killed run); it is
     /// read up to its last complete record.
     pub truncated: bool,
@@ -52,6 +54,7 @@ pub fn read_log(path: &Path, all_states: bool) -> Result<LogContents, LogError> 
         stats: Vec::new(),
         last_state: None,
         states: Vec::new(),
+        failure: None,
         truncated: false,
     };
     // Metadata and the end of the data, record by record.
@@ -93,6 +96,11 @@ pub fn read_log(path: &Path, all_states: bool) -> Result<LogContents, LogError> 
                     contents.states.push((m.log_time, s.clone()));
                 }
                 contents.last_state = Some((m.log_time, s));
+            }
+            "/failure" => {
+                let f: FailureRecord = serde_json::from_slice(&m.data)
+                    .map_err(|e| content(format!("/failure message {}: {e}", m.sequence)))?;
+                contents.failure = Some((m.log_time, f));
             }
             _ => {}
         }

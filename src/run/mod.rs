@@ -16,12 +16,12 @@ use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
 use crate::analysis::order::nematic_order;
-use crate::edmd::dynamics::{Dynamics, DynamicsOptions, EdmdError};
+use crate::edmd::dynamics::{Dynamics, DynamicsDump, DynamicsOptions, EdmdError};
 use crate::edmd::predict::PredictorOptions;
 use crate::log::read::{RawMessage, read_log, read_messages};
 use crate::log::{
-    DynamicsProgress, LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT, ResumeInfo, StateRecord,
-    Stats,
+    DynamicsProgress, FailureRecord, LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT,
+    ResumeInfo, StateRecord, Stats,
 };
 use crate::mc::compress::{CompressOptions, Compressor, CompressorState};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
@@ -171,7 +171,8 @@ pub fn resume_run(
     let prefix: Vec<RawMessage> = read_messages(log)
         .map_err(|e| RunError::Resume(e.to_string()))?
         .into_iter()
-        .filter(|(_, t, _)| *t <= log_time)
+        // (A failed run's `/failure` is not part of the state resumed.)
+        .filter(|(topic, t, _)| *t <= log_time && topic != "/failure")
         .collect();
     let point = ResumePoint {
         record,
@@ -197,6 +198,7 @@ fn run_with(
         clock: 0,
         sizes: initial_sizes(scene),
         stop,
+        failure: None,
     };
     let (mut phase, first_stage, mut resume) = match &from {
         None => {
@@ -262,6 +264,18 @@ fn run_with(
                 }
             }
             Err(message) => {
+                // Why, in the log too (with the dynamics' state to replay
+                // it from, if the dynamics failed).
+                let (at, dump) = match runner.failure.take() {
+                    Some((at, dump)) => (at, Some(dump)),
+                    None => (runner.clock, None),
+                };
+                let failure = FailureRecord {
+                    stage_index: index,
+                    message: message.clone(),
+                    dump,
+                };
+                log.failure(at, &failure)?;
                 let partial = log.abandon()?;
                 return Err(RunError::Stage {
                     index,
@@ -444,6 +458,9 @@ struct Runner<'a> {
     /// Monte Carlo move sizes, carried from stage to stage.
     sizes: MoveSizes,
     stop: &'a AtomicBool,
+    /// Set by a dynamics stage that fails: the log time and the dynamics'
+    /// stored state at the failure.
+    failure: Option<(u64, DynamicsDump)>,
 }
 
 /// What a stage returns: the next phase, a summary line, and whether the
@@ -1011,7 +1028,13 @@ impl Runner<'_> {
             let next_stats = (k_stats as f64 * stats_dt).min(duration);
             let next_frame = (k_frames as f64 * frames_dt).min(duration);
             let next = next_stats.min(next_frame);
-            dynamics.run_until(t0 + next).map_err(fail)?;
+            if let Err(e) = dynamics.run_until(t0 + next) {
+                // The stored state at the failure goes to the log's
+                // `/failure`, to replay the failing event from.
+                let at = self.clock + ((dynamics.time() - t0) * NS_PER_TIME_UNIT).round() as u64;
+                self.failure = Some((at, dynamics.dump()));
+                return Err(e.to_string());
+            }
             let time = self.clock + (next * NS_PER_TIME_UNIT).round() as u64;
             let end = next >= duration;
             if next_stats <= next || end {
