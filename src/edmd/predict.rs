@@ -311,6 +311,7 @@ impl Predictor {
             let rel = pose(t);
             let (bound, normal) =
                 distance_lower_bound_near(shape_a, shape_b, &rel, hint.get().as_ref());
+            // (Also where a cold distance below starts.)
             hint.set(Some(normal));
             if bound > exact_below {
                 (bound, normal)

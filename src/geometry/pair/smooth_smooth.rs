@@ -76,16 +76,8 @@ fn robust<A: SmoothSurface, B: SmoothSurface>(
         // the centre line and a descent.
         let guess = match warm {
             None if is_quadric(shape_a) && is_quadric(shape_b) => {
-                quadric_quadric::contact_points_guess(shape_a, shape_b, rel).map(|(xa, xb)| {
-                    let na = a.implicit(&xa).gradient.norm();
-                    let local_b = rel.rotation.tr_mul(&(xb - rel.translation));
-                    let nb = b.implicit(&local_b).gradient.norm();
-                    WarmStart {
-                        point_a: xa,
-                        point_b: local_b,
-                        alpha: (na / nb).sqrt(),
-                    }
-                })
+                quadric_quadric::contact_points_guess(shape_a, shape_b, rel)
+                    .map(|(xa, xb)| start_at(a, b, rel, xa, xb))
             }
             // Superellipsoids: from the centre line.
             None => support_points_start(shape_a, shape_b, rel, &rel.translation.normalize()),
@@ -99,14 +91,7 @@ fn robust<A: SmoothSurface, B: SmoothSurface>(
     let g = convex::distance(shape_a, shape_b, rel, opts);
     if g.distance > 0.0 {
         if g.is_converged() {
-            let na = a.implicit(&g.point_a).gradient.norm();
-            let local_b = rel.rotation.tr_mul(&(g.point_b - rel.translation));
-            let nb = b.implicit(&local_b).gradient.norm();
-            let start = WarmStart {
-                point_a: g.point_a,
-                point_b: local_b,
-                alpha: (na / nb).sqrt(),
-            };
+            let start = start_at(a, b, rel, g.point_a, g.point_b);
             let mut newton = opts.newton;
             newton.steepest_descent = SteepestDescent::Never;
             let c = newton_distance(a, b, rel, &newton, Some(&start));
@@ -119,6 +104,35 @@ fn robust<A: SmoothSurface, B: SmoothSurface>(
     Contact {
         status: Status::DeepOverlap,
         ..g
+    }
+}
+
+/// Newton's start from a point of each surface (both in A's frame), with
+/// the multiplier α of eq. (9a) that balances their gradients.
+fn start_at<A: SmoothSurface, B: SmoothSurface>(
+    a: &A,
+    b: &B,
+    rel: &Relative,
+    point_a: V3,
+    point_b: V3,
+) -> WarmStart {
+    let local_b = rel.rotation.tr_mul(&(point_b - rel.translation));
+    balanced_start(
+        point_a,
+        local_b,
+        a.implicit(&point_a).gradient.norm(),
+        b.implicit(&local_b).gradient.norm(),
+    )
+}
+
+/// The start at `point_a` (A's frame) and `point_b` (B's frame), whose
+/// surfaces' gradients there have norms `grad_a` and `grad_b`:
+/// α = √(|∇f_A| / |∇f_B|).
+fn balanced_start(point_a: V3, point_b: V3, grad_a: f64, grad_b: f64) -> WarmStart {
+    WarmStart {
+        point_a,
+        point_b,
+        alpha: (grad_a / grad_b).sqrt(),
     }
 }
 
@@ -148,9 +162,10 @@ pub fn support_points_start(a: &Shape, b: &Shape, rel: &Relative, hint: &V3) -> 
         Shape::Superellipsoid(q) => q.implicit(x).gradient.norm(),
         Shape::Cuboid(_) => unreachable!(),
     };
-    Some(WarmStart {
-        point_a: xa,
-        point_b: local_b,
-        alpha: (gradient_norm(a, &xa) / gradient_norm(b, &local_b)).sqrt(),
-    })
+    Some(balanced_start(
+        xa,
+        local_b,
+        gradient_norm(a, &xa),
+        gradient_norm(b, &local_b),
+    ))
 }
