@@ -552,16 +552,7 @@ impl Dynamics {
             b.velocity *= scale;
             b.angular_velocity *= scale;
         }
-        Self::assemble(
-            system,
-            species,
-            kinds,
-            bodies,
-            dof,
-            rotors > 0,
-            options,
-            0.0,
-        )
+        Self::assemble(system, species, kinds, bodies, options, 0.0)
     }
 
     /// The dynamics of `system` with velocities and angular velocities
@@ -608,18 +599,7 @@ impl Dynamics {
                 horizon: f64::INFINITY,
             })
             .collect();
-        let rotors = kinds_rotating(&bodies, &kinds);
-        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
-        let mut dynamics = Self::assemble(
-            system,
-            species,
-            kinds,
-            bodies,
-            dof,
-            rotors > 0,
-            options,
-            0.0,
-        )?;
+        let mut dynamics = Self::assemble(system, species, kinds, bodies, options, 0.0)?;
         dynamics.origin = time;
         dynamics.collisions = collisions;
         dynamics.collisions_at_rebase = collisions;
@@ -739,18 +719,8 @@ impl Dynamics {
             })
             .collect();
         let system = System::new(box_, species.to_vec(), particles)?;
-        let rotors = kinds_rotating(&bodies, &kinds);
-        let dof = degrees_of_freedom(&box_, n, rotors);
-        let mut dynamics = Self::assemble(
-            &system,
-            species.to_vec(),
-            kinds,
-            bodies,
-            dof,
-            rotors > 0,
-            options,
-            dump.now,
-        )?;
+        let mut dynamics =
+            Self::assemble(&system, species.to_vec(), kinds, bodies, options, dump.now)?;
         dynamics.origin = dump.time_origin;
         dynamics.collisions = dump.collisions;
         dynamics.collisions_at_rebase = dump.collisions_at_rebase.min(dump.collisions);
@@ -788,18 +758,18 @@ impl Dynamics {
 
     /// Everything but the velocities: cells, calendar, first predictions,
     /// with the clock at `now` (the bodies' stored times are at most it).
-    #[allow(clippy::too_many_arguments)]
     fn assemble(
         system: &System,
         species: Vec<Species>,
         kinds: Vec<Kind>,
         bodies: Vec<Body>,
-        dof: f64,
-        rotating: bool,
         options: &DynamicsOptions,
         now: f64,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
+        let rotors = kinds_rotating(&bodies, &kinds);
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
+        let rotating = rotors > 0;
         let ns = species.len();
         let contact_sums: Vec<Option<f64>> = (0..ns * ns)
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
