@@ -15,7 +15,7 @@ pub mod tuning;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use crate::geometry::{Placed, Relative, Shape, overlap, placed_overlap};
-use crate::space::{AabbCells, PackedCells, PeriodicBox, SphereLists};
+use crate::space::{AabbCells, PackedCells, PeriodicBox};
 
 type V3 = Vector3<f64>;
 
@@ -110,29 +110,18 @@ pub struct NeighbourPlan {
     pub elongated: bool,
     /// The smallest bounding diameter is under half the interaction range.
     pub size_asymmetric: bool,
-    /// Spheres on one grid: the skin of their Verlet lists
-    /// ([`SphereLists`]), the smallest radius times [`SPHERE_SKIN`].
-    pub sphere_skin: Option<f64>,
 }
 
 impl NeighbourPlan {
     /// The structure the species call for.
     pub fn for_species(species: &[Species]) -> Self {
         let (aabb_cells, aabb_width, elongated, size_asymmetric) = Neighbours::plan(species);
-        let aabb_cells = aabb_cells && !size_asymmetric;
-        let one_grid = !aabb_cells && !size_asymmetric;
-        let smallest = species
-            .iter()
-            .map(|s| s.shape.bounding_radius())
-            .fold(f64::INFINITY, f64::min);
         Self {
-            aabb_cells,
+            aabb_cells: aabb_cells && !size_asymmetric,
             per_species: size_asymmetric,
             aabb_width,
             elongated,
             size_asymmetric,
-            sphere_skin: (one_grid && species.iter().all(|s| s.shape.is_sphere()))
-                .then_some(SPHERE_SKIN * smallest),
         }
     }
 }
@@ -203,38 +192,6 @@ impl Neighbours {
     }
 }
 
-/// The spheres' Verlet-list skin over the smallest radius. Measured
-/// side by side on one core (spheres φ = 0.5, N = 4096, moves tuned to
-/// 30 % acceptance; two soaks loading the machine): no lists 2.8–3.2e6
-/// moves/s; skins of 1.0 radius 3.7–4.0e6, 1.4 3.0–3.3e6, 2.0 2.3–3.2e6,
-/// 0.6 2.1–3.0e6 (moves leave half the skin too often), 0.4 1.6–1.9e6.
-pub const SPHERE_SKIN: f64 = 1.0;
-
-/// How wide the cells must be: the interaction range, and with sphere
-/// lists room to relist (see [`SphereLists::cell_width`]).
-fn cell_range(range: f64, max_radius: f64, skin: Option<f64>) -> f64 {
-    match skin {
-        Some(skin) => range.max(SphereLists::cell_width(max_radius, skin)),
-        None => range,
-    }
-}
-
-/// The spheres' Verlet lists, when `skin` says there are.
-fn sphere_lists(
-    cells: &Neighbours,
-    skin: Option<f64>,
-    box_: &PeriodicBox,
-    positions: &[V3],
-    kinds: &[u16],
-    radii: &[f64],
-) -> Option<SphereLists> {
-    let (Neighbours::Cells(cells), Some(skin)) = (cells, skin) else {
-        return None;
-    };
-    let per_sphere: Vec<f64> = kinds.iter().map(|&k| radii[k as usize]).collect();
-    Some(SphereLists::new(box_, cells, positions, &per_sphere, skin))
-}
-
 /// The AABB half-extents of a body with OBB half-extents `h` rotated by `r`.
 #[inline]
 fn aabb_half_extents(r: &Matrix3<f64>, h: &V3) -> V3 {
@@ -268,9 +225,6 @@ pub struct System {
     range: f64,
     /// Every species is a sphere: overlap is the distance of centres alone.
     all_spheres: bool,
-    /// Spheres on one grid: Verlet lists with a skin answer most moves
-    /// (the cells, wide enough to relist, answer the rest).
-    sphere_lists: Option<SphereLists>,
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
 }
@@ -328,17 +282,7 @@ impl System {
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
         let kinds: Vec<u16> = particles.iter().map(|p| p.species).collect();
         let all_spheres = species.iter().all(|s| s.shape.is_sphere());
-        let skin = plan.sphere_skin;
-        let cells = Neighbours::build(
-            &plan,
-            cell_range(range, max_radius, skin),
-            &box_,
-            &positions,
-            &aabb,
-            &kinds,
-            &radii,
-        );
-        let sphere_lists = sphere_lists(&cells, skin, &box_, &positions, &kinds, &radii);
+        let cells = Neighbours::build(&plan, range, &box_, &positions, &aabb, &kinds, &radii);
         let system = Self {
             box_,
             species,
@@ -354,7 +298,6 @@ impl System {
             plan,
             range,
             all_spheres,
-            sphere_lists,
             ideal: false,
         };
         if let Some(i) = system.first_wall_overlap() {
@@ -421,11 +364,6 @@ impl System {
     /// The species.
     pub fn species(&self) -> &[Species] {
         &self.species
-    }
-
-    /// The neighbour structure it uses, and why.
-    pub fn plan(&self) -> &NeighbourPlan {
-        &self.plan
     }
 
     /// Whether candidates come from AABB cells (elongated or flat species)
@@ -584,14 +522,8 @@ impl System {
             return true;
         }
         if let (Neighbours::Cells(cells), true) = (&self.cells, self.all_spheres) {
-            let centre = self.box_.wrap_near(position);
-            if let Some(lists) = &self.sphere_lists
-                && let Some(answer) =
-                    lists.overlaps(i, &centre, &self.positions, &self.box_, |j| !skip(j))
-            {
-                return answer;
-            }
-            return cells.sphere_overlaps_where(&centre, ri, |j| !skip(j as usize));
+            return cells
+                .sphere_overlaps_where(&self.box_.wrap_near(position), ri, |j| !skip(j as usize));
         }
         // The largest reach any partner could have: most candidates fail
         // this before their species is even looked up.
@@ -701,12 +633,7 @@ impl System {
             h
         };
         match &mut self.cells {
-            Neighbours::Cells(cells) => {
-                cells.update(i, &position);
-                if let Some(lists) = &mut self.sphere_lists {
-                    lists.moved(i, &position, &self.box_, cells);
-                }
-            }
+            Neighbours::Cells(cells) => cells.update(i, &position),
             Neighbours::Aabb(cells) => cells.update(i, &position, &h),
             Neighbours::PerSpecies(grids) => grids[species].update(i, &position),
         }
@@ -733,21 +660,12 @@ impl System {
         let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
         trial.positions.clone_from(&positions);
         let kinds: Vec<u16> = trial.particles.iter().map(|p| p.species).collect();
-        let skin = self.plan.sphere_skin;
         trial.cells = Neighbours::build(
             &self.plan,
-            cell_range(self.range, self.max_radius, skin),
+            self.range,
             &new_box,
             &positions,
             &trial.aabb,
-            &kinds,
-            &self.radii,
-        );
-        trial.sphere_lists = sphere_lists(
-            &trial.cells,
-            skin,
-            &new_box,
-            &positions,
             &kinds,
             &self.radii,
         );

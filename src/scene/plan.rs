@@ -223,11 +223,6 @@ impl fmt::Display for Report<'_> {
                     "  Monte Carlo neighbours: cells of width {:.4} holding bounding boxes ({why}), oriented-box pre-filter",
                     n.aabb_width
                 )?;
-            } else if let Some(skin) = n.sphere_skin {
-                writeln!(
-                    f,
-                    "  Monte Carlo neighbours: Verlet lists with a skin of {skin:.4} (spheres), relisted through cells as wide as the interaction range plus 1.5 skins"
-                )?;
             } else {
                 writeln!(
                     f,
