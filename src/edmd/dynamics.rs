@@ -705,19 +705,7 @@ impl Dynamics {
         let box_ = PeriodicBox::new(V3::from(dump.box_lengths))
             .map_err(|e| bad(format!("box: {e}")))?
             .with_walls(dump.walls);
-        let particles: Vec<Particle> = bodies
-            .iter()
-            .map(|b| {
-                let dt = dump.now - b.time;
-                Particle {
-                    position: box_.wrap(&position_after(&b.position, &b.velocity, dt)),
-                    orientation: kinds[b.species as usize]
-                        .spin(&b.orientation, &b.angular_velocity)
-                        .orientation_after(&b.orientation, dt),
-                    species: b.species,
-                }
-            })
-            .collect();
+        let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         let system = System::new(box_, species.to_vec(), particles)?;
         let mut dynamics =
             Self::assemble(&system, species.to_vec(), kinds, bodies, options, dump.now)?;
@@ -804,12 +792,8 @@ impl Dynamics {
                 if b.time == now {
                     return (b.position, b.orientation);
                 }
-                let dt = now - b.time;
-                let spin = kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
-                (
-                    box_.wrap(&position_after(&b.position, &b.velocity, dt)),
-                    spin.orientation_after(&b.orientation, dt),
-                )
+                let (r, q) = body_pose(&kinds, b, now);
+                (box_.wrap(&r), q)
             })
             .collect();
         let positions: Vec<V3> = poses.iter().map(|(r, _)| *r).collect();
@@ -996,21 +980,7 @@ impl Dynamics {
 
     /// The particles at the current time, positions wrapped into the box.
     pub fn particles(&self) -> Vec<Particle> {
-        self.bodies
-            .iter()
-            .map(|b| {
-                let dt = self.now - b.time;
-                Particle {
-                    position: self
-                        .box_
-                        .wrap(&position_after(&b.position, &b.velocity, dt)),
-                    orientation: self.kinds[b.species as usize]
-                        .spin(&b.orientation, &b.angular_velocity)
-                        .orientation_after(&b.orientation, dt),
-                    species: b.species,
-                }
-            })
-            .collect()
+        particles_at(&self.box_, &self.kinds, &self.bodies, self.now)
     }
 
     /// The unwrapped centres and lab-frame molecular axes now.
@@ -1681,13 +1651,7 @@ impl Dynamics {
     /// Body `i`'s centre and orientation at time `t`, by free motion from
     /// its stored pose.
     fn pose_at(&self, i: usize, t: f64) -> (V3, UnitQuaternion<f64>) {
-        let b = &self.bodies[i];
-        let dt = t - b.time;
-        let r = position_after(&b.position, &b.velocity, dt);
-        let q = self.kinds[b.species as usize]
-            .spin(&b.orientation, &b.angular_velocity)
-            .orientation_after(&b.orientation, dt);
-        (r, q)
+        body_pose(&self.kinds, &self.bodies[i], t)
     }
 
     /// The gap between body `i` at time `t` and the faces of its neighbour
@@ -2193,6 +2157,31 @@ fn schedule_collision(
         // Found with the body of lower index as A (see `predict_pair`).
         found.insert((i.min(j) as u32, i.max(j) as u32), w);
     }
+}
+
+/// Body `b`'s centre and orientation at time `t`, by free motion from its
+/// stored pose.
+#[inline]
+fn body_pose(kinds: &[Kind], b: &Body, t: f64) -> (V3, UnitQuaternion<f64>) {
+    let dt = t - b.time;
+    let r = position_after(&b.position, &b.velocity, dt);
+    let q = body_spin(kinds, b).orientation_after(&b.orientation, dt);
+    (r, q)
+}
+
+/// The bodies as particles at time `now`, centres wrapped into the box.
+fn particles_at(box_: &PeriodicBox, kinds: &[Kind], bodies: &[Body], now: f64) -> Vec<Particle> {
+    bodies
+        .iter()
+        .map(|b| {
+            let (r, q) = body_pose(kinds, b, now);
+            Particle {
+                position: box_.wrap(&r),
+                orientation: q,
+                species: b.species,
+            }
+        })
+        .collect()
 }
 
 /// A body's free rotation since its stored time.
