@@ -66,8 +66,23 @@ fn pose(c: &Case, t: f64) -> Relative {
     Relative::new(&(c.d + c.dv * t), &qa, &qb)
 }
 
+/// 400 cases from a fixed seed, so that a run of the suite is repeatable
+/// (a random one failed CI on a case no run before had drawn). Explore
+/// further with `PROPTEST_RNG_SEED=<n>` and `PROPTEST_CASES=<n>`; a failure
+/// found that way becomes a named regression test below.
+fn config() -> ProptestConfig {
+    let mut config = ProptestConfig::default();
+    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
+        config.rng_seed = proptest::test_runner::RngSeed::Fixed(20_261_124);
+    }
+    if std::env::var_os("PROPTEST_CASES").is_none() {
+        config.cases = 400;
+    }
+    config
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, .. ProptestConfig::default() })]
+    #![proptest_config(config())]
 
     /// sign(distance) = overlap, away from round-off.
     #[test]
@@ -100,6 +115,27 @@ proptest! {
 fn ellipsoid_against_cuboid_edge_contact_is_exact() {
     for turning in [false, true] {
         contact_time_check(&case(1, 3, 104646, turning)).unwrap();
+    }
+}
+
+/// The case CI's random property run found (issue 7): a superellipsoid
+/// against a flat ellipsoid, whose contact came out 3.2e-9 short of touching
+/// against a tolerance of 1e-9 of the smaller half extent.
+#[test]
+fn superellipsoid_against_flat_ellipsoid_contact_is_exact() {
+    for turning in [false, true] {
+        contact_time_check(&case(2, 1, 713104, turning)).unwrap();
+    }
+}
+
+/// Found by a longer random run (issue 7): a cuboid against a flat turning
+/// superellipsoid, where GJK stalled near contact and its normal started the
+/// support-gap search beside a stationary point of the gap facing away from
+/// B (−2.75 for a pair 6.3e-6 apart): the contact came out 7e-6 early.
+#[test]
+fn cuboid_against_flat_superellipsoid_contact_is_exact() {
+    for turning in [false, true] {
+        contact_time_check(&case(3, 2, 824550, turning)).unwrap();
     }
 }
 

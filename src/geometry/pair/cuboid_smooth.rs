@@ -132,11 +132,19 @@ impl SupportGap<'_> {
 
     /// The largest support gap over the features next to direction
     /// `start` (the three faces, three edges and the vertex of its octant),
-    /// or over all 26 features when none of those holds the maximum.
+    /// or over all 26 features when none of those holds a positive one.
+    ///
+    /// g(n) = min over A and B of n·(x_B − x_A) is concave and positively
+    /// homogeneous, so a feature's maximum with a positive gap is the
+    /// maximum over the unit ball, hence the distance. A negative one need
+    /// not be: a pair apart also has stationary points of g on the sphere
+    /// facing away from B (Euler: ∇g = g n there, so g < 0), and a poor
+    /// start (GJK's normal where GJK stalled) led the octant search to the
+    /// face of such a point, −2.75 for a pair 6.3e-6 apart.
     fn maximum(&self, start: &V3) -> Option<Contact> {
         let sigma = start.map(|x| if x < 0.0 { -1.0 } else { 1.0 });
         let octant = self.best((1..8u8).map(|mask| (sigma, mask)), start);
-        let best = octant.or_else(|| {
+        let best = octant.filter(|c| c.gap > 0.0).or_else(|| {
             let all = (0..8u8).flat_map(|s| {
                 let sigma = V3::from_fn(|i, _| if s >> i & 1 == 1 { -1.0 } else { 1.0 });
                 // Each feature once: a free axis takes its sign from s, a

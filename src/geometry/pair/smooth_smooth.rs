@@ -83,9 +83,21 @@ fn robust<A: SmoothSurface, B: SmoothSurface>(
             None => support_points_start(shape_a, shape_b, rel, &rel.translation.normalize()),
             Some(_) => None,
         };
-        let c = newton_distance(a, b, rel, &opts.newton, warm.or(guess.as_ref()));
+        let start = warm.or(guess.as_ref());
+        let c = newton_distance(a, b, rel, &opts.newton, start);
         if c.is_converged() {
             return c;
+        }
+        // A start that led Newton astray (support points of a flat
+        // superellipsoid against a flat ellipsoid can cycle without end):
+        // the cold start from the centre line, refined by steepest descent,
+        // before GJK, whose convergence on curved bodies near contact is
+        // only linear and may stop short of the tolerance.
+        if start.is_some() {
+            let c = newton_distance(a, b, rel, &opts.newton, None);
+            if c.is_converged() {
+                return c;
+            }
         }
     }
     let g = convex::distance(shape_a, shape_b, rel, opts);
