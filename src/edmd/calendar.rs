@@ -1,12 +1,12 @@
-//! The event calendar: a binary heap of predicted events with lazy
-//! invalidation (the lecture's scheme). Every particle carries a stamp that
+//! The event calendar: predicted events with lazy invalidation (the
+//! lecture's scheme) in a tournament tree of one collision and one
+//! neighbourhood event per particle. Every particle carries a stamp that
 //! grows whenever its trajectory changes; an event remembers the stamps of
 //! its particles when it was predicted, and is stale, and skipped when it
-//! comes up, if either has moved on since. Insertion and removal of the
+//! comes up, if either has moved on since. Scheduling and removal of the
 //! earliest event are O(log n); invalidation is O(1).
 
 use std::cmp::Ordering;
-use std::collections::BinaryHeap;
 
 /// What happens at an event.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -66,45 +66,82 @@ impl Event {
     }
 }
 
-/// A heap entry, reversed so that `BinaryHeap` (a max-heap) yields the
-/// earliest event.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Earliest(Event);
+/// No event: the key of an empty slot (later than any real event).
+const NONE: Event = Event {
+    time: f64::INFINITY,
+    kind: EventKind::Collision,
+    i: u32::MAX,
+    j: u32::MAX,
+    stamp_i: 0,
+    stamp_j: 0,
+};
 
-impl Eq for Earliest {}
-
-impl PartialOrd for Earliest {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
+/// Whether `a` comes before `b` (the time decides but for ties).
+#[inline(always)]
+fn earlier(a: &Event, b: &Event) -> bool {
+    if a.time != b.time {
+        a.time < b.time
+    } else {
+        a.key_cmp(b) == Ordering::Less
     }
 }
 
-impl Ord for Earliest {
-    fn cmp(&self, other: &Self) -> Ordering {
-        other.0.key_cmp(&self.0)
-    }
-}
-
-/// The heap is compacted (stale entries dropped) when it holds this many
-/// entries per particle.
-const COMPACT_PER_PARTICLE: usize = 4;
+/// The slot of a particle's next collision; the other holds its next
+/// neighbourhood event (cell crossing, neighbour-region escape, wall).
+const COLLISION: usize = 0;
+const NEIGHBOURHOOD: usize = 1;
 
 /// Predicted events, earliest first, with per-particle stamps.
+///
+/// One event per particle and kind is all the dynamics ever needs (its
+/// searches schedule only a particle's earliest collision, and one
+/// crossing, escape or wall event at a time), so each particle holds two
+/// slots, and a complete binary tree over the particles keeps at each node
+/// the particle whose earlier slot is the earliest in its subtree (a
+/// tournament tree over the particles' next events).
+/// A changed particle's leaf-to-root path is brought up to date, O(log n)
+/// and stopping as soon as the path's winners stop changing, when the
+/// earliest event is next asked for (a collision changes both bodies'
+/// slots several times: one walk each); the earliest event is at the
+/// root. Unlike a heap with lazy deletion, stale events are overwritten in
+/// place rather than piled up, so the calendar's size is fixed (about 100
+/// bytes per particle) and it stays in cache.
 #[derive(Debug, Clone)]
 pub struct Calendar {
-    heap: BinaryHeap<Earliest>,
     stamps: Vec<u32>,
-    /// Heap size at which stale entries are dropped.
-    compact_at: usize,
+    /// Per particle: its next collision and its next neighbourhood event
+    /// ([`NONE`] when empty).
+    slots: Vec<[Event; 2]>,
+    /// Per leaf (particles, then padding up to a power of two): the
+    /// earlier of its two slots.
+    next: Vec<Event>,
+    /// `winners[k]`, 1 <= k < leaves: the leaf of the earliest event under
+    /// node k (children 2k and 2k + 1; node k >= leaves is leaf k − leaves).
+    winners: Vec<u32>,
+    leaves: usize,
+    /// Particles whose slots changed since the tree was last brought up
+    /// to date, each once (`pending`).
+    dirty: Vec<u32>,
+    pending: Vec<bool>,
 }
 
 impl Calendar {
     /// An empty calendar for `n` particles.
     pub fn new(n: usize) -> Self {
+        let leaves = n.max(2).next_power_of_two();
+        let mut winners = vec![0; leaves];
+        // Every leaf empty: the leftmost wins every node.
+        for (k, w) in winners.iter_mut().enumerate().skip(1) {
+            *w = ((k << (leaves.trailing_zeros() - k.ilog2())) - leaves) as u32;
+        }
         Self {
-            heap: BinaryHeap::with_capacity(2 * COMPACT_PER_PARTICLE * n.max(64)),
             stamps: vec![0; n],
-            compact_at: COMPACT_PER_PARTICLE * n.max(64),
+            slots: vec![[NONE; 2]; n],
+            next: vec![NONE; leaves],
+            winners,
+            leaves,
+            dirty: Vec::new(),
+            pending: vec![false; n],
         }
     }
 
@@ -121,19 +158,34 @@ impl Calendar {
     }
 
     /// Schedules an event of `i` (and `j`) with their current stamps.
+    ///
+    /// A collision takes `i`'s collision slot unless the one there is
+    /// current and earlier (the dynamics schedules only a body's earliest
+    /// collision, so a later one would be invalidated by it, or found
+    /// again when the body's search is renewed there); any other kind
+    /// replaces `i`'s neighbourhood event.
     #[inline]
     pub fn schedule(&mut self, time: f64, kind: EventKind, i: usize, j: usize) {
-        if self.heap.len() >= self.compact_at {
-            self.compact();
-        }
-        self.heap.push(Earliest(Event {
+        debug_assert!(!time.is_nan(), "an event at NaN");
+        let e = Event {
             time,
             kind,
             i: i as u32,
             j: j as u32,
             stamp_i: self.stamps[i],
             stamp_j: self.stamps[j],
-        }));
+        };
+        let slot = if kind == EventKind::Collision {
+            let held = &self.slots[i][COLLISION];
+            if self.is_current(held) && earlier(held, &e) {
+                return;
+            }
+            COLLISION
+        } else {
+            NEIGHBOURHOOD
+        };
+        self.slots[i][slot] = e;
+        self.mark(i);
     }
 
     /// Whether `e`'s first particle has not changed since `e` was
@@ -143,7 +195,7 @@ impl Calendar {
     /// be renewed (see [`Calendar::partner_current`]).
     #[inline]
     fn is_current(&self, e: &Event) -> bool {
-        self.stamps[e.i as usize] == e.stamp_i
+        e.i != u32::MAX && self.stamps[e.i as usize] == e.stamp_i
     }
 
     /// Whether `e`'s second particle has not changed since `e` was
@@ -158,69 +210,134 @@ impl Calendar {
     /// left in the calendar (events stale in their first particle are
     /// dropped on the way).
     pub fn peek(&mut self) -> Option<Event> {
-        while let Some(&Earliest(e)) = self.heap.peek() {
+        loop {
+            self.flush();
+            let p = self.winners[1] as usize;
+            let e = self.next[p];
+            if e.time == f64::INFINITY {
+                return None;
+            }
             if self.is_current(&e) {
                 return Some(e);
             }
-            self.heap.pop();
+            self.clear_slot(p, &e);
         }
-        None
     }
 
     /// Removes and returns the earliest event whose first particle is
     /// unchanged.
     pub fn pop(&mut self) -> Option<Event> {
         let e = self.peek()?;
-        self.heap.pop();
+        self.clear_slot(e.i as usize, &e);
         Some(e)
     }
 
-    /// Entries held, stale ones included.
+    /// Events held, stale ones included.
     pub fn len(&self) -> usize {
-        self.heap.len()
+        self.slots
+            .iter()
+            .flatten()
+            .filter(|e| e.time != f64::INFINITY)
+            .count()
     }
 
     /// Whether nothing is held.
     pub fn is_empty(&self) -> bool {
-        self.heap.is_empty()
+        self.len() == 0
     }
 
     /// Drops every event.
     pub fn clear(&mut self) {
-        self.heap.clear();
-    }
-
-    /// Drops the entries stale in their first particle. Those would wait
-    /// in the heap until their time came; a heap a few times the number
-    /// of particles stays in cache, where one tens of times larger costs a
-    /// cache miss per level of every pop.
-    fn compact(&mut self) {
-        let stamps = &self.stamps;
-        self.heap
-            .retain(|Earliest(e)| stamps[e.i as usize] == e.stamp_i);
-        // Twice what is left, so that compacting stays O(1) per event even
-        // when most entries are current.
-        self.compact_at =
-            (COMPACT_PER_PARTICLE * self.stamps.len().max(64)).max(2 * self.heap.len());
+        let stamps = std::mem::take(&mut self.stamps);
+        *self = Self {
+            stamps,
+            ..Self::new(self.slots.len())
+        };
     }
 
     /// Subtracts `origin` from every event time (keeping the order: the
     /// map t ↦ t − origin is monotone in floating point), and drops stale
     /// entries on the way.
     pub fn shift_times(&mut self, origin: f64) {
-        let stamps = &self.stamps;
-        let events: Vec<Earliest> = std::mem::take(&mut self.heap)
-            .into_vec()
-            .into_iter()
-            .filter(|Earliest(e)| stamps[e.i as usize] == e.stamp_i)
-            .map(|Earliest(e)| {
-                Earliest(Event {
-                    time: e.time - origin,
-                    ..e
-                })
-            })
-            .collect();
-        self.heap = BinaryHeap::from(events);
+        let mut shifted = Self {
+            stamps: std::mem::take(&mut self.stamps),
+            ..Self::new(self.slots.len())
+        };
+        for (i, slots) in self.slots.iter().enumerate() {
+            for (k, e) in slots.iter().enumerate() {
+                if e.time != f64::INFINITY && shifted.is_current(e) {
+                    shifted.slots[i][k] = Event {
+                        time: e.time - origin,
+                        ..*e
+                    };
+                }
+            }
+            shifted.update(i);
+        }
+        *self = shifted;
+    }
+
+    /// Particle `i`'s slots changed: its path is brought up to date before
+    /// the earliest event is next read.
+    #[inline]
+    fn mark(&mut self, i: usize) {
+        if !self.pending[i] {
+            self.pending[i] = true;
+            self.dirty.push(i as u32);
+        }
+    }
+
+    /// Brings the paths of every changed particle up to date.
+    fn flush(&mut self) {
+        while let Some(p) = self.dirty.pop() {
+            self.pending[p as usize] = false;
+            self.update(p as usize);
+        }
+    }
+
+    /// Empties the slot of particle `p` that holds `e`.
+    fn clear_slot(&mut self, p: usize, e: &Event) {
+        let slot = if self.slots[p][COLLISION] == *e {
+            COLLISION
+        } else {
+            NEIGHBOURHOOD
+        };
+        self.slots[p][slot] = NONE;
+        self.mark(p);
+    }
+
+    /// Particle `p`'s slots changed: its leaf and the winners above it.
+    #[inline]
+    fn update(&mut self, p: usize) {
+        let [a, b] = &self.slots[p];
+        self.next[p] = if earlier(b, a) { *b } else { *a };
+        let mut node = (self.leaves + p) >> 1;
+        while node >= 1 {
+            let (l, r) = (self.child_winner(2 * node), self.child_winner(2 * node + 1));
+            let w = if earlier(&self.next[r as usize], &self.next[l as usize]) {
+                r
+            } else {
+                l
+            };
+            let old = self.winners[node];
+            self.winners[node] = w;
+            // Above here nothing changed: the same winner, whose event is
+            // unchanged (it is not p).
+            if w == old && w as usize != p {
+                break;
+            }
+            node >>= 1;
+        }
+    }
+
+    /// The winning leaf of node `k` (a leaf itself when `k >= leaves`).
+    #[inline(always)]
+    fn child_winner(&self, k: usize) -> u32 {
+        if k >= self.leaves {
+            (k - self.leaves) as u32
+        } else {
+            self.winners[k]
+        }
     }
 }
 
@@ -228,57 +345,141 @@ impl Calendar {
 mod tests {
     use super::*;
 
-    /// Events come out in time order, invalidated ones never do, and the
-    /// heap sheds them as it grows.
+    /// The calendar's contract with a brute-force model: per particle the
+    /// earliest current collision and the last neighbourhood event, popped
+    /// by scanning every slot for the earliest current one.
+    struct Model {
+        stamps: Vec<u32>,
+        slots: Vec<[Option<Event>; 2]>,
+    }
+
+    impl Model {
+        fn current(&self, e: &Event) -> bool {
+            self.stamps[e.i as usize] == e.stamp_i
+        }
+
+        fn schedule(&mut self, time: f64, kind: EventKind, i: usize, j: usize) {
+            let e = Event {
+                time,
+                kind,
+                i: i as u32,
+                j: j as u32,
+                stamp_i: self.stamps[i],
+                stamp_j: self.stamps[j],
+            };
+            let slot = usize::from(kind != EventKind::Collision);
+            match self.slots[i][slot] {
+                Some(held)
+                    if slot == 0 && self.current(&held) && held.key_cmp(&e) == Ordering::Less => {}
+                _ => self.slots[i][slot] = Some(e),
+            }
+        }
+
+        fn pop(&mut self) -> Option<Event> {
+            let mut best: Option<(usize, usize)> = None;
+            for (i, slots) in self.slots.iter().enumerate() {
+                for (k, e) in slots.iter().enumerate() {
+                    let Some(e) = e else { continue };
+                    if !self.current(e) {
+                        continue;
+                    }
+                    let earlier = best.is_none_or(|(bi, bk)| {
+                        e.key_cmp(&self.slots[bi][bk].unwrap()) == Ordering::Less
+                    });
+                    if earlier {
+                        best = Some((i, k));
+                    }
+                }
+            }
+            let (i, k) = best?;
+            self.slots[i][k].take()
+        }
+    }
+
+    /// Random schedules, invalidations and pops, with ties in time: the
+    /// tree yields exactly the model's events, earliest first, never a
+    /// stale one, and holds at most two events per particle.
     #[test]
-    fn yields_valid_events_in_time_order() {
+    fn yields_the_earliest_current_event_as_a_brute_force_scan_does() {
         let mut u = crate::test_support::uniform(5);
-        let n = 50;
-        let mut cal = Calendar::new(n);
-        let mut expected = Vec::new();
-        for k in 0..2000 {
-            let i = (u() * n as f64) as usize;
-            let j = (u() * n as f64) as usize;
-            let t = u() * 100.0;
-            cal.schedule(t, EventKind::Collision, i, j);
-            expected.push((t, i, j, k));
-            if k % 7 == 0 {
-                cal.invalidate(i);
-                expected.retain(|&(_, a, b, _)| a != i && b != i);
+        for n in [1, 2, 3, 7, 50] {
+            let mut cal = Calendar::new(n);
+            let mut model = Model {
+                stamps: vec![0; n],
+                slots: vec![[None; 2]; n],
+            };
+            let mut now = 0.0;
+            let mut popped = 0;
+            for _ in 0..20_000 {
+                let i = (u() * n as f64) as usize;
+                let j = (u() * n as f64) as usize;
+                let r = u();
+                if r < 0.45 {
+                    // Coarse times: ties between particles and kinds.
+                    let time = now + (u() * 20.0).floor() * 0.5;
+                    let kind = if u() < 0.6 {
+                        EventKind::Collision
+                    } else {
+                        EventKind::CellCrossing {
+                            axis: (u() * 3.0) as u8,
+                            up: u() < 0.5,
+                        }
+                    };
+                    cal.schedule(time, kind, i, j);
+                    model.schedule(time, kind, i, j);
+                } else if r < 0.6 {
+                    cal.invalidate(i);
+                    model.stamps[i] += 1;
+                } else {
+                    let got = cal.pop();
+                    assert_eq!(got, model.pop());
+                    if let Some(e) = got {
+                        assert!(e.time >= now, "{} before {now}", e.time);
+                        now = e.time;
+                        popped += 1;
+                    }
+                }
+                assert!(cal.len() <= 2 * n);
             }
-        }
-        // Stale entries were dropped on the way (2000 scheduled, a heap
-        // bounded by a few per particle and twice the live ones).
-        assert!(
-            cal.len() < 2 * (expected.len() + 4 * 64),
-            "{} entries",
-            cal.len()
-        );
-        expected.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut got = Vec::new();
-        while let Some(e) = cal.pop() {
-            if cal.partner_current(&e) {
-                got.push((e.time, e.i as usize, e.j as usize));
+            assert!(popped > 1000, "{popped} events popped");
+            while let Some(e) = cal.pop() {
+                assert_eq!(Some(e), model.pop());
             }
+            assert_eq!(model.pop(), None);
         }
-        assert_eq!(got.len(), expected.len());
-        for (g, e) in got.iter().zip(&expected) {
-            assert_eq!(g.0, e.0);
-        }
+    }
+
+    /// A collision later than the particle's current one is not kept; an
+    /// earlier one, or any after an invalidation, replaces it.
+    #[test]
+    fn a_particle_keeps_its_earliest_collision() {
+        let mut cal = Calendar::new(4);
+        cal.schedule(2.0, EventKind::Collision, 0, 1);
+        cal.schedule(3.0, EventKind::Collision, 0, 2);
+        assert_eq!(cal.len(), 1);
+        cal.schedule(1.0, EventKind::Collision, 0, 3);
+        assert_eq!(cal.peek().map(|e| (e.time, e.j)), Some((1.0, 3)));
+        cal.invalidate(0);
+        assert_eq!(cal.peek(), None);
+        cal.schedule(5.0, EventKind::Collision, 0, 1);
+        cal.schedule(4.0, EventKind::Escape, 0, 0);
+        assert_eq!(cal.pop().map(|e| e.kind), Some(EventKind::Escape));
+        assert_eq!(cal.pop().map(|e| e.time), Some(5.0));
         assert!(cal.is_empty());
     }
 
     /// Shifting the origin keeps the order and subtracts the offset.
     #[test]
     fn shift_keeps_order() {
-        let mut cal = Calendar::new(3);
+        let mut cal = Calendar::new(4);
         cal.schedule(1000.5, EventKind::Collision, 0, 1);
         cal.schedule(1000.25, EventKind::Collision, 1, 2);
-        cal.schedule(1001.0, EventKind::Collision, 0, 2);
+        cal.schedule(1001.0, EventKind::Collision, 3, 2);
+        cal.schedule(1000.75, EventKind::Escape, 2, 2);
         cal.invalidate(2);
         cal.shift_times(1000.0);
         // Events stale only in their partner stay: their first particle's
-        // search may have ended there.
+        // search may have ended there; those stale in it go.
         assert_eq!(cal.len(), 3);
         let mut popped = Vec::new();
         while let Some(e) = cal.pop() {

@@ -220,7 +220,11 @@ struct NeighbourSpheres {
 const BOX_ESCAPE_MARGIN: f64 = 0.02;
 
 /// A body's motion since its last event.
+///
+/// The first cache line holds all that a closed-form (sphere) search reads
+/// of a partner: position, velocity, time and horizon.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(64))]
 struct Body {
     /// Centre at `time` (wrapped into the box at cell crossings only).
     position: V3,
@@ -237,10 +241,10 @@ struct Body {
     /// Lab frame.
     angular_velocity: V3,
     species: u16,
-    /// When the body next leaves its cell (its events after that are
-    /// invalidated there anyway, so none later is scheduled).
-    crossing_time: f64,
 }
+
+// Two cache lines, the first all a sphere search reads of a partner.
+const _: () = assert!(std::mem::size_of::<Body>() == 128);
 
 /// Per species: what the dynamics needs to know.
 #[derive(Debug, Clone, PartialEq)]
@@ -402,6 +406,11 @@ pub struct Dynamics {
     /// structure.
     closed_form: bool,
     bodies: Vec<Body>,
+    /// Per body: when it next leaves its cell or neighbour region (its
+    /// events after that are invalidated there anyway, so none later is
+    /// scheduled). Beside `bodies`, which keep a sphere search's reads in
+    /// one cache line.
+    crossing_times: Vec<f64>,
     /// Cells over the bodies' centres (with crossing events), or with
     /// neighbour lists over their neighbour spheres' centres (updated when
     /// a sphere is rebuilt, to find the spheres it overlaps).
@@ -526,7 +535,6 @@ impl Dynamics {
                     orientation: p.orientation,
                     angular_velocity,
                     species: p.species,
-                    crossing_time: f64::INFINITY,
                     horizon: f64::INFINITY,
                 }
             })
@@ -595,7 +603,6 @@ impl Dynamics {
                 orientation: p.orientation,
                 angular_velocity: *w,
                 species: p.species,
-                crossing_time: f64::INFINITY,
                 horizon: f64::INFINITY,
             })
             .collect();
@@ -698,7 +705,6 @@ impl Dynamics {
                 orientation: UnitQuaternion::new_unchecked(q),
                 angular_velocity,
                 species: b.species,
-                crossing_time: f64::INFINITY,
                 horizon: f64::INFINITY,
             });
         }
@@ -869,6 +875,7 @@ impl Dynamics {
             species,
             kinds,
             bodies,
+            crossing_times: vec![f64::INFINITY; n],
         };
         dynamics.molecular_axes = dynamics.species.iter().map(Species::order_axis).collect();
         dynamics.set_reference();
@@ -1212,8 +1219,10 @@ impl Dynamics {
         let shift = self.now;
         for b in &mut self.bodies {
             b.time = 0.0;
-            b.crossing_time -= shift;
             b.horizon -= shift;
+        }
+        for t in &mut self.crossing_times {
+            *t -= shift;
         }
         self.calendar.shift_times(shift);
         self.interval.start -= shift;
@@ -1261,8 +1270,12 @@ impl Dynamics {
         self.schedule_collisions(j, Some(i), false)?;
         // The pair itself last, within both horizons: a pair that has just
         // touched stays within ε_d for a while, where the search is slow.
+        // Found, it is `i`'s earliest collision, in place of the one its
+        // search found: `i`'s horizon, so that if `j` changes first, `i`'s
+        // search is renewed there (see `process_next`).
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
         if let PairSearch::Contact(t, warm) = self.predict_pair(i, j, horizon, u32::MAX, None)? {
+            self.bodies[i].horizon = t;
             schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
         }
         Ok(())
@@ -1622,7 +1635,7 @@ impl Dynamics {
         if self.box_.has_walls() {
             match self.wall_contact(i, time) {
                 WallContact::At { time: t, axis, up } => {
-                    self.bodies[i].crossing_time = t;
+                    self.crossing_times[i] = t;
                     self.calendar.schedule(
                         t,
                         EventKind::Wall {
@@ -1635,14 +1648,14 @@ impl Dynamics {
                     return;
                 }
                 WallContact::SearchedTo(t) if t < time => {
-                    self.bodies[i].crossing_time = t;
+                    self.crossing_times[i] = t;
                     self.calendar.schedule(t, EventKind::WallSearch, i, i);
                     return;
                 }
                 _ => {}
             }
         }
-        self.bodies[i].crossing_time = time;
+        self.crossing_times[i] = time;
         if time.is_finite() {
             self.calendar.schedule(time, kind, i, i);
         }
@@ -1883,7 +1896,7 @@ impl Dynamics {
             self.schedule_earliest(i, earliest);
             return Ok(());
         }
-        let mut horizon_i = self.bodies[i].crossing_time;
+        let mut horizon_i = self.crossing_times[i];
         // Searches that need many steps (pairs lingering close together)
         // wait until the cheap ones have shortened the horizon.
         let mut deferred = std::mem::take(&mut self.deferred);
@@ -1990,8 +2003,13 @@ impl Dynamics {
     #[inline(always)]
     fn closed_form_contact(&self, i: usize, j: usize) -> Option<f64> {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-        let sigma =
-            self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]?;
+        // One species: its contact distance, without reading the partner's
+        // second cache line.
+        let sigma = if self.kinds.len() == 1 {
+            self.contact_sums[0]?
+        } else {
+            self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]?
+        };
         // From the later of the two stored poses, whenever the search runs:
         // the same bits for the same poses (see `closed_form`).
         // The image is the one nearest now (bodies that have flown far

@@ -80,15 +80,11 @@ impl PeriodicBox {
         self.lengths.product()
     }
 
-    /// The shortest periodic image of the separation `d`.
+    /// The shortest periodic image of the separation `d` (see
+    /// [`PeriodicBox::image_shift`] for the rounding).
     #[inline]
     pub fn minimum_image(&self, d: &Vector3<f64>) -> Vector3<f64> {
-        let (l, p) = (&self.lengths, &self.periodic);
-        Vector3::new(
-            d.x - l.x * (d.x / l.x).round() * p.x,
-            d.y - l.y * (d.y / l.y).round() * p.y,
-            d.z - l.z * (d.z / l.z).round() * p.z,
-        )
+        d + self.image_shift(d)
     }
 
     /// What [`PeriodicBox::minimum_image`] adds to `d` (whole box lengths
