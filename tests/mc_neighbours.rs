@@ -86,6 +86,47 @@ fn stencil_cells_for_spheres() {
     check(&dense_start(&s, 500, 0.2).unwrap(), false, 1);
 }
 
+/// Dense spheres: the plan gives them Verlet lists once the box has
+/// stayed put a while, which answer trial moves near each sphere's
+/// reference (the cells answer the rest): after sweeps that relist many
+/// spheres, small trial displacements (the lists' regime) agree with a
+/// test of every other particle.
+#[test]
+fn verlet_lists_for_dense_spheres() {
+    let s: Shape = "Sphere(radius: 0.5)".parse().unwrap();
+    let mut system = dense_start(&s, 500, 0.5).unwrap();
+    assert_eq!(system.plan().sphere_skin, Some(0.5));
+    let mut rng = Pcg64::seed_from_u64(9);
+    let sizes = MoveSizes {
+        translate: 0.15,
+        rotate: 0.0,
+        volume: 0.0,
+    };
+    assert!(!system.uses_sphere_lists(), "lists before any move");
+    for _ in 0..200 {
+        sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+    }
+    assert!(system.uses_sphere_lists(), "no lists after 200 NVT sweeps");
+    let identity = nalgebra::UnitQuaternion::identity();
+    let mut hits = 0;
+    for _ in 0..4000 {
+        let i = rng.gen_range(0..system.len());
+        let step = Vector3::from_fn(|_, _| rng.gen_range(-0.12..0.12));
+        let p = system.particles()[i].position + step;
+        let fast = system.overlaps_at(i, &p, &identity.to_rotation_matrix().into_inner());
+        assert_eq!(
+            fast,
+            brute_force(&system, i, &p, &identity),
+            "trial of {i} at {p:?}"
+        );
+        hits += fast as usize;
+    }
+    assert!(
+        hits > 100 && hits < 3990,
+        "{hits} overlaps in 4000 trials: not a discriminating test"
+    );
+}
+
 #[test]
 fn aabb_cells_for_needles_and_plates() {
     for (k, text) in [

@@ -223,6 +223,11 @@ impl fmt::Display for Report<'_> {
                     "  Monte Carlo neighbours: cells of width {:.4} holding bounding boxes ({why}), oriented-box pre-filter",
                     n.aabb_width
                 )?;
+            } else if let Some(skin) = n.sphere_skin {
+                writeln!(
+                    f,
+                    "  Monte Carlo neighbours: cells as wide as the interaction range; Verlet lists with a skin of {skin:.4} (spheres) while the box stays put and the moves are short (root-mean-square step under a quarter skin)"
+                )?;
             } else {
                 writeln!(
                     f,

@@ -11,13 +11,17 @@ use std::cell::RefCell;
 
 use nalgebra::Vector3;
 
+use super::neighbour_list::FlatLists;
+
 /// AABB cell registry over a periodic orthorhombic box.
 #[derive(Debug, Clone)]
 pub struct AabbCells {
     dims: [usize; 3],
     width: Vector3<f64>,
     lengths: Vector3<f64>,
-    cells: Vec<Vec<u32>>,
+    /// Per cell: its members, each once (a cell-major flat array: a query
+    /// reads each visited cell's members from one contiguous run).
+    cells: FlatLists,
     /// Per particle: the (unwrapped) first and last cell index per axis.
     spans: Vec<[[i64; 2]; 3]>,
 }
@@ -47,13 +51,13 @@ impl AabbCells {
             dims,
             width: cell_width,
             lengths,
-            cells: vec![Vec::new(); dims[0] * dims[1] * dims[2]],
+            cells: FlatLists::new(dims[0] * dims[1] * dims[2], 8),
             spans: Vec::with_capacity(centres.len()),
         };
         let mut cells = std::mem::take(&mut this.cells);
         for (i, (c, h)) in centres.iter().zip(half_extents).enumerate() {
             let span = this.span(c, h);
-            this.for_cells(&span, |cell| this_push(&mut cells, cell, i));
+            this.for_cells(&span, |cell| push_once(&mut cells, cell, i));
             this.spans.push(span);
         }
         this.cells = cells;
@@ -86,12 +90,20 @@ impl AabbCells {
             } else {
                 (lo, hi)
             };
-            (lo..=hi).map(move |i| i.rem_euclid(n) as usize)
+            // One division per axis, then a compare per step.
+            let n = n as usize;
+            let mut i = lo.rem_euclid(n as i64) as usize;
+            (0..=hi - lo).map(move |_| {
+                let at = i;
+                i = if i + 1 == n { 0 } else { i + 1 };
+                at
+            })
         };
         for z in range(2) {
             for y in range(1) {
+                let row = self.dims[0] * (y + self.dims[1] * z);
                 for x in range(0) {
-                    f(x + self.dims[0] * (y + self.dims[1] * z));
+                    f(x + row);
                 }
             }
         }
@@ -105,13 +117,8 @@ impl AabbCells {
             return;
         }
         let mut cells = std::mem::take(&mut self.cells);
-        self.for_cells(&old, |cell| {
-            let list = &mut cells[cell];
-            if let Some(at) = list.iter().position(|&j| j as usize == i) {
-                list.swap_remove(at);
-            }
-        });
-        self.for_cells(&new, |cell| this_push(&mut cells, cell, i));
+        self.for_cells(&old, |cell| cells.remove(cell, i as u32));
+        self.for_cells(&new, |cell| push_once(&mut cells, cell, i));
         self.cells = cells;
         self.spans[i] = new;
     }
@@ -143,7 +150,7 @@ impl AabbCells {
                 if found {
                     return;
                 }
-                for &j in &self.cells[cell] {
+                for &j in self.cells.of(cell) {
                     let s = &mut stamps[j as usize];
                     if *s != current {
                         *s = current;
@@ -159,12 +166,11 @@ impl AabbCells {
     }
 }
 
-/// Adds `i` to `cells[cell]` unless already there (a span wider than the box
-/// visits no cell twice, but keep the registry a set regardless).
-fn this_push(cells: &mut [Vec<u32>], cell: usize, i: usize) {
-    let list = &mut cells[cell];
-    if !list.contains(&(i as u32)) {
-        list.push(i as u32);
+/// Adds `i` to `cell` unless already there (a span wider than the box
+/// visits a cell twice).
+fn push_once(cells: &mut FlatLists, cell: usize, i: usize) {
+    if !cells.of(cell).contains(&(i as u32)) {
+        cells.push(cell, i as u32);
     }
 }
 

@@ -6,12 +6,14 @@ pub mod cell_list;
 pub mod neighbour_list;
 pub mod packed_cells;
 pub mod periodic_box;
+pub mod sphere_lists;
 
 pub use aabb_cells::AabbCells;
 pub use cell_list::CellList;
 pub use neighbour_list::NeighbourLists;
 pub use packed_cells::PackedCells;
 pub use periodic_box::PeriodicBox;
+pub use sphere_lists::SphereLists;
 
 use nalgebra::Vector3;
 

@@ -7,14 +7,60 @@
 /// Per-body lists of neighbours, kept symmetric.
 #[derive(Debug, Clone)]
 pub struct NeighbourLists {
-    capacity: usize,
-    counts: Vec<u32>,
-    slots: Vec<u32>,
+    lists: FlatLists,
 }
 
 impl NeighbourLists {
     /// Empty lists for `n` bodies with room for `capacity` neighbours each
     /// (more is made when needed).
+    pub fn new(n: usize, capacity: usize) -> Self {
+        Self {
+            lists: FlatLists::new(n, capacity),
+        }
+    }
+
+    /// The neighbours of body `i`.
+    #[inline]
+    pub fn of(&self, i: usize) -> &[u32] {
+        self.lists.of(i)
+    }
+
+    /// The longest list.
+    pub fn longest(&self) -> usize {
+        self.lists.longest()
+    }
+
+    /// Unlinks body `i` from every neighbour (its list empties, and it
+    /// leaves theirs).
+    pub fn unlink_all(&mut self, i: usize) {
+        for k in 0..self.lists.of(i).len() {
+            let j = self.lists.of(i)[k] as usize;
+            self.lists.remove(j, i as u32);
+        }
+        self.lists.clear(i);
+    }
+
+    /// Links bodies `i` and `j` (not already linked, `i` ≠ `j`).
+    pub fn link(&mut self, i: usize, j: usize) {
+        debug_assert!(i != j && !self.of(i).contains(&(j as u32)));
+        self.lists.push(i, j as u32);
+        self.lists.push(j, i as u32);
+    }
+}
+
+/// Lists of indices in one flat array, `capacity` slots per list (no
+/// allocation while running; doubled, everything moved, when one fills):
+/// a list is one contiguous run of memory, found without a pointer chase.
+#[derive(Debug, Clone, Default)]
+pub struct FlatLists {
+    capacity: usize,
+    counts: Vec<u32>,
+    /// List-major: `slots[i · capacity + k]`, the first `counts[i]` used.
+    slots: Vec<u32>,
+}
+
+impl FlatLists {
+    /// `n` empty lists with room for `capacity` entries each.
     pub fn new(n: usize, capacity: usize) -> Self {
         let capacity = capacity.max(4);
         Self {
@@ -24,7 +70,7 @@ impl NeighbourLists {
         }
     }
 
-    /// The neighbours of body `i`.
+    /// List `i`.
     #[inline]
     pub fn of(&self, i: usize) -> &[u32] {
         let base = i * self.capacity;
@@ -36,25 +82,8 @@ impl NeighbourLists {
         self.counts.iter().copied().max().unwrap_or(0) as usize
     }
 
-    /// Unlinks body `i` from every neighbour (its list empties, and it
-    /// leaves theirs).
-    pub fn unlink_all(&mut self, i: usize) {
-        let base = i * self.capacity;
-        for k in 0..self.counts[i] as usize {
-            let j = self.slots[base + k] as usize;
-            self.remove(j, i as u32);
-        }
-        self.counts[i] = 0;
-    }
-
-    /// Links bodies `i` and `j` (not already linked, `i` ≠ `j`).
-    pub fn link(&mut self, i: usize, j: usize) {
-        debug_assert!(i != j && !self.of(i).contains(&(j as u32)));
-        self.push(i, j as u32);
-        self.push(j, i as u32);
-    }
-
-    fn push(&mut self, i: usize, j: u32) {
+    /// Appends `j` to list `i`.
+    pub fn push(&mut self, i: usize, j: u32) {
         if self.counts[i] as usize == self.capacity {
             self.grow();
         }
@@ -62,8 +91,8 @@ impl NeighbourLists {
         self.counts[i] += 1;
     }
 
-    /// Removes `j` from `i`'s list (order not kept).
-    fn remove(&mut self, i: usize, j: u32) {
+    /// Removes `j` from list `i` if there (the last entry takes its place).
+    pub fn remove(&mut self, i: usize, j: u32) {
         let base = i * self.capacity;
         let n = self.counts[i] as usize;
         if let Some(at) = self.slots[base..base + n].iter().position(|&k| k == j) {
@@ -72,7 +101,12 @@ impl NeighbourLists {
         }
     }
 
-    /// Twice the room per body.
+    /// Empties list `i`.
+    pub fn clear(&mut self, i: usize) {
+        self.counts[i] = 0;
+    }
+
+    /// Twice the room per list.
     fn grow(&mut self) {
         let capacity = 2 * self.capacity;
         let mut slots = vec![0; self.counts.len() * capacity];
@@ -89,6 +123,35 @@ impl NeighbourLists {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Flat lists through growth: every list keeps exactly its entries
+    /// (as a set), removed or not there.
+    #[test]
+    fn flat_lists_keep_their_entries_through_growth() {
+        let mut u = crate::test_support::uniform(4);
+        let mut flat = FlatLists::new(5, 8);
+        let mut model: Vec<Vec<u32>> = vec![Vec::new(); 5];
+        for _ in 0..3000 {
+            let list = (u() * 5.0) as usize;
+            let i = (u() * 40.0) as u32;
+            if u() < 0.6 {
+                if !model[list].contains(&i) {
+                    flat.push(list, i);
+                    model[list].push(i);
+                }
+            } else {
+                flat.remove(list, i);
+                model[list].retain(|&j| j != i);
+            }
+        }
+        assert!(flat.capacity > 8, "never grew: {}", flat.capacity);
+        for (list, expected) in model.iter_mut().enumerate() {
+            let mut got = flat.of(list).to_vec();
+            got.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(&got, expected, "list {list}");
+        }
+    }
 
     /// Random links and unlinks against a brute-force set of pairs: the
     /// lists stay symmetric and hold exactly the linked pairs, also through
