@@ -16,7 +16,7 @@ use rand_pcg::Pcg64;
 
 use crate::geometry::Shape;
 use crate::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
-use crate::mc::parallel::parallel_sweep;
+use crate::mc::parallel::ParallelSweeps;
 use crate::mc::tuning::Tuner;
 use crate::mc::{McError, Particle, Species, System};
 use crate::space::PeriodicBox;
@@ -108,7 +108,7 @@ pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, McError>
 }
 
 /// Times NVT sweeps of each shape, serial and (with more than one rayon
-/// thread) checkerboard; `quick` uses N ≈ 1400 and fewer sweeps.
+/// thread) parallel on slabs; `quick` uses N ≈ 1400 and fewer sweeps.
 pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
     let (n, sweeps, repeats) = if quick { (1400, 10, 3) } else { (4096, 100, 5) };
     let mut rows = Vec::new();
@@ -124,12 +124,13 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
             1,
             |system| sweep(system, &sizes, &Ensemble::Nvt, &mut rng),
         )?);
-        // The checkerboard sweep on all of rayon's threads, same sizes,
+        // The parallel sweep on all of rayon's threads, same sizes,
         // interleaved with nothing else: the speed-up is the ratio of the
         // two rows.
         let threads = rayon::current_num_threads();
         if threads > 1 {
             let mut index = 0;
+            let mut parallel = ParallelSweeps::new();
             rows.push(timed_row(
                 text,
                 &mut system,
@@ -138,7 +139,7 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
                 threads,
                 |system| {
                     index += 1;
-                    parallel_sweep(system, &sizes, &Ensemble::Nvt, 17, index - 1)
+                    parallel.sweep(system, &sizes, &Ensemble::Nvt, 17, index - 1)
                 },
             )?);
         }

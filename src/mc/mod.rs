@@ -259,6 +259,17 @@ pub struct System {
     list_window: (usize, f64),
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
+    /// Changed by every change of state (a move placed, a box rescaled):
+    /// equal stamps mean equal states for a system and its clones (see
+    /// [`System::stamp`]).
+    stamp: u64,
+}
+
+/// Stamps handed out so far: every change of any system takes a new one.
+static STAMPS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+fn new_stamp() -> u64 {
+    STAMPS.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1
 }
 
 impl System {
@@ -333,6 +344,7 @@ impl System {
             sphere_lists: None,
             list_window: (0, 0.0),
             ideal: false,
+            stamp: new_stamp(),
         };
         if let Some(i) = system.first_wall_overlap() {
             return Err(McError::WallOverlap(i));
@@ -382,6 +394,7 @@ impl System {
     /// Switches overlap tests off (an ideal gas of the same particles), for
     /// checking the volume-move statistics.
     pub fn set_ideal(&mut self, ideal: bool) {
+        self.stamp = new_stamp();
         self.ideal = ideal;
     }
 
@@ -398,6 +411,14 @@ impl System {
     /// The species.
     pub fn species(&self) -> &[Species] {
         &self.species
+    }
+
+    /// An identity of the state: a system and a clone of it have the same
+    /// stamp until either changes (every move placed and every box rescaled
+    /// takes a fresh one). Replicas kept for parallel sweeps are reused
+    /// while the system's stamp is the one they were synchronised at.
+    pub fn stamp(&self) -> u64 {
+        self.stamp
     }
 
     /// The neighbour structure it uses, and why.
@@ -668,6 +689,7 @@ impl System {
         orientation: UnitQuaternion<f64>,
         rotation: Matrix3<f64>,
     ) {
+        self.stamp = new_stamp();
         let position = self.box_.wrap_near(&position);
         let step = self
             .box_
@@ -776,6 +798,7 @@ impl System {
             return false;
         }
         *self = trial;
+        self.stamp = new_stamp();
         true
     }
 }

@@ -122,21 +122,16 @@ pub fn sweep<R: Rng>(
     ensemble: &Ensemble,
     rng: &mut R,
 ) -> Counts {
-    let mut counts = Counts::default();
     let n = system.len();
-    // Systems where nothing turns skip the species lookup of every move.
-    let any_rotates = system.species.iter().any(|s| s.rotation);
-    for _ in 0..n {
-        let i = rng.gen_range(0..n);
-        let rotates = any_rotates && system.species[system.particles[i].species as usize].rotation;
-        if rotates && rng.r#gen::<bool>() {
-            counts.rotate.record(rotate(system, i, sizes.rotate, rng));
-        } else {
-            counts
-                .translate
-                .record(translate(system, i, sizes.translate, rng));
-        }
-    }
+    let mut counts = particle_moves(
+        system,
+        n,
+        |rng| rng.gen_range(0..n),
+        sizes,
+        rng,
+        |_| true,
+        |_| {},
+    );
     if let Ensemble::Npt {
         pressure,
         anisotropic,
@@ -145,6 +140,42 @@ pub fn sweep<R: Rng>(
         counts
             .volume
             .record(box_move(system, pressure, sizes.volume, anisotropic, rng));
+    }
+    counts
+}
+
+/// `count` particle moves, each of the particle `pick` draws: a rotation
+/// with probability ½ for rotating species, else a translation, confined to
+/// where `inside` holds (everywhere for a serial sweep, a slab for a
+/// parallel one); `accepted` hears of each particle moved.
+#[inline]
+pub(crate) fn particle_moves<R: Rng>(
+    system: &mut System,
+    count: usize,
+    mut pick: impl FnMut(&mut R) -> usize,
+    sizes: &MoveSizes,
+    rng: &mut R,
+    inside: impl Fn(&Vector3<f64>) -> bool,
+    mut accepted: impl FnMut(usize),
+) -> Counts {
+    let mut counts = Counts::default();
+    // Systems where nothing turns skip the species lookup of every move.
+    let any_rotates = system.species.iter().any(|s| s.rotation);
+    for _ in 0..count {
+        let i = pick(rng);
+        let rotates = any_rotates && system.species[system.particles[i].species as usize].rotation;
+        let moved = if rotates && rng.r#gen::<bool>() {
+            let moved = rotate(system, i, sizes.rotate, rng);
+            counts.rotate.record(moved);
+            moved
+        } else {
+            let moved = translate_within(system, i, sizes.translate, rng, &inside);
+            counts.translate.record(moved);
+            moved
+        };
+        if moved {
+            accepted(i);
+        }
     }
     counts
 }
@@ -186,8 +217,22 @@ pub fn propose_rotation<R: Rng>(
 
 /// Translation uniform in a cube of side `size` around the old position.
 pub fn translate<R: Rng>(system: &mut System, i: usize, size: f64, rng: &mut R) -> bool {
+    translate_within(system, i, size, rng, |_| true)
+}
+
+/// [`translate`] confined to a region fixed for the duration of the moves
+/// (a parallel sweep's slab): a trial centre outside it (`inside` false)
+/// is rejected, which keeps the proposal symmetric.
+#[inline]
+pub fn translate_within<R: Rng>(
+    system: &mut System,
+    i: usize,
+    size: f64,
+    rng: &mut R,
+    inside: impl Fn(&Vector3<f64>) -> bool,
+) -> bool {
     let position = propose_translation(&system.positions[i], size, rng);
-    if system.overlaps_at(i, &position, &system.rotations[i]) {
+    if !inside(&position) || system.overlaps_at(i, &position, &system.rotations[i]) {
         return false;
     }
     // The orientation is read only for the moves that are kept.
