@@ -88,6 +88,19 @@ fn slab_count(length: f64, range: f64, threads: usize) -> Option<usize> {
     (fit >= 2).then(|| (2 * threads).max(MIN_SLABS).min(fit))
 }
 
+/// Particles from which a Monte Carlo stage sweeps on slabs (measured to
+/// pay at N = 4096 on two cores; smaller systems not yet measured).
+pub const SLABS_FROM: usize = 4000;
+
+/// Whether a stage of `n` particles with neighbour plan `plan` sweeps on
+/// slabs ([`ParallelSweeps`]), on any thread count, so that its trajectory
+/// is the same on one core and on two: from [`SLABS_FROM`] particles, but
+/// not for spheres on Verlet lists, whose serial sweep (a move in ~120 ns)
+/// is faster than two threads that each place every accepted move.
+pub fn sweeps_on_slabs(plan: &super::NeighbourPlan, n: usize) -> bool {
+    n >= SLABS_FROM && plan.sphere_skin.is_none()
+}
+
 /// A move to hand to the other threads: the particle's final pose in a
 /// colour.
 type Placed = (usize, V3, UnitQuaternion<f64>, Matrix3<f64>);

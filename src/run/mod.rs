@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use nalgebra::{UnitQuaternion, Vector3};
-use rand::SeedableRng;
+use rand::{RngCore, SeedableRng};
 use rand_pcg::Pcg64;
 
 use crate::analysis::order::nematic_order;
@@ -25,6 +25,7 @@ use crate::log::{
 };
 use crate::mc::compress::{CompressOptions, Compressor, CompressorState};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
+use crate::mc::parallel::{ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::Sdf;
 use crate::mc::start::{StartError, lattice, random_insertion};
 use crate::mc::tuning::Tuner;
@@ -863,8 +864,19 @@ impl Runner<'_> {
         let mut done = first;
         let mut stopped = false;
         let mut pressure = None;
+        // Large systems sweep on slabs, on every core rayon has (set
+        // RAYON_NUM_THREADS to choose), the same trajectory on one or two;
+        // each sweep's streams are keyed on a seed drawn from the stage's
+        // generator, so that a resumed stage draws the same ones.
+        let mut slabs = sweeps_on_slabs(system.plan(), system.len()).then(ParallelSweeps::new);
         for s in first + 1..=sweeps {
-            let c = sweep(&mut system, &self.sizes, &mc_ensemble, rng);
+            let c = match &mut slabs {
+                Some(slabs) => {
+                    let seed = rng.next_u64();
+                    slabs.sweep(&mut system, &self.sizes, &mc_ensemble, seed, s)
+                }
+                None => sweep(&mut system, &self.sizes, &mc_ensemble, rng),
+            };
             window += c;
             tune_window += c;
             if s <= tune && s.is_multiple_of(TUNE_WINDOW) {

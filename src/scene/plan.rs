@@ -235,6 +235,27 @@ impl fmt::Display for Report<'_> {
                 )?;
             }
         }
+        if plan.has_mc {
+            let n: usize = plan.species.iter().map(|s| s.count).sum();
+            if crate::mc::parallel::sweeps_on_slabs(&plan.mc_neighbours, n) {
+                writeln!(
+                    f,
+                    "  Monte Carlo sweeps: on slabs, in parallel on {} threads (N = {n} >= {}; the same trajectory on one thread or two; RAYON_NUM_THREADS sets the threads)",
+                    rayon::current_num_threads(),
+                    crate::mc::parallel::SLABS_FROM
+                )?;
+            } else {
+                writeln!(
+                    f,
+                    "  Monte Carlo sweeps: serial ({})",
+                    if n < crate::mc::parallel::SLABS_FROM {
+                        format!("N = {n} < {}", crate::mc::parallel::SLABS_FROM)
+                    } else {
+                        "spheres on Verlet lists sweep faster on one thread".to_string()
+                    }
+                )?;
+            }
+        }
         if plan.has_dynamics {
             match (plan.neighbours, plan.neighbour_shell) {
                 (Neighbours::Cells, _) | (_, None) => writeln!(
