@@ -126,6 +126,27 @@ const SMALL: &str = r#"Scene(
     log: Log(path: "unused.mcap", stats_every: 20, frames_every: 50),
 )"#;
 
+/// The shortest prefix of the log `bytes` that holds `k` frames (a cut just
+/// after frame k, as a crash would leave it), by bisection on the length;
+/// probes are written in `dir`.
+fn cut_after_frames(dir: &Path, bytes: &[u8], k: usize) -> usize {
+    let frames_in = |len: usize| {
+        let probe = dir.join("probe.mcap.partial");
+        std::fs::write(&probe, &bytes[..len]).unwrap();
+        read_log(&probe, true).map(|l| l.states.len()).unwrap_or(0)
+    };
+    let (mut lo, mut hi) = (0, bytes.len());
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if frames_in(mid) >= k {
+            hi = mid
+        } else {
+            lo = mid
+        }
+    }
+    hi
+}
+
 fn bits(s: &StateRecord) -> Vec<u64> {
     s.positions
         .iter()
@@ -407,26 +428,10 @@ fn a_run_resumed_from_any_frame_continues_bit_for_bit() {
     let whole = read_log(&path, true).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let mut stages_resumed = std::collections::BTreeSet::new();
-    // A cut just after each frame (each frame closes a chunk): the shortest
-    // prefix that holds k frames, by bisection on the length.
-    let frames_in = |len: usize| {
-        let probe = dir.join("probe.mcap.partial");
-        std::fs::write(&probe, &bytes[..len]).unwrap();
-        read_log(&probe, true).map(|l| l.states.len()).unwrap_or(0)
-    };
-    let mut cuts = Vec::new();
-    for k in 1..whole.states.len() {
-        let (mut lo, mut hi) = (0, bytes.len());
-        while hi - lo > 1 {
-            let mid = (lo + hi) / 2;
-            if frames_in(mid) >= k {
-                hi = mid
-            } else {
-                lo = mid
-            }
-        }
-        cuts.push(hi);
-    }
+    // A cut just after each frame (each frame closes a chunk).
+    let cuts: Vec<usize> = (1..whole.states.len())
+        .map(|k| cut_after_frames(&dir, &bytes, k))
+        .collect();
     for (k, &len) in cuts.iter().enumerate() {
         let fraction = format!("frame {k}");
         let cut = dir.join(format!("cut-{k}.mcap.partial"));
@@ -624,22 +629,8 @@ fn large_monte_carlo_stages_sweep_on_slabs_the_same_on_any_thread_count() {
     // Resumed from the frame after sweep 10 of the first stage.
     let whole = dir.join("threads-2.mcap");
     let bytes = std::fs::read(&whole).unwrap();
-    let frames_in = |len: usize| {
-        let probe = dir.join("probe.mcap.partial");
-        std::fs::write(&probe, &bytes[..len]).unwrap();
-        read_log(&probe, true).map(|l| l.states.len()).unwrap_or(0)
-    };
-    let (mut lo, mut hi) = (0, bytes.len());
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if frames_in(mid) >= 2 {
-            hi = mid
-        } else {
-            lo = mid
-        }
-    }
     let cut = dir.join("cut.mcap.partial");
-    std::fs::write(&cut, &bytes[..hi]).unwrap();
+    std::fs::write(&cut, &bytes[..cut_after_frames(&dir, &bytes, 2)]).unwrap();
     let out = dir.join("resumed.mcap");
     hardbody::run::resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
     let resumed = read_log(&out, true).unwrap();

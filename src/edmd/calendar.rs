@@ -175,17 +175,21 @@ impl Calendar {
             stamp_i: self.stamps[i],
             stamp_j: self.stamps[j],
         };
-        let slot = if kind == EventKind::Collision {
+        if kind == EventKind::Collision {
             let held = &self.slots[i][COLLISION];
-            if self.is_current(held) && earlier(held, &e) {
-                return;
+            if !(self.is_current(held) && earlier(held, &e)) {
+                self.put(i, COLLISION, e);
             }
-            COLLISION
         } else {
-            NEIGHBOURHOOD
-        };
-        self.slots[i][slot] = e;
-        self.mark(i);
+            self.put(i, NEIGHBOURHOOD, e);
+        }
+    }
+
+    /// Puts `e` in slot `slot` of particle `p`, whose path is then stale.
+    #[inline]
+    fn put(&mut self, p: usize, slot: usize, e: Event) {
+        self.slots[p][slot] = e;
+        self.mark(p);
     }
 
     /// Whether `e`'s first particle has not changed since `e` was
@@ -297,13 +301,8 @@ impl Calendar {
 
     /// Empties the slot of particle `p` that holds `e`.
     fn clear_slot(&mut self, p: usize, e: &Event) {
-        let slot = if self.slots[p][COLLISION] == *e {
-            COLLISION
-        } else {
-            NEIGHBOURHOOD
-        };
-        self.slots[p][slot] = NONE;
-        self.mark(p);
+        let held = usize::from(self.slots[p][COLLISION] != *e);
+        self.put(p, [COLLISION, NEIGHBOURHOOD][held], NONE);
     }
 
     /// Particle `p`'s slots changed: its leaf and the winners above it.
