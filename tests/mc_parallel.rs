@@ -117,9 +117,13 @@ fn npt_packing_fraction(parallel: bool) -> (f64, f64) {
 /// The parallel sweep samples the ensemble the serial one does: the same
 /// mean packing fraction within three combined standard errors, both
 /// within 0.005 of Carnahan–Starling. (Against Carnahan–Starling alone
-/// both come out low at N = 500: 0.3303 ± 0.0006 serial and 0.3313 ±
-/// 0.0004 parallel over 16 replicas each, against 0.33239; a finite-size
-/// or protocol effect under study, which this comparison does not hide.)
+/// both come out a little low with this protocol: 0.3303 ± 0.0006 serial
+/// and 0.3313 ± 0.0004 parallel over 16 replicas each, against 0.33239.
+/// That is the volume still relaxing from the start at 0.9 of the density:
+/// over 8 replicas of 45 000 serial sweeps the first production block,
+/// sweeps 5000–10 000, averages 0.3270–0.3277, the later ones 0.329–0.335
+/// around Carnahan–Starling. Box moves in ln V relax the density of 500
+/// spheres over ~10⁴ sweeps, of 4096 over more than 2·10⁴.)
 #[test]
 fn parallel_npt_hard_spheres_sample_as_the_serial_sweep() {
     let cs = 0.33239;
