@@ -585,13 +585,15 @@ fn ctrl_c_finishes_the_log_cleanly() {
 }
 
 /// A Monte Carlo stage of 4000 rods sweeps on slabs (`hardbody check` says
-/// so): the run is the same bit for bit on one thread and on two, and a run
-/// resumed from its middle frame ends where the whole run did.
+/// so), here cut across hard walls (the longest axis, z, has them): the run
+/// is the same bit for bit on one thread and on two, and a run resumed from
+/// its middle frame ends where the whole run did.
 #[test]
 fn large_monte_carlo_stages_sweep_on_slabs_the_same_on_any_thread_count() {
     const LARGE: &str = r#"Scene(
     seed: 11,
-    box: (22.0, 22.0, 22.0),
+    box: (22.0, 22.0, 24.0),
+    walls: [Z],
     species: [
         Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 4000),
     ],
@@ -622,7 +624,12 @@ fn large_monte_carlo_stages_sweep_on_slabs_the_same_on_any_thread_count() {
                 run_scene(&scene, LARGE, &path, &mut Silent, &AtomicBool::new(false)).unwrap()
             });
             let log = read_log(&path, true).unwrap();
-            (bits(&log.states.last().unwrap().1), log.states.len())
+            let end = &log.states.last().unwrap().1;
+            // Overlap-free by all pairs, and clear of the walls.
+            let system = system_from_record(end, &plan).unwrap();
+            assert_eq!(system.first_overlap_all_pairs(), None, "{threads} threads");
+            assert_eq!(system.first_wall_overlap(), None, "{threads} threads");
+            (bits(end), log.states.len())
         })
         .collect();
     assert!(ends[0] == ends[1], "one thread and two end apart");
