@@ -26,7 +26,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::sync::RwLock;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use super::System;
 use super::moves::{Counts, Ensemble, MoveSizes, box_move, particle_moves, sweep};
@@ -45,11 +45,14 @@ fn stream(seed: u64, sweep: u64, colour: u64, slab: u64) -> Pcg64 {
 }
 
 /// A barrier for a team that is all running at once: the last to arrive
-/// bumps the generation the others spin on.
+/// bumps the generation the others spin on. A member that panics marks it
+/// broken (see [`Member`]), and the others panic at it instead of
+/// spinning for ever.
 struct SpinBarrier {
     team: usize,
     arrived: AtomicUsize,
     generation: AtomicUsize,
+    broken: AtomicBool,
 }
 
 impl SpinBarrier {
@@ -58,6 +61,7 @@ impl SpinBarrier {
             team,
             arrived: AtomicUsize::new(0),
             generation: AtomicUsize::new(0),
+            broken: AtomicBool::new(false),
         }
     }
 
@@ -68,8 +72,24 @@ impl SpinBarrier {
             self.generation.fetch_add(1, Ordering::Release);
         } else {
             while self.generation.load(Ordering::Acquire) == generation {
+                assert!(
+                    !self.broken.load(Ordering::Relaxed),
+                    "another thread of the parallel sweep panicked"
+                );
                 std::hint::spin_loop();
             }
+        }
+    }
+}
+
+/// Held by each member of a team while it works: if the member unwinds,
+/// the barrier is marked broken.
+struct Member<'a>(&'a SpinBarrier);
+
+impl Drop for Member<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.broken.store(true, Ordering::Relaxed);
         }
     }
 }
@@ -213,6 +233,7 @@ impl ParallelSweeps {
             let outboxes: Vec<RwLock<Vec<Placed>>> =
                 (0..team).map(|_| RwLock::new(Vec::new())).collect();
             let member = |me: usize, system: &mut System| {
+                let _member = Member(&barrier);
                 let mut counts = Counts::default();
                 let mut moved = Vec::new();
                 let mut marked = vec![false; system.len()];
@@ -289,6 +310,25 @@ impl ParallelSweeps {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A member that panics breaks the barrier: the others panic at it
+    /// rather than spin for ever.
+    #[test]
+    fn a_panicking_member_breaks_the_barrier() {
+        let barrier = SpinBarrier::new(2);
+        let outcome = std::thread::scope(|scope| {
+            let failing = scope.spawn(|| {
+                let _member = Member(&barrier);
+                panic!("a member fails");
+            });
+            let waiting = scope.spawn(|| {
+                let _member = Member(&barrier);
+                barrier.wait();
+            });
+            (failing.join().is_err(), waiting.join().is_err())
+        });
+        assert_eq!(outcome, (true, true));
+    }
 
     #[test]
     fn slabs_are_wide_enough_and_even() {
