@@ -259,13 +259,17 @@ pub struct System {
     list_window: (usize, f64),
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
-    /// Changed by every change of state (a move placed, a box rescaled):
-    /// equal stamps mean equal states for a system and its clones (see
-    /// [`System::stamp`]).
+    /// An identity of the state (see [`System::stamp`]), renewed when it
+    /// is asked for after a change.
     stamp: u64,
+    /// The state changed since `stamp` was handed out (a move placed, a
+    /// box rescaled): a plain flag, so that the hot path of every accepted
+    /// move touches no shared counter.
+    changed: bool,
 }
 
-/// Stamps handed out so far: every change of any system takes a new one.
+/// Stamps handed out so far: each state asked for its stamp after a change
+/// takes a new one.
 static STAMPS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 fn new_stamp() -> u64 {
@@ -345,6 +349,7 @@ impl System {
             list_window: (0, 0.0),
             ideal: false,
             stamp: new_stamp(),
+            changed: false,
         };
         if let Some(i) = system.first_wall_overlap() {
             return Err(McError::WallOverlap(i));
@@ -394,7 +399,7 @@ impl System {
     /// Switches overlap tests off (an ideal gas of the same particles), for
     /// checking the volume-move statistics.
     pub fn set_ideal(&mut self, ideal: bool) {
-        self.stamp = new_stamp();
+        self.changed = true;
         self.ideal = ideal;
     }
 
@@ -414,10 +419,15 @@ impl System {
     }
 
     /// An identity of the state: a system and a clone of it have the same
-    /// stamp until either changes (every move placed and every box rescaled
-    /// takes a fresh one). Replicas kept for parallel sweeps are reused
-    /// while the system's stamp is the one they were synchronised at.
-    pub fn stamp(&self) -> u64 {
+    /// stamp until either changes (a stamp asked for after any move placed
+    /// or box rescaled is a fresh one). Replicas kept for parallel sweeps
+    /// are reused while the system's stamp is the one they were
+    /// synchronised at.
+    pub fn stamp(&mut self) -> u64 {
+        if self.changed {
+            self.stamp = new_stamp();
+            self.changed = false;
+        }
         self.stamp
     }
 
@@ -689,7 +699,7 @@ impl System {
         orientation: UnitQuaternion<f64>,
         rotation: Matrix3<f64>,
     ) {
-        self.stamp = new_stamp();
+        self.changed = true;
         let position = self.box_.wrap_near(&position);
         let step = self
             .box_
@@ -798,7 +808,7 @@ impl System {
             return false;
         }
         *self = trial;
-        self.stamp = new_stamp();
+        self.changed = true;
         true
     }
 }
