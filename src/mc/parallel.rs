@@ -195,34 +195,40 @@ impl ParallelSweeps {
         let first = usize::from(master.r#gen::<bool>());
         let colours = [first, 1 - first];
         let team = threads.min(slabs / 2);
-        // The moves of one slab, on the system of the thread that owns it.
-        let sweep_slab = |system: &mut System, colour: usize, k: usize, moved: &mut Vec<usize>| {
-            let members = &order[start[k]..start[k + 1]];
-            if members.is_empty() {
-                return Counts::default();
-            }
-            let mut rng = stream(seed, sweep_index, colour as u64, k as u64);
-            let box_ = *system.periodic_box();
-            particle_moves(
-                system,
-                members.len(),
-                |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
-                sizes,
-                &mut rng,
-                |r| slab_of(&box_.wrap_near(r)) == k,
-                |i| moved.push(i),
-            )
-        };
+        // The moves of one slab, on the system of the thread that owns it;
+        // the particles moved are listed in `moved` when other threads need
+        // to hear of them.
+        let sweep_slab =
+            |system: &mut System, colour: usize, k: usize, mut moved: Option<&mut Vec<usize>>| {
+                let members = &order[start[k]..start[k + 1]];
+                if members.is_empty() {
+                    return Counts::default();
+                }
+                let mut rng = stream(seed, sweep_index, colour as u64, k as u64);
+                let box_ = *system.periodic_box();
+                particle_moves(
+                    system,
+                    members.len(),
+                    |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
+                    sizes,
+                    &mut rng,
+                    |r| slab_of(&box_.wrap_near(r)) == k,
+                    |i| {
+                        if let Some(moved) = moved.as_mut() {
+                            moved.push(i);
+                        }
+                    },
+                )
+            };
         // The slabs of a colour a thread sweeps: contiguous shares.
         let share = (slabs / 2).div_ceil(team);
         let slabs_of =
             move |colour: usize, me: usize| (colour..slabs).step_by(2).skip(me * share).take(share);
         let mut counts = Counts::default();
         if team == 1 {
-            let mut moved = Vec::new();
             for colour in colours {
                 for k in slabs_of(colour, 0) {
-                    counts += sweep_slab(system, colour, k, &mut moved);
+                    counts += sweep_slab(system, colour, k, None);
                 }
             }
         } else {
@@ -240,7 +246,7 @@ impl ParallelSweeps {
                 for colour in colours {
                     moved.clear();
                     for k in slabs_of(colour, me) {
-                        counts += sweep_slab(system, colour, k, &mut moved);
+                        counts += sweep_slab(system, colour, k, Some(&mut moved));
                     }
                     {
                         let mut outbox = outboxes[me].write().expect("no thread panicked");
