@@ -1978,12 +1978,11 @@ impl Dynamics {
     ) -> Option<(f64, usize)> {
         let mut earliest = None;
         for j in others {
-            match self.closed_form_contact(i, j) {
-                Some(t) if t < horizon.min(self.bodies[j].horizon) => {
-                    earliest = Some((t, j));
-                    horizon = t;
-                }
-                _ => {}
+            // +∞ for pairs that never meet: no branch on whether they do.
+            let t = self.closed_form_contact(i, j);
+            if t < horizon.min(self.bodies[j].horizon) {
+                earliest = Some((t, j));
+                horizon = t;
             }
         }
         earliest
@@ -1999,16 +1998,19 @@ impl Dynamics {
     }
 
     /// The contact time of two spheres, `i` at the current time (absolute,
-    /// `None` if they never touch).
+    /// +∞ if they never touch).
     #[inline(always)]
-    fn closed_form_contact(&self, i: usize, j: usize) -> Option<f64> {
+    fn closed_form_contact(&self, i: usize, j: usize) -> f64 {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
         // One species: its contact distance, without reading the partner's
         // second cache line.
         let sigma = if self.kinds.len() == 1 {
-            self.contact_sums[0]?
+            self.contact_sums[0]
         } else {
-            self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]?
+            self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]
+        };
+        let Some(sigma) = sigma else {
+            return f64::INFINITY;
         };
         // From the later of the two stored poses, whenever the search runs:
         // the same bits for the same poses (see `closed_form`).
@@ -2024,7 +2026,7 @@ impl Dynamics {
             (bj.time, bj.position - ri)
         };
         let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
-        crate::geometry::pair::sphere_contact_time(&d, &dv, sigma).map(|t| (t0 + t).max(self.now))
+        (t0 + crate::geometry::pair::sphere_contact_time_or_never(&d, &dv, sigma)).max(self.now)
     }
 
     /// The contact time of bodies `i` and `j` if it comes before

@@ -57,12 +57,63 @@ pub fn contact_time(d: &Vector3<f64>, v: &Vector3<f64>, sigma: f64) -> Option<f6
     Some((c / (-b + disc.sqrt())).max(0.0))
 }
 
+/// [`contact_time`] without branches on the pair: +∞ where that is
+/// `None`, the same bits where it is `Some`. For scans over many partners
+/// (the event-driven dynamics' sphere searches), where whether a pair
+/// approaches is a coin toss the branch predictor loses half the time.
+#[inline(always)]
+pub fn contact_time_or_never(d: &Vector3<f64>, v: &Vector3<f64>, sigma: f64) -> f64 {
+    let b = d.dot(v);
+    let c = d.norm_squared() - sigma * sigma;
+    let v2 = v.norm_squared();
+    let disc = b * b - v2 * c;
+    // Computed whatever the signs (a receding or missing pair gives a
+    // meaningless number, or NaN), then selected.
+    let t = (c / (-b + disc.max(0.0).sqrt())).max(0.0);
+    let meets = (b < 0.0) & (disc >= 0.0);
+    select(meets, t, f64::INFINITY)
+}
+
+/// `if pick { a } else { b }` by bit masks: no branch.
+#[inline(always)]
+fn select(pick: bool, a: f64, b: f64) -> f64 {
+    let mask = (pick as u64).wrapping_neg();
+    f64::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     /// Head-on and oblique approaches touch exactly at the predicted time;
     /// receding and missing pairs never do.
+    /// The branch-free form gives the same bits as the plain one, and +∞
+    /// exactly where that gives `None`, over random approaches, recessions,
+    /// misses, grazes, touching and overlapping pairs.
+    #[test]
+    fn branch_free_contact_time_is_the_same() {
+        let mut u = crate::test_support::uniform(5);
+        let mut met = 0;
+        for k in 0..20_000 {
+            let d = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 4.0;
+            let mut v = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+            if k % 7 == 0 {
+                v = Vector3::zeros();
+            }
+            let sigma = if k % 5 == 0 { d.norm() } else { 1.0 };
+            let plain = contact_time(&d, &v, sigma);
+            let free = contact_time_or_never(&d, &v, sigma);
+            match plain {
+                Some(t) => {
+                    met += 1;
+                    assert_eq!(t.to_bits(), free.to_bits(), "{d} {v} {sigma}");
+                }
+                None => assert_eq!(free, f64::INFINITY, "{d} {v} {sigma}"),
+            }
+        }
+        assert!(met > 2_000, "{met} pairs met");
+    }
+
     #[test]
     fn contact_time_is_exact() {
         let sigma = 1.5;
