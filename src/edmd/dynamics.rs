@@ -2130,35 +2130,59 @@ fn link_overlapping(
     let centre = spheres.centres[i];
     let si = bodies[i].species as usize;
     let reach = spheres.reach[si];
+    // The bodies whose spheres overlap i's are gathered without a branch
+    // per candidate (a few in ten of the cells' members are, at random: a
+    // branch on it mispredicts often), then linked.
+    let mut near = [0u32; 64];
+    let mut count = 0;
     for &nc in cells.neighbour_cells(cells.cell_of(i)) {
         for &j in cells.members(nc as usize) {
-            let j = j as usize;
-            if j == i || (after && j < i) {
-                continue;
-            }
-            let sj = bodies[j].species as usize;
+            let sj = bodies[j as usize].species as usize;
             // Centres are wrapped into the box: the near form of the minimum
             // image (no rounding call) and squared lengths serve the many
             // candidates of long bodies' wide cells.
-            let d = box_.minimum_image_near(&(spheres.centres[j] - centre));
+            let d = box_.minimum_image_near(&(spheres.centres[j as usize] - centre));
             let contact = reach + spheres.reach[sj];
-            if d.norm_squared() > contact * contact {
+            let wanted = (j as usize != i) & !(after & ((j as usize) < i));
+            near[count] = j;
+            count += (wanted & (d.norm_squared() <= contact * contact)) as usize;
+            if count == near.len() {
+                link_near(i, &near, box_, bodies, spheres);
+                count = 0;
+            }
+        }
+    }
+    link_near(i, &near[..count], box_, bodies, spheres);
+}
+
+/// Links body `i` to each of `near` (bodies whose neighbour spheres
+/// overlap its own) whose neighbour box, where there are boxes, overlaps
+/// its own.
+fn link_near(
+    i: usize,
+    near: &[u32],
+    box_: &PeriodicBox,
+    bodies: &[Body],
+    spheres: &mut NeighbourSpheres,
+) {
+    let si = bodies[i].species as usize;
+    for &j in near {
+        let j = j as usize;
+        if let Some((half, axes)) = &spheres.boxes {
+            let sj = bodies[j].species as usize;
+            let d = box_.minimum_image_near(&(spheres.centres[j] - spheres.centres[i]));
+            // The 15-axis test in i's box frame (De Michele eqs. 62–64).
+            let apart = !crate::geometry::obb::boxes_overlap(
+                &half[si],
+                &half[sj],
+                &axes[i].tr_mul(&axes[j]),
+                &axes[i].tr_mul(&d),
+            );
+            if apart {
                 continue;
             }
-            if let Some((half, axes)) = &spheres.boxes {
-                // The 15-axis test in i's box frame (De Michele eqs. 62–64).
-                let apart = !crate::geometry::obb::boxes_overlap(
-                    &half[si],
-                    &half[sj],
-                    &axes[i].tr_mul(&axes[j]),
-                    &axes[i].tr_mul(&d),
-                );
-                if apart {
-                    continue;
-                }
-            }
-            spheres.lists.link(i, j);
         }
+        spheres.lists.link(i, j);
     }
 }
 
