@@ -712,7 +712,11 @@ impl Dynamics {
             .map_err(|e| bad(format!("box: {e}")))?
             .with_walls(dump.walls);
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
-        let system = System::new(box_, species.to_vec(), particles)?;
+        let tolerance = Predictor::new(options.predictor).contact_tolerance();
+        let touching = |i: usize, j: usize| {
+            pair_touches(&box_, species, &particles[i], &particles[j], tolerance)
+        };
+        let system = System::with_contacts(box_, species.to_vec(), particles.clone(), touching)?;
         let mut dynamics =
             Self::assemble(&system, species.to_vec(), kinds, bodies, options, dump.now)?;
         dynamics.origin = dump.time_origin;
@@ -1049,7 +1053,18 @@ impl Dynamics {
     /// The current state as an MC system: building it checks, independently
     /// of the predictions, that no two bodies overlap.
     pub fn to_system(&self) -> Result<System, McError> {
-        System::new(self.box_, self.species.clone(), self.particles())
+        let particles = self.particles();
+        let tolerance = self.predictor.contact_tolerance();
+        let touching = |i: usize, j: usize| {
+            pair_touches(
+                &self.box_,
+                &self.species,
+                &particles[i],
+                &particles[j],
+                tolerance,
+            )
+        };
+        System::with_contacts(self.box_, self.species.clone(), particles.clone(), touching)
     }
 
     /// Runs until the simulated time reaches `t_end` (bodies are then
@@ -2214,6 +2229,34 @@ fn body_pose(kinds: &[Kind], b: &Body, t: f64) -> (V3, UnitQuaternion<f64>) {
 }
 
 /// The bodies as particles at time `now`, centres wrapped into the box.
+/// Whether particles `a` and `b` are at most touching: their signed
+/// distance, by the geometry layer's distance kernel (the one the
+/// predictions follow), is no deeper than `tolerance` times the smaller
+/// body's smallest half-extent (the contact tolerance of the dynamics).
+fn pair_touches(
+    box_: &PeriodicBox,
+    species: &[Species],
+    a: &Particle,
+    b: &Particle,
+    tolerance: f64,
+) -> bool {
+    let (sa, sb) = (
+        &species[a.species as usize].shape,
+        &species[b.species as usize].shape,
+    );
+    let d = box_.minimum_image(&(b.position - a.position));
+    let rel = Relative::new(&d, &a.orientation, &b.orientation);
+    let contact = crate::geometry::distance(
+        sa,
+        sb,
+        &rel,
+        &crate::geometry::DistanceOptions::default(),
+        None,
+    );
+    let scale = sa.min_half_extent().min(sb.min_half_extent());
+    contact.distance >= -tolerance * scale
+}
+
 fn particles_at(box_: &PeriodicBox, kinds: &[Kind], bodies: &[Body], now: f64) -> Vec<Particle> {
     bodies
         .iter()

@@ -284,6 +284,22 @@ impl System {
         species: Vec<Species>,
         particles: Vec<Particle>,
     ) -> Result<Self, McError> {
+        Self::with_contacts(box_, species, particles, |_, _| false)
+    }
+
+    /// As [`System::new`], except that pairs (i < j) for which
+    /// `touching(i, j)` holds are let through where the overlap kernels
+    /// count them as overlapping: a state of the event-driven dynamics
+    /// holds the pair of its last collision touching to round-off, which
+    /// another kernel's arithmetic may put either side of contact. A move
+    /// of such a particle is then judged against its partner as usual
+    /// (moves that part them are accepted).
+    pub fn with_contacts(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+        touching: impl Fn(usize, usize) -> bool,
+    ) -> Result<Self, McError> {
         if particles.is_empty() {
             return Err(McError::Empty);
         }
@@ -359,8 +375,8 @@ impl System {
         for i in 0..system.len() {
             let p = &system.particles[i];
             if system.overlaps_at(i, &p.position, &system.rotations[i]) {
-                let j = (0..system.len())
-                    .find(|&j| {
+                let partners: Vec<usize> = (0..system.len())
+                    .filter(|&j| {
                         j != i
                             && system.pair_overlaps(
                                 i,
@@ -371,8 +387,12 @@ impl System {
                                 &system.rotations[j],
                             )
                     })
-                    .unwrap_or(i);
-                return Err(McError::Overlap(i.min(j), i.max(j)));
+                    .collect();
+                match partners.iter().find(|&&j| !touching(i.min(j), i.max(j))) {
+                    Some(&j) => return Err(McError::Overlap(i.min(j), i.max(j))),
+                    None if partners.is_empty() => return Err(McError::Overlap(i, i)),
+                    None => {} // Touching partners only.
+                }
             }
         }
         Ok(system)
@@ -872,6 +892,47 @@ mod tests {
             orientation: UnitQuaternion::identity(),
             species: 0,
         }
+    }
+
+    /// Spheres exactly in contact count as overlapping for the kernels;
+    /// `with_contacts` lets through the pairs its judge calls touching,
+    /// and only those: a deeper pair is still named.
+    #[test]
+    fn touching_pairs_are_let_through_only_when_judged_touching() {
+        let species = vec![Species {
+            name: "s".into(),
+            shape: "Sphere(radius: 0.5)".parse().unwrap(),
+            rotation: false,
+        }];
+        let box_ = PeriodicBox::new(V3::repeat(6.0)).unwrap();
+        let particles = vec![
+            sphere_at(-2.0),
+            sphere_at(-1.0),
+            sphere_at(1.0),
+            sphere_at(1.9),
+        ];
+        assert_eq!(
+            System::new(box_, species.clone(), particles.clone()).unwrap_err(),
+            McError::Overlap(0, 1)
+        );
+        // A judge by the distance of centres, to a tolerance.
+        let touching = |i: usize, j: usize| {
+            let d = (particles[j].position - particles[i].position).norm();
+            (d - 1.0).abs() <= 1e-12
+        };
+        assert_eq!(
+            System::with_contacts(box_, species.clone(), particles.clone(), touching).unwrap_err(),
+            McError::Overlap(2, 3)
+        );
+        let apart = vec![particles[0], particles[1], particles[2]];
+        let system = System::with_contacts(box_, species, apart, touching).unwrap();
+        assert_eq!(system.len(), 3);
+        // A move of a touching sphere is judged as usual: into its partner
+        // rejected, away from it accepted.
+        let (into, away) = (V3::new(-1.2, 0.0, 0.0), V3::new(-0.8, 0.0, 0.0));
+        let r = Matrix3::identity();
+        assert!(system.overlaps_at(1, &into, &r));
+        assert!(!system.overlaps_at(1, &away, &r));
     }
 
     #[test]
