@@ -391,8 +391,12 @@ impl Predictor {
         };
         let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Search, String> {
             // The lower end's value may be a lower bound on the distance
-            // (all the stepping needed); the root finder needs the distance.
-            let mut lo = (lo.0, dist(lo.0));
+            // (all the stepping needed); the root finder needs the distance
+            // (and Newton below the solution there).
+            let mut lo = match last.get() {
+                Some((at, c)) if at == lo.0 => (lo.0, c.distance),
+                _ => (lo.0, dist(lo.0)),
+            };
             failed(lo.1)?;
             let mut hi = hi;
             if lo.1 > 0.0 && lo.1 <= tol {
@@ -432,11 +436,45 @@ impl Predictor {
                     return Ok(Search::Contact(touching));
                 }
             }
-            let (lo, f_lo, _, f_hi, _) = narrow_sign_change(&dist, lo, hi, tol, 200);
+            // Newton's method in τ from the end where the pair is apart:
+            // the reduced form of the paper's Newton–Raphson on eqs.
+            // (30)–(31). Each distance solves the contact equations at
+            // fixed τ (eq. 9), and its derivative is exact without
+            // differentiating them: d′(τ) = −(closing speed of the contact
+            // points along the normal), the envelope theorem. Near a
+            // contact the distance bends up (it is convex for bodies that
+            // only translate), so the steps stay on the apart side and
+            // converge quadratically; a step that overshoots into overlap,
+            // or a pair that is not closing, hands the bracket to the
+            // regula falsi below.
+            let mut newton_steps = 0;
+            while lo.1 > tol && newton_steps < 8 {
+                newton_steps += 1;
+                let slope = -closing_speed(lo.0);
+                let next = lo.0 - lo.1 / slope;
+                if !(slope < 0.0 && next > lo.0 && next < hi.0) {
+                    break;
+                }
+                let d_next = dist(next);
+                failed(d_next)?;
+                if d_next >= 0.0 {
+                    lo = (next, d_next);
+                } else {
+                    hi = (next, d_next);
+                    break;
+                }
+            }
+            let (lo, f_lo, _, f_hi, _) = if lo.1 > tol {
+                narrow_sign_change(&dist, lo, hi, tol, 200)
+            } else {
+                (lo.0, lo.1, hi.0, hi.1, 0)
+            };
             failed(f_lo)?;
             failed(f_hi)?;
-            // The solution at lo (the last evaluation may have been at hi).
-            failed(dist(lo))?;
+            // The solution at lo (unless the last evaluation was there).
+            if last.get().map(|(t, _)| t) != Some(lo) {
+                failed(dist(lo))?;
+            }
             self.found.set(warm.get());
             Ok(Search::Contact(lo))
         };
