@@ -1260,12 +1260,16 @@ impl Dynamics {
         // pair: the same bits for the same collision (see `closed_form`).
         let (i, j) = (i.min(j), i.max(j));
         // A collision that fails leaves both bodies as they were, so that a
-        // dump taken then replays it (see `DynamicsDump`).
-        let kept = [i, j].map(|k| (self.bodies[k], self.cell_shifts[k], self.images[k]));
+        // dump taken then replays it (see `DynamicsDump`). Two spheres are
+        // checked before anything changes; bodies are kept aside.
+        let spheres = self.contact_sums[self.pair_index(i, j)].is_some();
+        let kept = (!spheres)
+            .then(|| [i, j].map(|k| (self.bodies[k], self.cell_shifts[k], self.images[k])));
         let impulse = match self.impulse_at_contact(i, j) {
             Ok(impulse) => impulse,
             Err(e) => {
-                for (k, (body, shift, image)) in [i, j].into_iter().zip(kept) {
+                for (k, (body, shift, image)) in [i, j].into_iter().zip(kept.into_iter().flatten())
+                {
                     (self.bodies[k], self.cell_shifts[k], self.images[k]) = (body, shift, image);
                 }
                 return Err(e);
@@ -1300,12 +1304,30 @@ impl Dynamics {
     /// impulse; returns (r_B − r_A)·J n̂ for the virial. Changes nothing
     /// but the two bodies, and their velocities only if it succeeds.
     fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<f64, EdmdError> {
-        self.advance(i);
-        self.advance(j);
         let (si, sj) = (
             self.bodies[i].species as usize,
             self.bodies[j].species as usize,
         );
+        let sphere_contact = self.contact_sums[self.pair_index(i, j)];
+        if let Some(sigma) = sphere_contact {
+            // Two spheres touch now, checked before either is touched (the
+            // positions `advance` will store, to the bit).
+            let now = |k: usize| {
+                let b = &self.bodies[k];
+                position_after(&b.position, &b.velocity, self.now - b.time)
+            };
+            let gap = self.box_.minimum_image(&(now(j) - now(i))).norm() - sigma;
+            if gap.abs() > 1e-9 * sigma {
+                return Err(EdmdError::ContactMismatch {
+                    i,
+                    j,
+                    time: self.time(),
+                    distance: gap,
+                });
+            }
+        }
+        self.advance(i);
+        self.advance(j);
         let d = self
             .box_
             .minimum_image(&(self.bodies[j].position - self.bodies[i].position));
@@ -1328,17 +1350,8 @@ impl Dynamics {
             self.bodies[k].position = wrapped;
             self.cell_shifts[k] = V3::zeros();
         }
-        let impulse = if let Some(sigma) = self.contact_sums[si * self.kinds.len() + sj] {
+        let impulse = if sphere_contact.is_some() {
             let len = d.norm();
-            let gap = len - sigma;
-            if gap.abs() > 1e-9 * sigma {
-                return Err(EdmdError::ContactMismatch {
-                    i,
-                    j,
-                    time: self.time(),
-                    distance: gap,
-                });
-            }
             let normal = d / len;
             let (mi, mj) = (self.kinds[si].inverse_mass, self.kinds[sj].inverse_mass);
             let (a, b) = pair_mut(&mut self.bodies, i, j);
@@ -2010,6 +2023,13 @@ impl Dynamics {
             self.bodies[i].horizon = t;
             self.calendar.schedule(t, EventKind::Collision, i, j);
         }
+    }
+
+    /// Where the species pair of bodies `i` and `j` sits in
+    /// `contact_sums`.
+    #[inline]
+    fn pair_index(&self, i: usize, j: usize) -> usize {
+        self.bodies[i].species as usize * self.kinds.len() + self.bodies[j].species as usize
     }
 
     /// The contact time of two spheres, `i` at the current time (absolute,
