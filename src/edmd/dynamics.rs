@@ -2170,9 +2170,16 @@ fn link_overlapping(
     // branch on it mispredicts often), then linked.
     let mut near = [0u32; 64];
     let mut count = 0;
+    // One species: its reach, without reading the second cache line of
+    // every candidate's body for its species.
+    let one_kind = spheres.reach.len() == 1;
     for &nc in cells.neighbour_cells(cells.cell_of(i)) {
         for &j in cells.members(nc as usize) {
-            let sj = bodies[j as usize].species as usize;
+            let sj = if one_kind {
+                0
+            } else {
+                bodies[j as usize].species as usize
+            };
             // Centres are wrapped into the box: the near form of the minimum
             // image (no rounding call) and squared lengths serve the many
             // candidates of long bodies' wide cells.
