@@ -1292,6 +1292,11 @@ impl Dynamics {
         // Found, it is `i`'s earliest collision, in place of the one its
         // search found: `i`'s horizon, so that if `j` changes first, `i`'s
         // search is renewed there (see `process_next`).
+        // Two spheres that have just collided recede for ever on their
+        // straight lines (|d + Δv t|² grows once d·Δv > 0): nothing to search.
+        if spheres {
+            return Ok(());
+        }
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
         if let PairSearch::Contact(t, warm) = self.predict_pair(i, j, horizon, u32::MAX, None)? {
             self.bodies[i].horizon = t;
@@ -1304,10 +1309,7 @@ impl Dynamics {
     /// impulse; returns (r_B − r_A)·J n̂ for the virial. Changes nothing
     /// but the two bodies, and their velocities only if it succeeds.
     fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<f64, EdmdError> {
-        let (si, sj) = (
-            self.bodies[i].species as usize,
-            self.bodies[j].species as usize,
-        );
+        let (si, sj) = (self.species_of(i), self.species_of(j));
         let sphere_contact = self.contact_sums[self.pair_index(i, j)];
         if let Some(sigma) = sphere_contact {
             // Two spheres touch now, checked before either is touched (the
@@ -2029,7 +2031,18 @@ impl Dynamics {
     /// `contact_sums`.
     #[inline]
     fn pair_index(&self, i: usize, j: usize) -> usize {
-        self.bodies[i].species as usize * self.kinds.len() + self.bodies[j].species as usize
+        self.species_of(i) * self.kinds.len() + self.species_of(j)
+    }
+
+    /// Body `k`'s species; with one species, without reading the body's
+    /// second cache line, which spheres need for nothing else.
+    #[inline]
+    fn species_of(&self, k: usize) -> usize {
+        if self.kinds.len() == 1 {
+            0
+        } else {
+            self.bodies[k].species as usize
+        }
     }
 
     /// The contact time of two spheres, `i` at the current time (absolute,
