@@ -886,6 +886,16 @@ mod tests {
         }
     }
 
+    /// One species of spheres of diameter 1, and a periodic box of edge 6.
+    fn unit_spheres_in_a_box_of_six() -> (Vec<Species>, PeriodicBox) {
+        let species = vec![Species {
+            name: "s".into(),
+            shape: "Sphere(radius: 0.5)".parse().unwrap(),
+            rotation: false,
+        }];
+        (species, PeriodicBox::new(V3::repeat(6.0)).unwrap())
+    }
+
     fn sphere_at(x: f64) -> Particle {
         Particle {
             position: V3::new(x, 0.0, 0.0),
@@ -899,12 +909,7 @@ mod tests {
     /// and only those: a deeper pair is still named.
     #[test]
     fn touching_pairs_are_let_through_only_when_judged_touching() {
-        let species = vec![Species {
-            name: "s".into(),
-            shape: "Sphere(radius: 0.5)".parse().unwrap(),
-            rotation: false,
-        }];
-        let box_ = PeriodicBox::new(V3::repeat(6.0)).unwrap();
+        let (species, box_) = unit_spheres_in_a_box_of_six();
         let particles = vec![
             sphere_at(-2.0),
             sphere_at(-1.0),
@@ -937,12 +942,7 @@ mod tests {
 
     #[test]
     fn construction_names_the_overlapping_pair_and_bad_input() {
-        let species = vec![Species {
-            name: "s".into(),
-            shape: "Sphere(radius: 0.5)".parse().unwrap(),
-            rotation: false,
-        }];
-        let box_ = PeriodicBox::new(V3::repeat(6.0)).unwrap();
+        let (species, box_) = unit_spheres_in_a_box_of_six();
         let particles = vec![
             sphere_at(-2.0),
             sphere_at(0.0),
