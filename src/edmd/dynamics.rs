@@ -713,10 +713,7 @@ impl Dynamics {
             .with_walls(dump.walls);
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         let tolerance = Predictor::new(options.predictor).contact_tolerance();
-        let touching = |i: usize, j: usize| {
-            pair_touches(&box_, species, &particles[i], &particles[j], tolerance)
-        };
-        let system = System::with_contacts(box_, species.to_vec(), particles.clone(), touching)?;
+        let system = system_of(box_, species, particles, tolerance)?;
         let mut dynamics =
             Self::assemble(&system, species.to_vec(), kinds, bodies, options, dump.now)?;
         dynamics.origin = dump.time_origin;
@@ -1053,18 +1050,8 @@ impl Dynamics {
     /// The current state as an MC system: building it checks, independently
     /// of the predictions, that no two bodies overlap.
     pub fn to_system(&self) -> Result<System, McError> {
-        let particles = self.particles();
         let tolerance = self.predictor.contact_tolerance();
-        let touching = |i: usize, j: usize| {
-            pair_touches(
-                &self.box_,
-                &self.species,
-                &particles[i],
-                &particles[j],
-                tolerance,
-            )
-        };
-        System::with_contacts(self.box_, self.species.clone(), particles.clone(), touching)
+        system_of(self.box_, &self.species, self.particles(), tolerance)
     }
 
     /// Runs until the simulated time reaches `t_end` (bodies are then
@@ -1311,14 +1298,16 @@ impl Dynamics {
     fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<f64, EdmdError> {
         let (si, sj) = (self.species_of(i), self.species_of(j));
         let sphere_contact = self.contact_sums[self.pair_index(i, j)];
+        // The separation now, from the positions `advance` will store (to
+        // the bit), before either body is touched.
+        let now = |k: usize| {
+            let b = &self.bodies[k];
+            position_after(&b.position, &b.velocity, self.now - b.time)
+        };
+        let d = self.box_.minimum_image(&(now(j) - now(i)));
         if let Some(sigma) = sphere_contact {
-            // Two spheres touch now, checked before either is touched (the
-            // positions `advance` will store, to the bit).
-            let now = |k: usize| {
-                let b = &self.bodies[k];
-                position_after(&b.position, &b.velocity, self.now - b.time)
-            };
-            let gap = self.box_.minimum_image(&(now(j) - now(i))).norm() - sigma;
+            // Two spheres touch now.
+            let gap = d.norm() - sigma;
             if gap.abs() > 1e-9 * sigma {
                 return Err(EdmdError::ContactMismatch {
                     i,
@@ -1330,9 +1319,6 @@ impl Dynamics {
         }
         self.advance(i);
         self.advance(j);
-        let d = self
-            .box_
-            .minimum_image(&(self.bodies[j].position - self.bodies[i].position));
         // New stored poses: wrapped into the box here, and only here;
         // with cells, in the image of the body's cell.
         for k in [i, j] {
@@ -2052,14 +2038,7 @@ impl Dynamics {
     #[inline(always)]
     fn closed_form_contact(&self, i: usize, j: usize) -> f64 {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-        // One species: its contact distance, without reading the partner's
-        // second cache line.
-        let sigma = if self.kinds.len() == 1 {
-            self.contact_sums[0]
-        } else {
-            self.contact_sums[bi.species as usize * self.kinds.len() + bj.species as usize]
-        };
-        let Some(sigma) = sigma else {
+        let Some(sigma) = self.contact_sums[self.pair_index(i, j)] else {
             return f64::INFINITY;
         };
         // From the later of the two stored poses, whenever the search runs:
@@ -2270,7 +2249,6 @@ fn body_pose(kinds: &[Kind], b: &Body, t: f64) -> (V3, UnitQuaternion<f64>) {
     (r, q)
 }
 
-/// The bodies as particles at time `now`, centres wrapped into the box.
 /// Asks for the first cache line of each listed body (all a sphere search
 /// reads of it) at once, before the search reads them one after another.
 #[inline]
@@ -2288,6 +2266,20 @@ fn prefetch_bodies(bodies: &[Body], list: &[u32]) {
             }
         }
     }
+}
+
+/// The particles as an MC system, checked to be overlap-free, pairs that
+/// touch to the dynamics' contact `tolerance` let through (see
+/// [`System::with_contacts`]).
+fn system_of(
+    box_: PeriodicBox,
+    species: &[Species],
+    particles: Vec<Particle>,
+    tolerance: f64,
+) -> Result<System, McError> {
+    let touching =
+        |i: usize, j: usize| pair_touches(&box_, species, &particles[i], &particles[j], tolerance);
+    System::with_contacts(box_, species.to_vec(), particles.clone(), touching)
 }
 
 /// Whether particles `a` and `b` are at most touching: their signed
@@ -2318,6 +2310,7 @@ fn pair_touches(
     contact.distance >= -tolerance * scale
 }
 
+/// The bodies as particles at time `now`, centres wrapped into the box.
 fn particles_at(box_: &PeriodicBox, kinds: &[Kind], bodies: &[Body], now: f64) -> Vec<Particle> {
     bodies
         .iter()
