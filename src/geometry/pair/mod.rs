@@ -111,7 +111,9 @@ pub enum Method {
     Gjk,
     /// Expanding polytope after GJK (penetration depth).
     Epa,
-    /// 15-axis separating-axis test (cuboid penetration depth).
+    /// 15-axis separating-axis test (cuboid penetration depth, and the
+    /// distance where the features of the largest separation face each
+    /// other).
     SeparatingAxes,
     /// Largest gap between support planes over a cuboid's features (exact
     /// cuboid–smooth distance near contact).
@@ -497,7 +499,7 @@ pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
         }
         (Cuboid(_), Cuboid(_)) => (
             "separating axes (15)",
-            "GJK; largest axis separation when overlapping",
+            "largest axis separation where its features face (and overlapping); GJK",
         ),
         (Sphere(_) | Ellipsoid(_), Sphere(_) | Ellipsoid(_)) => (
             "OBB, then Perram-Wertheim",
