@@ -56,10 +56,8 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
     {
         return by_axes(points);
     }
-    if sep < -DEEPLY_OVERLAPPING * size {
-        // No rounding of the axes (1e-16/ℓ for ℓ ≥ 1e-9, and a skipped
-        // axis of nearly parallel edges is covered by the face axes to
-        // within ℓ times the size) reaches this deep: overlapping.
+    if sep < -rounding_of_axes(rel, size) {
+        // Overlapping beyond the error of any axis.
         return by_axes(feature_points(&ha, &hb, rel, sep, &axis, feature));
     }
     if overlap(a, b, rel) {
@@ -96,9 +94,25 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
     }
 }
 
-/// Separations along the axes below this fraction of the pair's size are
-/// left to the closest features to judge (see [`distance`]).
-const DEEPLY_OVERLAPPING: f64 = 1e-6;
+/// A bound on the rounding error of the separations along the 15 axes:
+/// a few roundings of the pair's `size` for a face axis, divided by ℓ for
+/// a cross axis e × R of length ℓ. An axis shorter than 1e-9 is skipped
+/// (edges that parallel leave the face axes to stand in for it, to within
+/// ℓ times the size), and then the bound is that of ℓ = 1e-9 for all.
+/// Overlaps shallower than this are left to the closest features to judge
+/// (see [`distance`]).
+fn rounding_of_axes(rel: &Relative, size: f64) -> f64 {
+    let r = &rel.rotation;
+    let mut shortest_squared = f64::INFINITY;
+    for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        for j in 0..3 {
+            shortest_squared =
+                shortest_squared.min(r[(i1, j)] * r[(i1, j)] + r[(i2, j)] * r[(i2, j)]);
+        }
+    }
+    64.0 * f64::EPSILON * size / shortest_squared.sqrt().max(1e-9)
+}
 
 /// Where the features that separate the boxes most along `axis` (by
 /// `sep` > 0) face each other: a point of each box, `sep` apart to
@@ -601,6 +615,7 @@ mod tests {
     /// enumeration) to rounding, its points lie on the boxes that far
     /// apart, and the axes decide a good share of the pairs (the test
     /// fails if the path is never taken, or taken where it should not be).
+    /// Pushed in by the gap, they overlap by at most the gap.
     #[test]
     fn facing_features_give_the_exact_distance() {
         use rand::{Rng, SeedableRng};
@@ -672,6 +687,19 @@ mod tests {
                 let apart = (c.point_b - c.point_a).norm();
                 assert!((apart - c.distance).abs() <= 1e-14 * size, "case {case}");
                 assert!((c.normal.norm() - 1.0).abs() < 1e-12);
+            }
+            // Pushed in by the gap instead: overlapping (the centres' line
+            // runs inside the boxes' Minkowski difference up to `hi`), by
+            // at most the gap, never called apart, whether the axes judge
+            // it or the closest features.
+            if gap > 1e-10 {
+                let c = distance(&a, &b, &at(hi - gap), &opts);
+                assert!(
+                    c.distance < 0.0 && c.distance >= -gap * (1.0 + 1e-9) - 1e-14 * size,
+                    "case {case}: pushed in by {gap:e}, distance {:e} by {:?}",
+                    c.distance,
+                    c.method
+                );
             }
             compared += 1;
         }
