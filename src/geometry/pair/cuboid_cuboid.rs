@@ -495,6 +495,18 @@ mod tests {
     use super::*;
     use nalgebra::UnitQuaternion;
 
+    /// Half-extents uniform in [lo, 1).
+    fn random_box(rng: &mut rand_pcg::Pcg64, lo: f64) -> Vector3<f64> {
+        use rand::Rng;
+        Vector3::from_fn(|_, _| rng.gen_range(lo..1.0))
+    }
+
+    /// A vector uniform in the cube [−1, 1)³.
+    fn random_vector(rng: &mut rand_pcg::Pcg64) -> Vector3<f64> {
+        use rand::Rng;
+        Vector3::from_fn(|_, _| rng.gen_range(-1.0..1.0))
+    }
+
     fn patch(b_centre: Vector3<f64>, b_turn: UnitQuaternion<f64>) -> Vec<Vector3<f64>> {
         let a = Cuboid::new(1.0, 1.0, 0.5).unwrap();
         let b = Cuboid::new(0.5, 0.5, 0.5).unwrap();
@@ -564,20 +576,8 @@ mod tests {
         let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
         let mut compared = 0;
         for _ in 0..2000 {
-            let h = |rng: &mut rand_pcg::Pcg64| {
-                Vector3::new(
-                    rng.gen_range(0.1..1.0),
-                    rng.gen_range(0.1..1.0),
-                    rng.gen_range(0.1..1.0),
-                )
-            };
-            let (ha, hb) = (h(&mut rng), h(&mut rng));
-            let axis = Vector3::new(
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-            );
-            let turn = UnitQuaternion::from_scaled_axis(axis * 3.0);
+            let (ha, hb) = (random_box(&mut rng, 0.1), random_box(&mut rng, 0.1));
+            let turn = UnitQuaternion::from_scaled_axis(random_vector(&mut rng) * 3.0);
             let centre = Vector3::new(
                 rng.gen_range(-2.5..2.5),
                 rng.gen_range(-2.5..2.5),
@@ -623,27 +623,10 @@ mod tests {
         let opts = DistanceOptions::default();
         let (mut by_axes, mut compared) = (0, 0);
         for case in 0..4000 {
-            let h = |rng: &mut rand_pcg::Pcg64| {
-                Vector3::new(
-                    rng.gen_range(0.2..1.0),
-                    rng.gen_range(0.2..1.0),
-                    rng.gen_range(0.2..1.0),
-                )
-            };
-            let (ha, hb) = (h(&mut rng), h(&mut rng));
+            let (ha, hb) = (random_box(&mut rng, 0.2), random_box(&mut rng, 0.2));
             let spread = if case % 2 == 0 { 0.05 } else { 3.0 };
-            let axis = Vector3::new(
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-            );
-            let turn = UnitQuaternion::from_scaled_axis(axis * spread);
-            let direction = Vector3::new(
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-            )
-            .normalize();
+            let turn = UnitQuaternion::from_scaled_axis(random_vector(&mut rng) * spread);
+            let direction = random_vector(&mut rng).normalize();
             // Slide B along the direction from the centre until the axes
             // say apart, then out by the gap.
             let gap = 10f64.powf(rng.gen_range(-12.0..0.0));
