@@ -9,7 +9,7 @@ use super::{Contact, DistanceOptions, Method, Relative, Status};
 use nalgebra::Vector3;
 
 use crate::geometry::obb::{SeparatingFeature, boxes_overlap, max_axis_separation_with_feature};
-use crate::geometry::shape::{Cuboid, Shape};
+use crate::geometry::shape::{Cuboid, Shape, Support};
 
 /// Separating-axis test in A's frame.
 #[inline]
@@ -52,13 +52,13 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
     // Lengths the rounding of the axes is measured against.
     let size = rel.translation.norm() + ha.max() + hb.max();
     if sep > 0.0
-        && let Some(points) = facing_features(&ha, &hb, rel, sep, &axis, feature, size)
+        && let Some(points) = facing_features(a, b, rel, sep, &axis, feature, size)
     {
         return by_axes(points);
     }
     if sep < -rounding_of_axes(rel, size) {
         // Overlapping beyond the error of any axis.
-        return by_axes(feature_points(&ha, &hb, rel, sep, &axis, feature));
+        return by_axes(feature_points(a, b, rel, sep, &axis, feature));
     }
     if overlap(a, b, rel) {
         let mut iterations = 0;
@@ -79,7 +79,7 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
         if features.distance > 0.0 && support_gap(&ha, &hb, rel, &features.normal) > 0.0 {
             return features;
         }
-        return by_axes(feature_points(&ha, &hb, rel, sep, &axis, feature));
+        return by_axes(feature_points(a, b, rel, sep, &axis, feature));
     }
     let g = convex::distance(&Shape::Cuboid(*a), &Shape::Cuboid(*b), rel, opts);
     match g.status {
@@ -126,8 +126,8 @@ fn rounding_of_axes(rel: &Relative, size: f64) -> f64 {
 /// axes e × R of length ℓ < 0.1, whose separation carries a rounding error
 /// of about 1e-16 size/ℓ, are left to GJK and the closest features.
 fn facing_features(
-    ha: &Vector3<f64>,
-    hb: &Vector3<f64>,
+    a: &Cuboid,
+    b: &Cuboid,
     rel: &Relative,
     sep: f64,
     axis: &Vector3<f64>,
@@ -140,7 +140,8 @@ fn facing_features(
             return None;
         }
     }
-    let (point_a, point_b) = feature_points(ha, hb, rel, sep, axis, feature);
+    let (ha, hb) = (a.half_extents(), b.half_extents());
+    let (point_a, point_b) = feature_points(a, b, rel, sep, axis, feature);
     let point_a = Vector3::from_fn(|k, _| point_a[k].clamp(-ha[k], ha[k]));
     let in_b = rel.rotation.tr_mul(&(point_b - rel.translation));
     let point_b = rel.b_to_a(&Vector3::from_fn(|k, _| in_b[k].clamp(-hb[k], hb[k])));
@@ -284,17 +285,16 @@ fn closest_features(
 /// deepest vertex and its projection on B's face, or the closest points of
 /// the two edges.
 fn feature_points(
-    ha: &Vector3<f64>,
-    hb: &Vector3<f64>,
+    a: &Cuboid,
+    b: &Cuboid,
     rel: &Relative,
     sep: f64,
     axis: &Vector3<f64>,
     feature: SeparatingFeature,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let box_a = Shape::Cuboid(Cuboid::new(ha.x, ha.y, ha.z).expect("valid"));
-    let box_b = Shape::Cuboid(Cuboid::new(hb.x, hb.y, hb.z).expect("valid"));
-    let vertex_a = box_a.support(axis);
-    let vertex_b = rel.b_to_a(&box_b.support(&rel.rotation.tr_mul(&-axis)));
+    let (ha, hb) = (a.half_extents(), b.half_extents());
+    let vertex_a = a.support(axis);
+    let vertex_b = rel.b_to_a(&b.support(&rel.rotation.tr_mul(&-axis)));
     match feature {
         SeparatingFeature::FaceA(_) => (vertex_b - axis * sep, vertex_b),
         SeparatingFeature::FaceB(_) => (vertex_a, vertex_a + axis * sep),
