@@ -3,6 +3,7 @@
 //! distance for every pair of shapes. Both drivers stand on this layer; it
 //! depends on nothing above it.
 
+pub mod capsule;
 pub mod gjk;
 pub mod implicit;
 pub mod newton;

@@ -14,8 +14,10 @@ pub mod tuning;
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
+use crate::geometry::capsule::{Capsule, bounding_capsule};
 use crate::geometry::{Placed, Relative, Shape, overlap, placed_overlap};
-use crate::space::{AabbCells, PackedCells, PeriodicBox, SphereLists};
+use crate::space::capsule_lists::Segment;
+use crate::space::{AabbCells, CapsuleLists, PackedCells, PeriodicBox, SphereLists};
 
 type V3 = Vector3<f64>;
 
@@ -113,6 +115,10 @@ pub struct NeighbourPlan {
     /// Spheres on one grid: the skin of their Verlet lists
     /// ([`SphereLists`]), the smallest radius times [`SPHERE_SKIN`].
     pub sphere_skin: Option<f64>,
+    /// AABB cells: the padding of the reference capsules of their Verlet
+    /// lists ([`CapsuleLists`]), the smallest thickness times
+    /// [`CAPSULE_PAD`].
+    pub capsule_pad: Option<f64>,
 }
 
 impl NeighbourPlan {
@@ -133,6 +139,13 @@ impl NeighbourPlan {
             size_asymmetric,
             sphere_skin: (one_grid && species.iter().all(|s| s.shape.is_sphere()))
                 .then_some(SPHERE_SKIN * smallest),
+            capsule_pad: (aabb_cells && capsules_fit(species)).then(|| {
+                let thinnest = species
+                    .iter()
+                    .map(|s| 2.0 * s.shape.min_half_extent())
+                    .fold(f64::INFINITY, f64::min);
+                CAPSULE_PAD * thinnest
+            }),
         }
     }
 }
@@ -210,6 +223,37 @@ impl Neighbours {
 /// 0.6 2.1–3.0e6 (moves leave half the skin too often), 0.4 1.6–1.9e6.
 pub const SPHERE_SKIN: f64 = 1.0;
 
+/// The padding of the capsule lists' reference capsules over the
+/// smallest thickness. Measured side by side on one core (ellipsoids
+/// 2.5:0.5:0.5, φ = 0.5, N = 4096, aligned start, moves tuned to 30 %
+/// acceptance): pads of 0.25 and 0.35 1.19–1.24e6 moves/s, 0.5
+/// 0.97–1.10e6, 0.15 keeps to the cells (the moves are too long for
+/// it: 7.6e5); AABB cells alone 8.2–8.5e5.
+pub const CAPSULE_PAD: f64 = 0.25;
+
+/// The most the bounding capsule of a species may hold over the body's
+/// own volume for the capsule lists to be used: cubes (2.7) keep to
+/// their AABB cells, which fit them well. Measured side by side (φ = 0.5,
+/// N = 4096): needles 2.5:0.5:0.5 (capsule 1.4 volumes) 1.42–1.50x faster
+/// on lists on one core, 1.1–1.2x with two threads; oblate ellipsoids
+/// 1:1:0.5 (2.0) 1.95x and 1.4–1.7x; cubes 1.07x on one core but 0.9x with
+/// two threads (every thread places, and relists, every accepted move).
+pub const CAPSULE_FIT: f64 = 2.5;
+
+/// Whether every species fills its bounding capsule well enough for the
+/// capsule lists (see [`CAPSULE_FIT`]).
+fn capsules_fit(species: &[Species]) -> bool {
+    species
+        .iter()
+        .all(|s| bounding_capsule(&s.shape).1.volume() <= CAPSULE_FIT * s.shape.volume())
+}
+
+/// The capsule lists' slack over their pad: how far a body at rest may
+/// have strayed from its reference before it is relisted (then a trial
+/// reaches 2 − 0.6 pads). Measured as [`CAPSULE_PAD`]: 0.6 1.22–1.23e6,
+/// 1.0 1.19–1.22e6 moves/s (more trials beyond the lists).
+pub const CAPSULE_SLACK: f64 = 0.6;
+
 /// Accepted moves per sphere over which the sphere lists are reviewed:
 /// after that many in one box they are built if the moves are short
 /// enough to repay them, dropped if they no longer are. In NVT that is
@@ -254,6 +298,11 @@ pub struct System {
     /// (the cells answer the rest), while the box stays put and the moves
     /// are short (see [`System::review_sphere_lists`]).
     sphere_lists: Option<SphereLists>,
+    /// Bounding capsule per species, with the body axis it lies along.
+    capsules: Vec<(usize, Capsule)>,
+    /// Bodies on AABB cells: Verlet lists over their bounding capsules,
+    /// on the same terms as the sphere lists.
+    capsule_lists: Option<CapsuleLists>,
     /// Accepted moves in this box since the lists were last reviewed, and
     /// the sum of their squared steps.
     list_window: (usize, f64),
@@ -342,6 +391,7 @@ impl System {
             .map(|(p, r)| Placed::new(&species[p.species as usize].shape, r))
             .collect();
         let plan = NeighbourPlan::for_species(&species);
+        let capsules = species.iter().map(|s| bounding_capsule(&s.shape)).collect();
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
         let kinds: Vec<u16> = particles.iter().map(|p| p.species).collect();
         let all_spheres = species.iter().all(|s| s.shape.is_sphere());
@@ -362,6 +412,8 @@ impl System {
             range,
             all_spheres,
             sphere_lists: None,
+            capsules,
+            capsule_lists: None,
             list_window: (0, 0.0),
             ideal: false,
             stamp: new_stamp(),
@@ -462,6 +514,12 @@ impl System {
         self.sphere_lists.is_some()
     }
 
+    /// Whether capsule Verlet lists answer most moves now (bodies on AABB
+    /// cells, once the moves are short; see [`NeighbourPlan::capsule_pad`]).
+    pub fn uses_capsule_lists(&self) -> bool {
+        self.capsule_lists.is_some()
+    }
+
     /// Whether candidates come from AABB cells (elongated or flat species)
     /// rather than range-wide cells.
     pub fn uses_aabb_cells(&self) -> bool {
@@ -489,10 +547,14 @@ impl System {
             Neighbours::Cells(cells) => {
                 cells.any_near(&position, &mut seen);
             }
-            Neighbours::Aabb(cells) => {
-                let h = aabb_half_extents(&self.rotations[i], &self.obb[si]);
-                cells.any_near(&position, &h, |j| seen(j, &position));
-            }
+            Neighbours::Aabb(cells) => match &self.capsule_lists {
+                // Itself included, as the cells count it.
+                Some(lists) => count = lists.of(i).len() + 1,
+                None => {
+                    let h = aabb_half_extents(&self.rotations[i], &self.obb[si]);
+                    cells.any_near(&position, &h, |j| seen(j, &position));
+                }
+            },
             Neighbours::PerSpecies(grids) => {
                 for (sj, grid) in grids.iter().enumerate() {
                     grid.any_within(&position, self.radii[si] + self.radii[sj], &mut seen);
@@ -631,6 +693,7 @@ impl System {
         // this before their species is even looked up.
         let reach_max = ri + self.max_radius;
         let placed_i = Placed::new(shape_i, rotation);
+        let trial_axis: V3 = rotation.column(self.capsules[si].0).into();
         let test = |j: usize, d: &V3| {
             let d2 = d.norm_squared();
             if d2 > reach_max * reach_max || skip(j) {
@@ -672,7 +735,20 @@ impl System {
                         .minimum_image_near(&(self.positions[j] - position))
                 };
                 let h = aabb_half_extents(rotation, &self.obb[si]);
-                cells.any_near(position, &h, |j| {
+                if let Some(lists) = &self.capsule_lists
+                    && lists.reach(&self.box_, i, position, &trial_axis)
+                {
+                    return lists.of(i).iter().any(|&j| {
+                        let j = j as usize;
+                        let d = separation(j);
+                        let hj = &self.aabb[j];
+                        if (0..3).any(|k| d[k].abs() > h[k] + hj[k]) {
+                            return false;
+                        }
+                        test(j, &d)
+                    });
+                }
+                let candidate = |j: usize| {
                     // Disjoint AABBs (the registry is coarser than them).
                     let d = separation(j);
                     let hj = &self.aabb[j];
@@ -680,7 +756,12 @@ impl System {
                         return false;
                     }
                     test(j, &d)
-                })
+                };
+                match &self.capsule_lists {
+                    // While the lists are on, their cells hold every body.
+                    Some(lists) => lists.any_near(position, &h, candidate),
+                    None => cells.any_near(position, &h, candidate),
+                }
             }
         }
     }
@@ -727,6 +808,8 @@ impl System {
         self.particles[i].position = position;
         self.positions[i] = position;
         let species = self.particles[i].species as usize;
+        let (axis_k, capsule) = self.capsules[species];
+        let old_axis: V3 = self.rotations[i].column(axis_k).into();
         let h = if self.all_spheres {
             // Spheres: orientation, rotation, placed shape and box never change.
             self.aabb[i]
@@ -745,11 +828,22 @@ impl System {
                     lists.moved(i, &position, &self.box_);
                 }
             }
-            Neighbours::Aabb(cells) => cells.update(i, &position, &h),
+            // While the lists are on, their cells stand in for these.
+            Neighbours::Aabb(cells) => match &mut self.capsule_lists {
+                Some(lists) => {
+                    lists.moved(&self.box_, i, &position, &rotation.column(axis_k).into())
+                }
+                None => cells.update(i, &position, &h),
+            },
             Neighbours::PerSpecies(grids) => grids[species].update(i, &position),
         }
         if let Some(skin) = self.plan.sphere_skin {
             self.review_sphere_lists(step.norm_squared(), skin);
+        } else if let Some(pad) = self.plan.capsule_pad {
+            // How far the segment's ends moved, the farther of the two.
+            let turn = (rotation.column(axis_k) - old_axis) * capsule.half_length;
+            let shift = (step + turn).norm().max((step - turn).norm());
+            self.review_capsule_lists(shift * shift, pad);
         }
     }
 
@@ -782,6 +876,60 @@ impl System {
         }
     }
 
+    /// As [`System::review_sphere_lists`] for the capsule lists: built if
+    /// the root-mean-square shift of a segment's end per accepted move is
+    /// under half the `pad` (a body is relisted when an end has strayed
+    /// [`CAPSULE_SLACK`] pads, about every (0.6 pad / shift)² moves).
+    fn review_capsule_lists(&mut self, shift_sq: f64, pad: f64) {
+        let (moves, sum) = &mut self.list_window;
+        *moves += 1;
+        *sum += shift_sq;
+        if *moves < SPHERE_LISTS_REVIEW * self.positions.len() {
+            return;
+        }
+        let short = *sum / (*moves as f64) < (0.5 * pad).powi(2);
+        self.list_window = (0, 0.0);
+        if short && self.capsule_lists.is_none() {
+            let segments: Vec<Segment> = (0..self.len()).map(|i| self.segment(i)).collect();
+            self.capsule_lists = Some(CapsuleLists::new(
+                &self.box_,
+                &segments,
+                pad,
+                CAPSULE_SLACK * pad,
+                self.plan.aabb_width,
+            ));
+        } else if !short && self.capsule_lists.take().is_some() {
+            // The AABB cells were left as they were when the lists came.
+            self.cells = self.neighbours_as_they_are();
+        }
+    }
+
+    /// The neighbour structure of the plan built for the particles where
+    /// they are.
+    fn neighbours_as_they_are(&self) -> Neighbours {
+        let kinds: Vec<u16> = self.particles.iter().map(|p| p.species).collect();
+        Neighbours::build(
+            &self.plan,
+            self.range,
+            &self.box_,
+            &self.positions,
+            &self.aabb,
+            &kinds,
+            &self.radii,
+        )
+    }
+
+    /// The core segment of particle `i`'s bounding capsule as it sits.
+    fn segment(&self, i: usize) -> Segment {
+        let (k, capsule) = self.capsules[self.particles[i].species as usize];
+        Segment {
+            centre: self.positions[i],
+            axis: self.rotations[i].column(k).into(),
+            half_length: capsule.half_length,
+            radius: capsule.radius,
+        }
+    }
+
     /// Rescales the box to `lengths` and the positions with it, if that
     /// creates no overlap and keeps the box at least twice the interaction
     /// range; returns whether it did.
@@ -798,8 +946,10 @@ impl System {
         // Every centre moves: the trial starts without lists (and without
         // copying them), which this box keeps if the change is refused.
         let lists = self.sphere_lists.take();
+        let capsule_lists = self.capsule_lists.take();
         let mut trial = self.clone();
         self.sphere_lists = lists;
+        self.capsule_lists = capsule_lists;
         trial.list_window = (0, 0.0);
         trial.box_ = new_box;
         for p in &mut trial.particles {
@@ -807,16 +957,7 @@ impl System {
         }
         let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
         trial.positions.clone_from(&positions);
-        let kinds: Vec<u16> = trial.particles.iter().map(|p| p.species).collect();
-        trial.cells = Neighbours::build(
-            &self.plan,
-            self.range,
-            &new_box,
-            &positions,
-            &trial.aabb,
-            &kinds,
-            &self.radii,
-        );
+        trial.cells = trial.neighbours_as_they_are();
         // Scaling all centres up cannot create an overlap of convex bodies
         // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some
         // axis needs checking.
@@ -884,6 +1025,64 @@ mod tests {
             }
             assert_eq!(dilute.uses_sphere_lists(), round == 0, "round {round}");
         }
+    }
+
+    /// Capsule lists change no answer: NVT sweeps of dense needles with
+    /// lists follow those of the same system kept on AABB cells alone to
+    /// the bit, through the lists' coming (after four accepted moves per
+    /// body), a box change that drops them, their return, and moves too
+    /// long for them that drop them again (the cells rebuilt where the
+    /// bodies are).
+    #[test]
+    fn capsule_lists_change_no_move_and_go_with_the_box() {
+        let shape: Shape = "Ellipsoid(a: 0.5, b: 0.5, c: 2.5)".parse().unwrap();
+        let mut listed = crate::bench::mc::dense_start(&shape, 500, 0.5).unwrap();
+        let mut cells = listed.clone();
+        assert!(listed.plan.capsule_pad.is_some());
+        cells.plan.capsule_pad = None;
+        let short = MoveSizes {
+            translate: 0.1,
+            rotate: 0.04,
+            volume: 0.0,
+        };
+        let long = MoveSizes {
+            translate: 1.5,
+            rotate: 0.6,
+            volume: 0.0,
+        };
+        let (mut r1, mut r2) = (
+            rand_pcg::Pcg64::seed_from_u64(4),
+            rand_pcg::Pcg64::seed_from_u64(4),
+        );
+        let mut run = |listed: &mut System, cells: &mut System, sizes: &MoveSizes| {
+            for _ in 0..40 {
+                let a = sweep(listed, sizes, &Ensemble::Nvt, &mut r1);
+                let b = sweep(cells, sizes, &Ensemble::Nvt, &mut r2);
+                assert_eq!(format!("{a:?}"), format!("{b:?}"));
+            }
+            assert_eq!(listed.positions, cells.positions);
+            assert_eq!(listed.rotations, cells.rotations);
+        };
+        run(&mut listed, &mut cells, &short);
+        assert!(listed.uses_capsule_lists() && !cells.uses_capsule_lists());
+        assert_eq!(listed.first_overlap_all_pairs(), None);
+        // Shrinking by a tenth overlaps dense needles: refused, lists kept.
+        assert!(!listed.try_rescale(listed.box_.lengths() * 0.9));
+        assert!(listed.uses_capsule_lists());
+        let grown = listed.box_.lengths() * 1.01;
+        assert!(listed.try_rescale(grown) && cells.try_rescale(grown));
+        assert!(!listed.uses_capsule_lists());
+        run(&mut listed, &mut cells, &short);
+        assert!(listed.uses_capsule_lists());
+        // Diluted, long moves are accepted: each would relist.
+        let dilute = listed.box_.lengths() * 1.4;
+        assert!(listed.try_rescale(dilute) && cells.try_rescale(dilute));
+        run(&mut listed, &mut cells, &short);
+        assert!(listed.uses_capsule_lists());
+        run(&mut listed, &mut cells, &long);
+        assert!(!listed.uses_capsule_lists());
+        run(&mut listed, &mut cells, &short);
+        assert_eq!(listed.first_overlap_all_pairs(), None);
     }
 
     /// One species of spheres of diameter 1, and a periodic box of edge 6.

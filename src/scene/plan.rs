@@ -223,6 +223,12 @@ impl fmt::Display for Report<'_> {
                     "  Monte Carlo neighbours: cells of width {:.4} holding bounding boxes ({why}), oriented-box pre-filter",
                     n.aabb_width
                 )?;
+                if let Some(pad) = n.capsule_pad {
+                    writeln!(
+                        f,
+                        "  Monte Carlo neighbours: Verlet lists over bounding capsules padded by {pad:.4} while the box stays put and the moves are short (root-mean-square shift of a capsule's end under half the pad)"
+                    )?;
+                }
             } else if let Some(skin) = n.sphere_skin {
                 writeln!(
                     f,

@@ -1,7 +1,9 @@
 //! Space: the periodic simulation box, cell lists and neighbour lists.
-//! Depends on nothing but nalgebra.
+//! Depends on nalgebra and, for the capsule lists, the geometry layer's
+//! segment distance.
 
 pub mod aabb_cells;
+pub mod capsule_lists;
 pub mod cell_list;
 pub mod neighbour_list;
 pub mod packed_cells;
@@ -9,6 +11,7 @@ pub mod periodic_box;
 pub mod sphere_lists;
 
 pub use aabb_cells::AabbCells;
+pub use capsule_lists::CapsuleLists;
 pub use cell_list::CellList;
 pub use neighbour_list::NeighbourLists;
 pub use packed_cells::PackedCells;
