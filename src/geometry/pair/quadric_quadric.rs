@@ -29,17 +29,17 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
 /// Stops as soon as some λ has F(λ) > 1 (separated) or concavity bounds the
 /// maximum below 1 (F(λ*) ≤ F(λ) + |F′(λ)| · bracket width).
 pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> bool {
-    let l = sphere_optimum(ma, mb, r);
     // Most pairs that get this far are apart, and F at the sphere optimum
-    // already says so (it is exact for aligned equal bodies): one solve
-    // before the coefficients of the whole function.
-    let c = ma * (1.0 - l) + mb * l;
-    let adj = adjugate(&c);
-    let det = c[(0, 0)] * adj[(0, 0)] + c[(0, 1)] * adj[(1, 0)] + c[(0, 2)] * adj[(2, 0)];
-    // F = λ(1−λ) rᵀ adj C r / det C > 1, without dividing.
-    if det > 0.0 && l * (1.0 - l) * r.dot(&(adj * r)) > det {
+    // λ = p/(p + q), p = √(rᵀM_A r), q = √(rᵀM_B r), already says so (it
+    // is exact for aligned equal bodies): one solve before the
+    // coefficients of the whole function. There C(λ) = C′/(p + q) with
+    // C′ = q M_A + p M_B, so F = pq/(p + q) · rᵀ adj C′ r / det C′: tested
+    // without a division, on the six entries of the symmetric C′.
+    let (p, q) = (r.dot(&(ma * r)).sqrt(), r.dot(&(mb * r)).sqrt());
+    if separated_at(&(ma * q + mb * p), r, p * q, p + q) {
         return false;
     }
+    let l = if p + q > 0.0 { p / (p + q) } else { 0.5 };
     let contact = ContactFunction::new(ma, mb, r);
     let decided = contact.maximise(l, 200, |step| {
         if step.f > 1.0 {
@@ -54,6 +54,27 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
     });
     // Singular C (degenerate) or undecided: treat as overlap.
     !matches!(decided, Some((false, _)))
+}
+
+/// Whether the symmetric matrix `c` (positive definite: det > 0) has
+/// `scale` · rᵀ adj(c) r > `det_scale` · det c: for c ∝ C(λ) as in
+/// [`perram_wertheim`], F(λ) > 1.
+#[inline]
+fn separated_at(c: &Matrix3<f64>, r: &Vector3<f64>, scale: f64, det_scale: f64) -> bool {
+    let (c00, c01, c02) = (c[(0, 0)], c[(0, 1)], c[(0, 2)]);
+    let (c11, c12, c22) = (c[(1, 1)], c[(1, 2)], c[(2, 2)]);
+    // The cofactors of a symmetric matrix: adj is symmetric too.
+    let a00 = c11 * c22 - c12 * c12;
+    let a01 = c02 * c12 - c01 * c22;
+    let a02 = c01 * c12 - c02 * c11;
+    let a11 = c00 * c22 - c02 * c02;
+    let a12 = c01 * c02 - c00 * c12;
+    let a22 = c00 * c11 - c01 * c01;
+    let det = c00 * a00 + c01 * a01 + c02 * a02;
+    let (x, y, z) = (r.x, r.y, r.z);
+    let form =
+        a00 * x * x + a11 * y * y + a22 * z * z + 2.0 * (a01 * x * y + a02 * x * z + a12 * y * z);
+    det > 0.0 && scale * form > det_scale * det
 }
 
 /// The Perram–Wertheim contact point as a start for the distance solver:
