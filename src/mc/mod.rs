@@ -661,6 +661,24 @@ impl System {
         overlap(shape_i, shape_j, &rel)
     }
 
+    /// As [`System::overlaps_at`], for a trial move of particle `i`: where
+    /// its capsule list finds the overlap, the partner goes to the front
+    /// of the list, where the next trial of `i`, most likely overlapping
+    /// it too, meets it first. (The order of a list changes no answer.)
+    pub(crate) fn trial_overlaps(
+        &mut self,
+        i: usize,
+        position: &V3,
+        rotation: &Matrix3<f64>,
+    ) -> bool {
+        let hit = std::cell::Cell::new(None);
+        let overlaps = self.overlap_search(i, position, rotation, |j| j == i, &hit);
+        if let (Some(at), Some(lists)) = (hit.get(), &mut self.capsule_lists) {
+            lists.to_front(i, at);
+        }
+        overlaps
+    }
+
     /// As [`System::overlaps_at`], ignoring every particle `j` for which
     /// `skip(j)` holds (the particle itself always among them).
     pub(crate) fn overlaps_at_except(
@@ -669,6 +687,20 @@ impl System {
         position: &V3,
         rotation: &Matrix3<f64>,
         skip: impl Fn(usize) -> bool,
+    ) -> bool {
+        self.overlap_search(i, position, rotation, skip, &std::cell::Cell::new(None))
+    }
+
+    /// As [`System::overlaps_at_except`]; where a capsule list finds the
+    /// overlap, `hit` is set to the partner's place on the list.
+    #[inline]
+    fn overlap_search(
+        &self,
+        i: usize,
+        position: &V3,
+        rotation: &Matrix3<f64>,
+        skip: impl Fn(usize) -> bool,
+        hit: &std::cell::Cell<Option<usize>>,
     ) -> bool {
         if self.ideal {
             return false;
@@ -738,7 +770,7 @@ impl System {
                 if let Some(lists) = &self.capsule_lists
                     && lists.reach(&self.box_, i, position, &trial_axis)
                 {
-                    return lists.of(i).iter().any(|&j| {
+                    let at = lists.of(i).iter().position(|&j| {
                         let j = j as usize;
                         let d = separation(j);
                         let hj = &self.aabb[j];
@@ -747,6 +779,8 @@ impl System {
                         }
                         test(j, &d)
                     });
+                    hit.set(at);
+                    return at.is_some();
                 }
                 let candidate = |j: usize| {
                     // Disjoint AABBs (the registry is coarser than them).

@@ -91,6 +91,14 @@ impl CapsuleLists {
         self.lists.of(i)
     }
 
+    /// Moves entry `at` of body `i`'s list to the front: the partner a
+    /// trial of i last overlapped, which the next trial most likely
+    /// overlaps too (a rejected trial then stops after one test).
+    #[inline]
+    pub fn to_front(&mut self, i: usize, at: usize) {
+        self.lists.to_front(i, at);
+    }
+
     /// Links body `i` with every body j ≠ i with `wanted(j)` whose
     /// reference segment lies within the radii plus twice the pad of i's.
     fn link_neighbours(&mut self, box_: &PeriodicBox, i: usize, wanted: impl Fn(usize) -> bool) {

@@ -40,6 +40,13 @@ impl NeighbourLists {
         self.lists.clear(i);
     }
 
+    /// Moves entry `at` of body `i`'s list to the front (the order within
+    /// a list is free: it is a set).
+    #[inline]
+    pub fn to_front(&mut self, i: usize, at: usize) {
+        self.lists.to_front(i, at);
+    }
+
     /// Links bodies `i` and `j` (not already linked, `i` ≠ `j`).
     pub fn link(&mut self, i: usize, j: usize) {
         debug_assert!(i != j && !self.of(i).contains(&(j as u32)));
@@ -99,6 +106,14 @@ impl FlatLists {
             self.slots[base + at] = self.slots[base + n - 1];
             self.counts[i] -= 1;
         }
+    }
+
+    /// Swaps entry `at` of list `i` with its first.
+    #[inline]
+    pub fn to_front(&mut self, i: usize, at: usize) {
+        let base = i * self.capacity;
+        debug_assert!(at < self.counts[i] as usize);
+        self.slots.swap(base, base + at);
     }
 
     /// Empties list `i`.
