@@ -665,12 +665,17 @@ impl System {
     /// its capsule list finds the overlap, the partner goes to the front
     /// of the list, where the next trial of `i`, most likely overlapping
     /// it too, meets it first. (The order of a list changes no answer.)
+    /// `rotation` `None` keeps the particle's own (a translation).
     pub(crate) fn trial_overlaps(
         &mut self,
         i: usize,
         position: &V3,
-        rotation: &Matrix3<f64>,
+        rotation: Option<&Matrix3<f64>>,
     ) -> bool {
+        let rotation = rotation.unwrap_or(&self.rotations[i]);
+        if self.capsule_lists.is_none() {
+            return self.overlaps_at(i, position, rotation);
+        }
         let hit = std::cell::Cell::new(None);
         let overlaps = self.overlap_search(i, position, rotation, |j| j == i, &hit);
         if let (Some(at), Some(lists)) = (hit.get(), &mut self.capsule_lists) {

@@ -232,12 +232,11 @@ pub fn translate_within<R: Rng>(
     inside: impl Fn(&Vector3<f64>) -> bool,
 ) -> bool {
     let position = propose_translation(&system.positions[i], size, rng);
-    let rotation = system.rotations[i];
-    if !inside(&position) || system.trial_overlaps(i, &position, &rotation) {
+    if !inside(&position) || system.trial_overlaps(i, &position, None) {
         return false;
     }
     // The orientation is read only for the moves that are kept.
-    let orientation = system.particles[i].orientation;
+    let (orientation, rotation) = (system.particles[i].orientation, system.rotations[i]);
     system.place(i, position, orientation, rotation);
     true
 }
@@ -247,7 +246,7 @@ pub fn rotate<R: Rng>(system: &mut System, i: usize, max_angle: f64, rng: &mut R
     let p = system.particles[i];
     let orientation = propose_rotation(&p.orientation, max_angle, rng);
     let rotation = orientation.to_rotation_matrix().into_inner();
-    if system.trial_overlaps(i, &p.position, &rotation) {
+    if system.trial_overlaps(i, &p.position, Some(&rotation)) {
         return false;
     }
     system.place(i, p.position, orientation, rotation);
