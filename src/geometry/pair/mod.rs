@@ -21,7 +21,7 @@ use super::newton::{NewtonOptions, WarmStart};
 use super::shape::Shape;
 
 pub use cuboid_cuboid::ContactPatch;
-pub use quadric_quadric::perram_wertheim;
+pub use quadric_quadric::{Spheroid, perram_wertheim, spheroid_overlap};
 pub use smooth_smooth::support_points_start;
 
 type V3 = Vector3<f64>;
@@ -250,6 +250,8 @@ pub enum Placed {
     Sphere(f64),
     /// An ellipsoid's shape matrix R diag(a², b², c²) Rᵀ.
     Quadric(Matrix3<f64>),
+    /// An ellipsoid with two equal semi-axes, by its axis of symmetry.
+    Spheroid(Spheroid),
     /// Any other shape: use [`overlap`] with the relative pose.
     Other,
 }
@@ -261,9 +263,23 @@ impl Placed {
             Shape::Sphere(s) => Placed::Sphere(s.radius()),
             Shape::Ellipsoid(_) => {
                 let h = shape.obb_half_extents();
-                Placed::Quadric(
-                    rotation * Matrix3::from_diagonal(&h.component_mul(&h)) * rotation.transpose(),
-                )
+                // The odd semi-axis k of a spheroid: the other two equal.
+                let odd = (0..3).find(|&k| h[(k + 1) % 3] == h[(k + 2) % 3]);
+                match odd {
+                    Some(k) => {
+                        let e = h[(k + 1) % 3] * h[(k + 1) % 3];
+                        Placed::Spheroid(Spheroid {
+                            axis: rotation.column(k).into(),
+                            equatorial_sq: e,
+                            excess: h[k] * h[k] - e,
+                        })
+                    }
+                    None => Placed::Quadric(
+                        rotation
+                            * Matrix3::from_diagonal(&h.component_mul(&h))
+                            * rotation.transpose(),
+                    ),
+                }
             }
             _ => Placed::Other,
         }
@@ -273,6 +289,7 @@ impl Placed {
         match *self {
             Placed::Sphere(r) => Some(Matrix3::from_diagonal_element(r * r)),
             Placed::Quadric(m) => Some(m),
+            Placed::Spheroid(s) => Some(s.matrix()),
             Placed::Other => None,
         }
     }
@@ -284,8 +301,12 @@ impl Placed {
 /// on the same pair up to rounding.
 #[inline]
 pub fn placed_overlap(a: &Placed, b: &Placed, d: &V3) -> Option<bool> {
-    if let (Placed::Sphere(p), Placed::Sphere(q)) = (a, b) {
-        return Some(sphere_sphere::overlap_at(*p, *q, d));
+    match (a, b) {
+        (Placed::Sphere(p), Placed::Sphere(q)) => {
+            return Some(sphere_sphere::overlap_at(*p, *q, d));
+        }
+        (Placed::Spheroid(p), Placed::Spheroid(q)) => return Some(spheroid_overlap(p, q, d)),
+        _ => {}
     }
     // Straight to the contact function: its first evaluation rejects most
     // pairs for less than the oriented-box test would cost.
