@@ -28,4 +28,11 @@ pub(crate) mod test_support {
             (seed >> 11) as f64 / (1u64 << 53) as f64
         }
     }
+
+    /// A random direction from the numbers of `u` (a point of the cube
+    /// about the origin, normalised: not uniform on the sphere, which the
+    /// tests that use it do not need).
+    pub fn unit_vector(u: &mut dyn FnMut() -> f64) -> nalgebra::Vector3<f64> {
+        nalgebra::Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize()
+    }
 }

@@ -111,8 +111,7 @@ mod tests {
     #[test]
     fn segment_distance_is_the_minimum_over_both_segments() {
         let mut u = crate::test_support::uniform(12);
-        let unit =
-            |u: &mut dyn FnMut() -> f64| V3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize();
+        let unit = crate::test_support::unit_vector;
         for case in 0..600 {
             let a = unit(&mut u);
             let b = match case % 3 {

@@ -910,14 +910,9 @@ impl System {
     /// 0.19 at φ 0.3, 0.4, 0.45, 0.5; lists against cells at φ 0.45
     /// 4.3–4.4e6 against 3.8–4.0e6 moves/s, at φ 0.5 7.5e6 against 5.0e6.)
     fn review_sphere_lists(&mut self, step_sq: f64, skin: f64) {
-        let (moves, sum) = &mut self.list_window;
-        *moves += 1;
-        *sum += step_sq;
-        if *moves < SPHERE_LISTS_REVIEW * self.positions.len() {
+        let Some(short) = self.moves_short(step_sq, 0.25 * skin) else {
             return;
-        }
-        let short = *sum / (*moves as f64) < (0.25 * skin).powi(2);
-        self.list_window = (0, 0.0);
+        };
         if short && self.sphere_lists.is_none() {
             let radii: Vec<f64> = (self.particles.iter())
                 .map(|p| self.radii[p.species as usize])
@@ -928,19 +923,30 @@ impl System {
         }
     }
 
+    /// Counts an accepted move of squared length `step_sq` in the review
+    /// window; once it holds [`SPHERE_LISTS_REVIEW`] moves per particle,
+    /// empties it and says whether their root-mean-square length was
+    /// under `limit`.
+    fn moves_short(&mut self, step_sq: f64, limit: f64) -> Option<bool> {
+        let (moves, sum) = &mut self.list_window;
+        *moves += 1;
+        *sum += step_sq;
+        if *moves < SPHERE_LISTS_REVIEW * self.positions.len() {
+            return None;
+        }
+        let short = *sum / (*moves as f64) < limit * limit;
+        self.list_window = (0, 0.0);
+        Some(short)
+    }
+
     /// As [`System::review_sphere_lists`] for the capsule lists: built if
     /// the root-mean-square shift of a segment's end per accepted move is
     /// under half the `pad` (a body is relisted when an end has strayed
     /// [`CAPSULE_SLACK`] pads, about every (0.6 pad / shift)² moves).
     fn review_capsule_lists(&mut self, shift_sq: f64, pad: f64) {
-        let (moves, sum) = &mut self.list_window;
-        *moves += 1;
-        *sum += shift_sq;
-        if *moves < SPHERE_LISTS_REVIEW * self.positions.len() {
+        let Some(short) = self.moves_short(shift_sq, 0.5 * pad) else {
             return;
-        }
-        let short = *sum / (*moves as f64) < (0.5 * pad).powi(2);
-        self.list_window = (0, 0.0);
+        };
         if short && self.capsule_lists.is_none() {
             let segments: Vec<Segment> = (0..self.len()).map(|i| self.segment(i)).collect();
             self.capsule_lists = Some(CapsuleLists::new(

@@ -389,8 +389,7 @@ mod tests {
     #[test]
     fn spheroids_answer_as_their_matrices() {
         let mut u = crate::test_support::uniform(21);
-        let unit =
-            |u: &mut dyn FnMut() -> f64| Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize();
+        let unit = crate::test_support::unit_vector;
         let semi = [(2.5, 0.5), (0.5, 1.0), (0.3, 0.3), (1.0, 0.2)];
         let mut apart = 0;
         for case in 0..2000 {
