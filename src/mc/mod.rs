@@ -861,7 +861,14 @@ impl System {
         self.positions[i] = position;
         let species = self.particles[i].species as usize;
         let (axis_k, capsule) = self.capsules[species];
-        let old_axis: V3 = self.rotations[i].column(axis_k).into();
+        // How far the capsule's axis turned, at its ends (read only where
+        // capsule lists may come: a sphere's rotation is never touched).
+        let turn: V3 = match self.plan.capsule_pad {
+            Some(_) => {
+                (rotation.column(axis_k) - self.rotations[i].column(axis_k)) * capsule.half_length
+            }
+            None => V3::zeros(),
+        };
         let h = if self.all_spheres {
             // Spheres: orientation, rotation, placed shape and box never change.
             self.aabb[i]
@@ -893,7 +900,6 @@ impl System {
             self.review_sphere_lists(step.norm_squared(), skin);
         } else if let Some(pad) = self.plan.capsule_pad {
             // How far the segment's ends moved, the farther of the two.
-            let turn = (rotation.column(axis_k) - old_axis) * capsule.half_length;
             let shift = (step + turn).norm().max((step - turn).norm());
             self.review_capsule_lists(shift * shift, pad);
         }
