@@ -743,7 +743,6 @@ impl System {
         } else {
             Placed::new(shape_i, rotation)
         };
-        let trial_axis: V3 = rotation.column(self.capsules[si].0).into();
         let test = |j: usize, d: &V3| {
             let d2 = d.norm_squared();
             if d2 > reach_max * reach_max || skip(j) {
@@ -785,21 +784,6 @@ impl System {
                         .minimum_image_near(&(self.positions[j] - position))
                 };
                 let h = aabb_half_extents(rotation, &self.obb[si]);
-                if let Some(lists) = &self.capsule_lists
-                    && lists.reach(&self.box_, i, position, &trial_axis)
-                {
-                    let at = lists.of(i).iter().position(|&j| {
-                        let j = j as usize;
-                        let d = separation(j);
-                        let hj = &self.aabb[j];
-                        if (0..3).any(|k| d[k].abs() > h[k] + hj[k]) {
-                            return false;
-                        }
-                        test(j, &d)
-                    });
-                    hit.set(at);
-                    return at.is_some();
-                }
                 let candidate = |j: usize| {
                     // Disjoint AABBs (the registry is coarser than them).
                     let d = separation(j);
@@ -809,11 +793,17 @@ impl System {
                     }
                     test(j, &d)
                 };
-                match &self.capsule_lists {
-                    // While the lists are on, their cells hold every body.
-                    Some(lists) => lists.any_near(position, &h, candidate),
-                    None => cells.any_near(position, &h, candidate),
+                let Some(lists) = &self.capsule_lists else {
+                    return cells.any_near(position, &h, candidate);
+                };
+                let axis = rotation.column(self.capsules[si].0).into();
+                if lists.reach(&self.box_, i, position, &axis) {
+                    let at = lists.of(i).iter().position(|&j| candidate(j as usize));
+                    hit.set(at);
+                    return at.is_some();
                 }
+                // While the lists are on, their cells hold every body.
+                lists.any_near(position, &h, candidate)
             }
         }
     }

@@ -35,7 +35,7 @@ pub fn perram_wertheim(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -
     // coefficients of the whole function. There C(λ) = C′/(p + q) with
     // C′ = q M_A + p M_B, so F = pq/(p + q) · rᵀ adj C′ r / det C′: tested
     // without a division, on the six entries of the symmetric C′.
-    let (p, q) = (r.dot(&(ma * r)).sqrt(), r.dot(&(mb * r)).sqrt());
+    let (p, q) = scaled_reaches(ma, mb, r);
     if separated_at(&(ma * q + mb * p), r, p * q, p + q) {
         return false;
     }
@@ -331,13 +331,14 @@ struct MaximiserStep {
 /// λ = ρ_A/(ρ_A + ρ_B): the start of the search.
 #[inline]
 fn sphere_optimum(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> f64 {
-    let rho_a = r.dot(&(ma * r)).sqrt();
-    let rho_b = r.dot(&(mb * r)).sqrt();
-    if rho_a + rho_b > 0.0 {
-        rho_a / (rho_a + rho_b)
-    } else {
-        0.5
-    }
+    let (p, q) = scaled_reaches(ma, mb, r);
+    sphere_optimum_of(p, q)
+}
+
+/// √(rᵀM_A r) and √(rᵀM_B r): the λ of [`sphere_optimum`] is p/(p + q).
+#[inline]
+fn scaled_reaches(ma: &Matrix3<f64>, mb: &Matrix3<f64>, r: &Vector3<f64>) -> (f64, f64) {
+    (r.dot(&(ma * r)).sqrt(), r.dot(&(mb * r)).sqrt())
 }
 
 /// A lower bound on the distance of two spheres/ellipsoids (frame: see the
