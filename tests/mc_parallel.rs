@@ -58,6 +58,71 @@ fn same_trajectory_for_any_thread_count() {
     }
 }
 
+/// Sweeps handed over in chunks (one team for several sweeps, every
+/// member making the box moves on its own replica) are the sweeps one by
+/// one: on two threads in chunks of 1 to 7 against one thread sweep by
+/// sweep, in NPT with isotropic and per-axis box moves.
+#[test]
+fn chunks_of_sweeps_are_the_sweeps_one_by_one() {
+    for (text, anisotropic) in [
+        ("Sphere(radius: 0.5)", false),
+        ("Ellipsoid(a: 0.5, b: 0.5, c: 1.5)", true),
+    ] {
+        let shape: Shape = text.parse().unwrap();
+        let start = dense_start(&shape, 1400, 0.4).unwrap();
+        let sizes = MoveSizes {
+            translate: 0.3,
+            rotate: 0.3,
+            volume: 0.002,
+        };
+        let ensemble = Ensemble::Npt {
+            pressure: 4.0,
+            anisotropic,
+        };
+        let seeds: Vec<u64> = (0..28u64).map(|k| 1000 + 37 * k).collect();
+        let pool = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+        };
+        let mut one = start.clone();
+        let c1 = pool(1).install(|| {
+            let mut parallel = ParallelSweeps::new();
+            (0..seeds.len()).fold(Counts::default(), |c, j| {
+                c + parallel.sweep(&mut one, &sizes, &ensemble, seeds[j], 5 + j as u64)
+            })
+        });
+        let mut two = start.clone();
+        let c2 = pool(2).install(|| {
+            let mut parallel = ParallelSweeps::new();
+            let (mut counts, mut done) = (Counts::default(), 0);
+            for chunk in [1, 7, 3, 2, 7, 1, 7] {
+                let index = 5 + done as u64;
+                counts += parallel.sweeps(
+                    &mut two,
+                    &sizes,
+                    &ensemble,
+                    &seeds[done..done + chunk],
+                    index,
+                );
+                done += chunk;
+            }
+            assert_eq!(done, seeds.len());
+            counts
+        });
+        assert_eq!(c1, c2, "{text}: counts differ");
+        assert!(
+            c1.volume.accepted > 0 && c1.volume.accepted < c1.volume.tried,
+            "{text}: box moves {:?}",
+            c1.volume
+        );
+        assert_eq!(one.periodic_box().lengths(), two.periodic_box().lengths());
+        assert_eq!(one.particles(), two.particles(), "{text}: states differ");
+        assert_eq!(two.first_overlap_all_pairs(), None, "{text}: overlap");
+    }
+}
+
 /// Hard-sphere NPT at βP = 3 from the same starts by the parallel sweep
 /// and by the serial one: block means of φ (blocks of 5000 sweeps, 3
 /// replicas each) with their standard errors.

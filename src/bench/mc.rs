@@ -16,7 +16,7 @@ use rand_pcg::Pcg64;
 
 use crate::geometry::Shape;
 use crate::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
-use crate::mc::parallel::ParallelSweeps;
+use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps};
 use crate::mc::tuning::Tuner;
 use crate::mc::{McError, Particle, Species, System};
 use crate::space::PeriodicBox;
@@ -122,11 +122,12 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
             repeats,
             sweeps,
             1,
-            |system| sweep(system, &sizes, &Ensemble::Nvt, &mut rng),
+            |system, count| serial_sweeps(system, &sizes, &mut rng, count),
         )?);
         // The parallel sweep on all of rayon's threads, same sizes,
-        // interleaved with nothing else: the speed-up is the ratio of the
-        // two rows.
+        // interleaved with nothing else, handed over as a run does (up to
+        // MAX_CHUNK sweeps at once): the speed-up is the ratio of the two
+        // rows.
         let threads = rayon::current_num_threads();
         if threads > 1 {
             let mut index = 0;
@@ -137,9 +138,16 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
                 repeats,
                 sweeps,
                 threads,
-                |system| {
-                    index += 1;
-                    parallel.sweep(system, &sizes, &Ensemble::Nvt, 17, index - 1)
+                |system, count| {
+                    let seeds = [17; MAX_CHUNK];
+                    index += count as u64;
+                    parallel.sweeps(
+                        system,
+                        &sizes,
+                        &Ensemble::Nvt,
+                        &seeds[..count],
+                        index - count as u64,
+                    )
                 },
             )?);
         }
@@ -147,22 +155,33 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
     Ok(rows)
 }
 
-/// Times `repeats` × `sweeps` calls of `step` and checks the end state by
-/// all pairs: the median rate as a row.
+/// `count` serial NVT sweeps.
+fn serial_sweeps(system: &mut System, sizes: &MoveSizes, rng: &mut Pcg64, count: usize) -> Counts {
+    (0..count).fold(Counts::default(), |c, _| {
+        c + sweep(system, sizes, &Ensemble::Nvt, rng)
+    })
+}
+
+/// Times `repeats` × `sweeps` sweeps made by `step` (which makes as many
+/// as it is asked, at most [`MAX_CHUNK`] at a time) and checks the end
+/// state by all pairs: the median rate as a row.
 fn timed_row(
     shape: &str,
     system: &mut System,
     repeats: usize,
     sweeps: usize,
     threads: usize,
-    mut step: impl FnMut(&mut System) -> Counts,
+    mut step: impl FnMut(&mut System, usize) -> Counts,
 ) -> Result<McRow, McError> {
     let mut rates = Vec::new();
     let mut counts = Counts::default();
     for _ in 0..repeats {
         let start = Instant::now();
-        for _ in 0..sweeps {
-            counts += step(system);
+        let mut left = sweeps;
+        while left > 0 {
+            let count = left.min(MAX_CHUNK);
+            counts += step(system, count);
+            left -= count;
         }
         rates.push((sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
     }
@@ -321,9 +340,14 @@ pub fn by_density(quick: bool) -> Result<Vec<McRow>, McError> {
         for &phi in phis {
             let (mut system, sizes) = tuned(&shape, n, phi, if quick { 10 } else { 40 })?;
             let mut rng = Pcg64::seed_from_u64(18);
-            rows.push(timed_row(text, &mut system, repeats, sweeps, 1, |s| {
-                sweep(s, &sizes, &Ensemble::Nvt, &mut rng)
-            })?);
+            rows.push(timed_row(
+                text,
+                &mut system,
+                repeats,
+                sweeps,
+                1,
+                |s, count| serial_sweeps(s, &sizes, &mut rng, count),
+            )?);
         }
     }
     Ok(rows)

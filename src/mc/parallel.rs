@@ -16,7 +16,10 @@
 //! system, so that all of them hold the same state again. A trial move
 //! costs what it costs in a serial sweep; what is not parallel is each
 //! thread placing the others' accepted moves (and, where the replicas are
-//! stale, one copy of the system).
+//! stale, one copy of the system). In NPT every thread makes the box move
+//! on its own system: they agree, so do the answers, and the replicas
+//! stay in step. A team handed several sweeps at once
+//! ([`ParallelSweeps::sweeps`]) is woken once for all of them.
 //!
 //! Every slab draws from its own stream keyed on (seed, sweep, colour,
 //! slab), and the slabs do not depend on the thread count below
@@ -33,10 +36,12 @@ use super::moves::{Counts, Ensemble, MoveSizes, box_move, particle_moves, sweep}
 
 type V3 = Vector3<f64>;
 
-/// The random stream of one (seed, sweep, colour, slab).
+/// The random stream of one (seed, sweep, colour, slab). Each part is
+/// mixed in after the key so far is scrambled, so that no two parts cancel
+/// (a seed equal to the sweep index once gave every sweep one stream).
 fn stream(seed: u64, sweep: u64, colour: u64, slab: u64) -> Pcg64 {
-    let mut key = seed ^ 0x9E37_79B9_7F4A_7C15;
-    for part in [sweep, colour, slab] {
+    let mut key = 0x9E37_79B9_7F4A_7C15;
+    for part in [seed, sweep, colour, slab] {
         key = (key ^ part)
             .wrapping_mul(0xBF58_476D_1CE4_E5B9)
             .rotate_left(31);
@@ -112,24 +117,215 @@ fn slab_count(length: f64, range: f64, threads: usize) -> Option<usize> {
 /// pay at N = 4096 on two cores; smaller systems not yet measured).
 pub const SLABS_FROM: usize = 4000;
 
-/// Whether a stage of `n` particles with neighbour plan `plan` sweeps on
-/// slabs ([`ParallelSweeps`]), on any thread count, so that its trajectory
-/// is the same on one core and on two: from [`SLABS_FROM`] particles, but
-/// not for spheres on Verlet lists, whose serial sweep (a move in ~120 ns)
-/// is faster than two threads that each place every accepted move.
-pub fn sweeps_on_slabs(plan: &super::NeighbourPlan, n: usize) -> bool {
-    n >= SLABS_FROM && plan.sphere_skin.is_none()
+/// Whether a stage of `n` particles sweeps on slabs ([`ParallelSweeps`]),
+/// on any thread count, so that its trajectory is the same on one core
+/// and on two: from [`SLABS_FROM`] particles. (On one thread the slab
+/// sweep of dense spheres on Verlet lists measured 5 % slower than the
+/// serial sweep, and 1.4x faster on two: the same trajectory on any
+/// machine is worth that.)
+pub fn sweeps_on_slabs(n: usize) -> bool {
+    n >= SLABS_FROM
 }
 
 /// A move to hand to the other threads: the particle's final pose in a
 /// colour.
 type Placed = (usize, V3, UnitQuaternion<f64>, Matrix3<f64>);
 
+/// Sweeps run back to back in one team at most (the run hands over the
+/// sweeps up to its next tuning, sample, stats or frame; this bounds how
+/// long an interruption waits).
+pub const MAX_CHUNK: usize = 16;
+
+/// Where the slabs of one sweep lie.
+#[derive(Debug, Clone, Copy)]
+struct Slabs {
+    axis: usize,
+    length: f64,
+    count: usize,
+    offset: f64,
+    inverse_width: f64,
+}
+
+impl Slabs {
+    /// The slabs of a sweep of `system` on `threads` threads, the offset
+    /// drawn from `master`; `None` when the box is too small for two.
+    fn of_sweep(system: &System, threads: usize, master: &mut Pcg64) -> Option<Self> {
+        let lengths = system.periodic_box().lengths();
+        let axis = lengths.imax();
+        let length = lengths[axis];
+        let count = slab_count(length, system.range, threads)?;
+        let width = length / count as f64;
+        Some(Self {
+            axis,
+            length,
+            count,
+            offset: master.r#gen::<f64>() * width,
+            inverse_width: 1.0 / width,
+        })
+    }
+
+    /// The slab of a position in the box: shift by the offset (under one
+    /// slab), wrap into [0, L) by one compare.
+    #[inline]
+    fn slab_of(&self, r: &V3) -> usize {
+        let mut s = r[self.axis] + 0.5 * self.length + self.offset;
+        if s >= self.length {
+            s -= self.length;
+        }
+        ((s.max(0.0) * self.inverse_width) as usize).min(self.count - 1)
+    }
+
+    /// The member of a team of `team` that sweeps slab `k`: each takes a
+    /// contiguous share of each colour's slabs (members beyond the slabs
+    /// take none).
+    fn owner(&self, k: usize, team: usize) -> usize {
+        (k / 2) / (self.count / 2).div_ceil(team)
+    }
+}
+
+/// The barrier and the outboxes through which a team's members hand each
+/// other the moves of a colour.
+struct Exchange {
+    barrier: SpinBarrier,
+    outboxes: Vec<RwLock<Vec<Placed>>>,
+}
+
+/// What a member keeps from sweep to sweep: the particles of each of its
+/// slabs, in index order, and those it moved in a colour.
+#[derive(Debug, Default)]
+struct Scratch {
+    slab_members: Vec<Vec<usize>>,
+    moved: Vec<usize>,
+    marked: Vec<bool>,
+}
+
+impl Scratch {
+    /// Lists the particles of the slabs member `me` of `team` sweeps.
+    fn sort(&mut self, system: &System, slabs: &Slabs, me: usize, team: usize) {
+        self.slab_members.resize_with(slabs.count, Vec::new);
+        for members in &mut self.slab_members {
+            members.clear();
+        }
+        for (i, r) in system.positions.iter().enumerate() {
+            let k = slabs.slab_of(r);
+            if slabs.owner(k, team) == me {
+                self.slab_members[k].push(i);
+            }
+        }
+    }
+}
+
+/// The work of member `me` of a team of `team` in sweeps `first_index..`
+/// keyed on `seeds`, on its own `system`, handing its moves to the others
+/// through `exchange` (none for a team of one). Every member draws the
+/// same master stream and places every move, so that all end each sweep
+/// in the same state, and all make the same box move (their systems
+/// agree, so do the answers); only member 0 counts the moves that every
+/// member makes.
+#[allow(clippy::too_many_arguments)]
+fn member_sweeps(
+    me: usize,
+    team: usize,
+    threads: usize,
+    exchange: Option<&Exchange>,
+    system: &mut System,
+    sizes: &MoveSizes,
+    ensemble: &Ensemble,
+    seeds: &[u64],
+    first_index: u64,
+) -> Counts {
+    let mut counts = Counts::default();
+    let mut scratch = Scratch::default();
+    scratch.marked.resize(system.len(), false);
+    for (j, &seed) in seeds.iter().enumerate() {
+        let index = first_index + j as u64;
+        let mut master = stream(seed, index, u64::MAX, u64::MAX);
+        let Some(slabs) = Slabs::of_sweep(system, threads, &mut master) else {
+            let c = sweep(system, sizes, ensemble, &mut master);
+            if me == 0 {
+                counts += c;
+            }
+            continue;
+        };
+        scratch.sort(system, &slabs, me, team);
+        let first = usize::from(master.r#gen::<bool>());
+        for colour in [first, 1 - first] {
+            scratch.moved.clear();
+            for k in (colour..slabs.count).step_by(2) {
+                let members = &scratch.slab_members[k];
+                if members.is_empty() {
+                    continue;
+                }
+                let mut rng = stream(seed, index, colour as u64, k as u64);
+                let box_ = *system.periodic_box();
+                let moved = &mut scratch.moved;
+                counts += particle_moves(
+                    system,
+                    members.len(),
+                    |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
+                    sizes,
+                    &mut rng,
+                    |r| slabs.slab_of(&box_.wrap_near(r)) == k,
+                    |i| {
+                        if exchange.is_some() {
+                            moved.push(i);
+                        }
+                    },
+                );
+            }
+            if let Some(exchange) = exchange {
+                exchange.share(me, system, &scratch.moved, &mut scratch.marked);
+            }
+        }
+        if let Ensemble::Npt {
+            pressure,
+            anisotropic,
+        } = *ensemble
+        {
+            let accepted = box_move(system, pressure, sizes.volume, anisotropic, &mut master);
+            if me == 0 {
+                counts.volume.record(accepted);
+            }
+        }
+    }
+    counts
+}
+
+impl Exchange {
+    /// Hands the last pose of each particle in `moved` to the others, and
+    /// places theirs in `system`.
+    fn share(&self, me: usize, system: &mut System, moved: &[usize], marked: &mut [bool]) {
+        {
+            let mut outbox = self.outboxes[me].write().expect("no thread panicked");
+            outbox.clear();
+            for &i in moved {
+                if !std::mem::replace(&mut marked[i], true) {
+                    let p = &system.particles[i];
+                    outbox.push((i, p.position, p.orientation, system.rotations[i]));
+                }
+            }
+            for &i in moved {
+                marked[i] = false;
+            }
+        }
+        self.barrier.wait();
+        for (other, outbox) in self.outboxes.iter().enumerate() {
+            if other != me {
+                let outbox = outbox.read().expect("no thread panicked");
+                for &(i, position, orientation, rotation) in outbox.iter() {
+                    system.place(i, position, orientation, rotation);
+                }
+            }
+        }
+        // Nobody refills an outbox before all have read it.
+        self.barrier.wait();
+    }
+}
+
 /// Parallel sweeps with the replicas they keep between sweeps (one per
 /// thread beyond the first). Replicas are copied from the system when it
-/// changed since they were last in step with it (a box move in NPT, a
-/// serial sweep, another system): reuse one `ParallelSweeps` for a run of
-/// sweeps of one system.
+/// changed since they were last in step with it (a serial sweep, another
+/// system): reuse one `ParallelSweeps` for a run of sweeps of one system.
 #[derive(Debug, Default)]
 pub struct ParallelSweeps {
     replicas: Vec<System>,
@@ -143,11 +339,8 @@ impl ParallelSweeps {
         Self::default()
     }
 
-    /// One sweep (N trial moves, then a box move in NPT) on the slabs, on
-    /// the threads of the current rayon pool, all of which it occupies
-    /// until the sweep ends (spinning at the barriers between colours):
-    /// call it from outside parallel iterators. Falls back to the serial
-    /// sweep when the box is too small for two slabs.
+    /// One sweep (N trial moves, then a box move in NPT) on the slabs:
+    /// [`ParallelSweeps::sweeps`] of one.
     pub fn sweep(
         &mut self,
         system: &mut System,
@@ -156,160 +349,78 @@ impl ParallelSweeps {
         seed: u64,
         sweep_index: u64,
     ) -> Counts {
+        self.sweeps(system, sizes, ensemble, &[seed], sweep_index)
+    }
+
+    /// Sweeps back to back, the j-th keyed on `seeds[j]` and
+    /// `first_index + j` (the same moves as one [`ParallelSweeps::sweep`]
+    /// each), on the threads of the current rayon pool, all of which it
+    /// occupies until the last ends (spinning at the barriers between
+    /// colours): call it from outside parallel iterators. A sweep in a box
+    /// too small for two slabs is the serial one. Waking the team costs
+    /// tens of µs, as much as a tenth of a sweep of 4000 spheres: hand
+    /// over several sweeps at once where nothing is read between them.
+    pub fn sweeps(
+        &mut self,
+        system: &mut System,
+        sizes: &MoveSizes,
+        ensemble: &Ensemble,
+        seeds: &[u64],
+        first_index: u64,
+    ) -> Counts {
         let threads = rayon::current_num_threads().max(1);
         let lengths = system.periodic_box().lengths();
-        let mut master = stream(seed, sweep_index, u64::MAX, u64::MAX);
-        let axis = lengths.imax();
-        let length = lengths[axis];
-        let Some(slabs) = slab_count(length, system.range, threads) else {
-            return sweep(system, sizes, ensemble, &mut master);
-        };
-        let width = length / slabs as f64;
-        let offset = master.r#gen::<f64>() * width;
-        let inverse_width = 1.0 / width;
-        // The slab of a position in the box: shift by the offset (under one
-        // slab), wrap into [0, L) by one compare.
-        let slab_of = move |r: &V3| -> usize {
-            let mut s = r[axis] + 0.5 * length + offset;
-            if s >= length {
-                s -= length;
-            }
-            ((s.max(0.0) * inverse_width) as usize).min(slabs - 1)
-        };
-        // Members by counting sort: `order[start[k]..start[k + 1]]` are the
-        // particles of slab k.
-        let home: Vec<usize> = system.positions.iter().map(slab_of).collect();
-        let mut start = vec![0usize; slabs + 1];
-        for &k in &home {
-            start[k + 1] += 1;
-        }
-        for k in 0..slabs {
-            start[k + 1] += start[k];
-        }
-        let mut order = vec![0usize; home.len()];
-        let mut fill = start.clone();
-        for (i, &k) in home.iter().enumerate() {
-            order[fill[k]] = i;
-            fill[k] += 1;
-        }
-        let first = usize::from(master.r#gen::<bool>());
-        let colours = [first, 1 - first];
-        let team = threads.min(slabs / 2);
-        // The moves of one slab, on the system of the thread that owns it;
-        // the particles moved are listed in `moved` when other threads need
-        // to hear of them.
-        let sweep_slab =
-            |system: &mut System, colour: usize, k: usize, mut moved: Option<&mut Vec<usize>>| {
-                let members = &order[start[k]..start[k + 1]];
-                if members.is_empty() {
-                    return Counts::default();
-                }
-                let mut rng = stream(seed, sweep_index, colour as u64, k as u64);
-                let box_ = *system.periodic_box();
-                particle_moves(
-                    system,
-                    members.len(),
-                    |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
-                    sizes,
-                    &mut rng,
-                    |r| slab_of(&box_.wrap_near(r)) == k,
-                    |i| {
-                        if let Some(moved) = moved.as_mut() {
-                            moved.push(i);
-                        }
-                    },
-                )
-            };
-        // The slabs of a colour a thread sweeps: contiguous shares.
-        let share = (slabs / 2).div_ceil(team);
-        let slabs_of =
-            move |colour: usize, me: usize| (colour..slabs).step_by(2).skip(me * share).take(share);
-        let mut counts = Counts::default();
+        let team = slab_count(lengths.max(), system.range, threads)
+            .map_or(1, |count| threads.min(count / 2));
         if team == 1 {
-            for colour in colours {
-                for k in slabs_of(colour, 0) {
-                    counts += sweep_slab(system, colour, k, None);
-                }
-            }
-        } else {
-            if self.in_step_at != Some(system.stamp()) || self.replicas.len() < team - 1 {
-                self.replicas = (1..team).map(|_| system.clone()).collect();
-            }
-            let barrier = SpinBarrier::new(team);
-            let outboxes: Vec<RwLock<Vec<Placed>>> =
-                (0..team).map(|_| RwLock::new(Vec::new())).collect();
-            let member = |me: usize, system: &mut System| {
-                let _member = Member(&barrier);
-                let mut counts = Counts::default();
-                let mut moved = Vec::new();
-                let mut marked = vec![false; system.len()];
-                for colour in colours {
-                    moved.clear();
-                    for k in slabs_of(colour, me) {
-                        counts += sweep_slab(system, colour, k, Some(&mut moved));
-                    }
-                    {
-                        let mut outbox = outboxes[me].write().expect("no thread panicked");
-                        outbox.clear();
-                        for &i in &moved {
-                            if !std::mem::replace(&mut marked[i], true) {
-                                let p = &system.particles[i];
-                                outbox.push((i, p.position, p.orientation, system.rotations[i]));
-                            }
-                        }
-                        for &i in &moved {
-                            marked[i] = false;
-                        }
-                    }
-                    barrier.wait();
-                    for (other, outbox) in outboxes.iter().enumerate() {
-                        if other != me {
-                            let outbox = outbox.read().expect("no thread panicked");
-                            for &(i, position, orientation, rotation) in outbox.iter() {
-                                system.place(i, position, orientation, rotation);
-                            }
-                        }
-                    }
-                    // Nobody refills an outbox before all have read it.
-                    barrier.wait();
-                }
-                counts
-            };
-            // On rayon's own threads, which stay awake between the sweeps of
-            // a run (a thread spawned per sweep cost 50-80 µs to start).
-            let systems: Vec<std::sync::Mutex<&mut System>> = std::iter::once(&mut *system)
-                .chain(self.replicas.iter_mut())
-                .take(team)
-                .map(std::sync::Mutex::new)
-                .collect();
-            let per_thread: Vec<Counts> = rayon::broadcast(|context| {
-                let me = context.index();
-                if me >= team {
-                    return Counts::default();
-                }
-                let mut system = systems[me].lock().expect("no thread panicked");
-                member(me, &mut system)
-            });
-            drop(systems);
-            for c in per_thread {
-                counts += c;
-            }
-            self.in_step_at = Some(system.stamp());
-        }
-        if let Ensemble::Npt {
-            pressure,
-            anisotropic,
-        } = *ensemble
-        {
-            counts.volume.record(box_move(
+            return member_sweeps(
+                0,
+                1,
+                threads,
+                None,
                 system,
-                pressure,
-                sizes.volume,
-                anisotropic,
-                &mut master,
-            ));
+                sizes,
+                ensemble,
+                seeds,
+                first_index,
+            );
         }
-        counts
+        if self.in_step_at != Some(system.stamp()) || self.replicas.len() < team - 1 {
+            self.replicas = (1..team).map(|_| system.clone()).collect();
+        }
+        let exchange = Exchange {
+            barrier: SpinBarrier::new(team),
+            outboxes: (0..team).map(|_| RwLock::new(Vec::new())).collect(),
+        };
+        // On rayon's own threads, which stay awake between the sweeps of
+        // a run (a thread spawned per sweep cost 50-80 µs to start).
+        let systems: Vec<std::sync::Mutex<&mut System>> = std::iter::once(&mut *system)
+            .chain(self.replicas.iter_mut())
+            .take(team)
+            .map(std::sync::Mutex::new)
+            .collect();
+        let per_thread: Vec<Counts> = rayon::broadcast(|context| {
+            let me = context.index();
+            if me >= team {
+                return Counts::default();
+            }
+            let mut system = systems[me].lock().expect("no thread panicked");
+            let _member = Member(&exchange.barrier);
+            member_sweeps(
+                me,
+                team,
+                threads,
+                Some(&exchange),
+                &mut system,
+                sizes,
+                ensemble,
+                seeds,
+                first_index,
+            )
+        });
+        drop(systems);
+        self.in_step_at = Some(system.stamp());
+        per_thread.into_iter().fold(Counts::default(), |a, c| a + c)
     }
 }
 
@@ -334,6 +445,32 @@ mod tests {
             (failing.join().is_err(), waiting.join().is_err())
         });
         assert_eq!(outcome, (true, true));
+    }
+
+    /// Streams keyed on different (seed, sweep, colour, slab) differ, also
+    /// where parts repeat each other (seed = sweep, colour = slab).
+    #[test]
+    fn streams_of_different_keys_differ() {
+        let mut firsts = std::collections::HashSet::new();
+        let mut keys = 0;
+        for a in 0..40u64 {
+            for b in 0..40u64 {
+                for key in [(a, a, 0, b), (a, b, a, b), (a, b, 1, 1), (a, a, b, b)] {
+                    let (seed, sweep, colour, slab) = key;
+                    if firsts.insert(stream(seed, sweep, colour, slab).r#gen::<u64>()) {
+                        keys += 1;
+                    }
+                }
+            }
+        }
+        // Distinct keys: 40·40·4 less the repeats among the four forms.
+        let distinct: std::collections::HashSet<_> = (0..40u64)
+            .flat_map(|a| {
+                (0..40u64)
+                    .flat_map(move |b| [(a, a, 0, b), (a, b, a, b), (a, b, 1, 1), (a, a, b, b)])
+            })
+            .collect();
+        assert_eq!(keys, distinct.len());
     }
 
     #[test]

@@ -25,7 +25,7 @@ use crate::log::{
 };
 use crate::mc::compress::{CompressOptions, Compressor, CompressorState};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
-use crate::mc::parallel::{ParallelSweeps, sweeps_on_slabs};
+use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::Sdf;
 use crate::mc::start::{StartError, lattice, random_insertion};
 use crate::mc::tuning::Tuner;
@@ -868,14 +868,37 @@ impl Runner<'_> {
         // RAYON_NUM_THREADS to choose), the same trajectory on one or two;
         // each sweep's streams are keyed on a seed drawn from the stage's
         // generator, so that a resumed stage draws the same ones.
-        let mut slabs = sweeps_on_slabs(system.plan(), system.len()).then(ParallelSweeps::new);
-        for s in first + 1..=sweeps {
+        let mut slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
+        // The sweeps after which something is read or written: slabs hand
+        // the sweeps up to the next of them to their team at once.
+        let sampling = sdf.is_some();
+        let eventful = |s: u64| {
+            s == sweeps
+                || s.is_multiple_of(stats_every)
+                || s.is_multiple_of(frames_every)
+                || (s <= tune && s.is_multiple_of(TUNE_WINDOW))
+                || (sampling && s > tune && s.is_multiple_of(sdf_every))
+        };
+        let mut seeds = Vec::with_capacity(MAX_CHUNK);
+        let mut s = first;
+        while s < sweeps {
             let c = match &mut slabs {
                 Some(slabs) => {
-                    let seed = rng.next_u64();
-                    slabs.sweep(&mut system, &self.sizes, &mc_ensemble, seed, s)
+                    seeds.clear();
+                    loop {
+                        s += 1;
+                        seeds.push(rng.next_u64());
+                        if eventful(s) || seeds.len() == MAX_CHUNK {
+                            break;
+                        }
+                    }
+                    let first_index = s + 1 - seeds.len() as u64;
+                    slabs.sweeps(&mut system, &self.sizes, &mc_ensemble, &seeds, first_index)
                 }
-                None => sweep(&mut system, &self.sizes, &mc_ensemble, rng),
+                None => {
+                    s += 1;
+                    sweep(&mut system, &self.sizes, &mc_ensemble, rng)
+                }
             };
             window += c;
             tune_window += c;

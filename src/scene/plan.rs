@@ -243,7 +243,7 @@ impl fmt::Display for Report<'_> {
         }
         if plan.has_mc {
             let n: usize = plan.species.iter().map(|s| s.count).sum();
-            if crate::mc::parallel::sweeps_on_slabs(&plan.mc_neighbours, n) {
+            if crate::mc::parallel::sweeps_on_slabs(n) {
                 writeln!(
                     f,
                     "  Monte Carlo sweeps: on slabs, in parallel on {} threads (N = {n} >= {}; the same trajectory on one thread or two; RAYON_NUM_THREADS sets the threads)",
@@ -253,12 +253,8 @@ impl fmt::Display for Report<'_> {
             } else {
                 writeln!(
                     f,
-                    "  Monte Carlo sweeps: serial ({})",
-                    if n < crate::mc::parallel::SLABS_FROM {
-                        format!("N = {n} < {}", crate::mc::parallel::SLABS_FROM)
-                    } else {
-                        "spheres on Verlet lists sweep faster on one thread".to_string()
-                    }
+                    "  Monte Carlo sweeps: serial (N = {n} < {})",
+                    crate::mc::parallel::SLABS_FROM
                 )?;
             }
         }
