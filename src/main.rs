@@ -583,15 +583,18 @@ fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode
         add(value(serde_json::to_value(&compression)), "compression");
         print_json(&all);
     } else {
-        say("| shape | N | phi | threads | trial moves/s (median) | translate acceptance |");
-        say("|---|---|---|---|---|---|");
+        say(
+            "| shape | N | phi | threads | sweep | trial moves/s (median) | translate acceptance |",
+        );
+        say("|---|---|---|---|---|---|---|");
         for r in moves.iter().chain(&density) {
             say(&format!(
-                "| {} | {} | {:.3} | {} | {:.3e} | {:.2} |",
+                "| {} | {} | {:.3} | {} | {} | {:.3e} | {:.2} |",
                 r.shape,
                 r.n,
                 r.packing_fraction,
                 r.threads,
+                r.sweep,
                 r.trial_moves_per_s,
                 r.acceptance_translate
             ));

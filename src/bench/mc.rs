@@ -36,6 +36,11 @@ pub struct McRow {
     pub acceptance_translate: f64,
     /// Threads used.
     pub threads: usize,
+    /// How: `serial`, `slabs` (the parallel sweep), or `copies` (as many
+    /// copies as threads, each swept serially on its own thread at once:
+    /// what the machine gives that many threads that never wait for
+    /// each other, the ceiling for the slabs).
+    pub sweep: &'static str,
 }
 
 /// A dense start of `shape` at packing fraction `phi` with about `n` particles.
@@ -121,13 +126,15 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
             &mut system,
             repeats,
             sweeps,
-            1,
+            (1, "serial"),
             |system, count| serial_sweeps(system, &sizes, &mut rng, count),
         )?);
         // The parallel sweep on all of rayon's threads, same sizes,
         // interleaved with nothing else, handed over as a run does (up to
         // MAX_CHUNK sweeps at once): the speed-up is the ratio of the two
-        // rows.
+        // rows. Then what independent copies get on as many threads: on a
+        // shared machine, far from twice one thread, and moving with the
+        // load on the host.
         let threads = rayon::current_num_threads();
         if threads > 1 {
             let mut index = 0;
@@ -137,7 +144,7 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
                 &mut system,
                 repeats,
                 sweeps,
-                threads,
+                (threads, "slabs"),
                 |system, count| {
                     let seeds = [17; MAX_CHUNK];
                     index += count as u64;
@@ -150,6 +157,7 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
                     )
                 },
             )?);
+            rows.push(copies_row(text, &system, &sizes, repeats, sweeps, threads)?);
         }
     }
     Ok(rows)
@@ -170,7 +178,7 @@ fn timed_row(
     system: &mut System,
     repeats: usize,
     sweeps: usize,
-    threads: usize,
+    (threads, how): (usize, &'static str),
     mut step: impl FnMut(&mut System, usize) -> Counts,
 ) -> Result<McRow, McError> {
     let mut rates = Vec::new();
@@ -195,6 +203,52 @@ fn timed_row(
         trial_moves_per_s: super::ocsi::median(&mut rates),
         acceptance_translate: counts.translate.rate(),
         threads,
+        sweep: how,
+    })
+}
+
+/// `threads` copies of `system`, each swept serially on its own thread, at
+/// once: the trial moves per second of all of them (median of `repeats`
+/// runs of `sweeps` sweeps each).
+fn copies_row(
+    shape: &str,
+    system: &System,
+    sizes: &MoveSizes,
+    repeats: usize,
+    sweeps: usize,
+    threads: usize,
+) -> Result<McRow, McError> {
+    let mut copies: Vec<(System, Pcg64)> = (0..threads)
+        .map(|k| (system.clone(), Pcg64::seed_from_u64(100 + k as u64)))
+        .collect();
+    let mut rates = Vec::new();
+    let mut counts = Counts::default();
+    for _ in 0..repeats {
+        let start = Instant::now();
+        let done: Vec<Counts> = std::thread::scope(|scope| {
+            let copies: Vec<_> = (copies.iter_mut())
+                .map(|(copy, rng)| scope.spawn(move || serial_sweeps(copy, sizes, rng, sweeps)))
+                .collect();
+            (copies.into_iter())
+                .map(|c| c.join().expect("a copy's sweeps do not panic"))
+                .collect()
+        });
+        rates.push((threads * sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
+        counts = done.into_iter().fold(counts, |a, c| a + c);
+    }
+    for (copy, _) in &copies {
+        if let Some((i, j)) = copy.first_overlap_all_pairs() {
+            return Err(McError::Overlap(i, j));
+        }
+    }
+    Ok(McRow {
+        shape: shape.into(),
+        n: system.len(),
+        packing_fraction: system.packing_fraction(),
+        trial_moves_per_s: super::ocsi::median(&mut rates),
+        acceptance_translate: counts.translate.rate(),
+        threads,
+        sweep: "copies",
     })
 }
 
@@ -345,7 +399,7 @@ pub fn by_density(quick: bool) -> Result<Vec<McRow>, McError> {
                 &mut system,
                 repeats,
                 sweeps,
-                1,
+                (1, "serial"),
                 |s, count| serial_sweeps(s, &sizes, &mut rng, count),
             )?);
         }
