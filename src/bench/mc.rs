@@ -193,14 +193,28 @@ fn timed_row(
         }
         rates.push((sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
     }
-    if let Some((i, j)) = system.first_overlap_all_pairs() {
-        return Err(McError::Overlap(i, j));
+    checked_row(shape, &[system], &mut rates, &counts, (threads, how))
+}
+
+/// The row of `rates` and `counts` measured on `systems` (alike but for
+/// their moves), once no pair in any of them overlaps by all pairs.
+fn checked_row(
+    shape: &str,
+    systems: &[&System],
+    rates: &mut [f64],
+    counts: &Counts,
+    (threads, how): (usize, &'static str),
+) -> Result<McRow, McError> {
+    for system in systems {
+        if let Some((i, j)) = system.first_overlap_all_pairs() {
+            return Err(McError::Overlap(i, j));
+        }
     }
     Ok(McRow {
         shape: shape.into(),
-        n: system.len(),
-        packing_fraction: system.packing_fraction(),
-        trial_moves_per_s: super::ocsi::median(&mut rates),
+        n: systems[0].len(),
+        packing_fraction: systems[0].packing_fraction(),
+        trial_moves_per_s: super::ocsi::median(rates),
         acceptance_translate: counts.translate.rate(),
         threads,
         sweep: how,
@@ -236,20 +250,8 @@ fn copies_row(
         rates.push((threads * sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
         counts = done.into_iter().fold(counts, |a, c| a + c);
     }
-    for (copy, _) in &copies {
-        if let Some((i, j)) = copy.first_overlap_all_pairs() {
-            return Err(McError::Overlap(i, j));
-        }
-    }
-    Ok(McRow {
-        shape: shape.into(),
-        n: system.len(),
-        packing_fraction: system.packing_fraction(),
-        trial_moves_per_s: super::ocsi::median(&mut rates),
-        acceptance_translate: counts.translate.rate(),
-        threads,
-        sweep: "copies",
-    })
+    let copies: Vec<&System> = copies.iter().map(|(copy, _)| copy).collect();
+    checked_row(shape, &copies, &mut rates, &counts, (threads, "copies"))
 }
 
 /// One compression of the benchmark.

@@ -215,6 +215,19 @@ impl Scratch {
     }
 }
 
+/// The sweeps a team is handed.
+#[derive(Debug, Clone, Copy)]
+struct Work<'a> {
+    sizes: &'a MoveSizes,
+    ensemble: &'a Ensemble,
+    /// One per sweep.
+    seeds: &'a [u64],
+    /// The index of the first sweep.
+    first_index: u64,
+    /// The threads the slabs are counted for (the pool's).
+    threads: usize,
+}
+
 /// The work of member `me` of a team of `team` in sweeps `first_index..`
 /// keyed on `seeds`, on its own `system`, handing its moves to the others
 /// through `exchange` (none for a team of one). Every member draws the
@@ -222,18 +235,19 @@ impl Scratch {
 /// in the same state, and all make the same box move (their systems
 /// agree, so do the answers); only member 0 counts the moves that every
 /// member makes.
-#[allow(clippy::too_many_arguments)]
 fn member_sweeps(
-    me: usize,
-    team: usize,
-    threads: usize,
+    (me, team): (usize, usize),
     exchange: Option<&Exchange>,
     system: &mut System,
-    sizes: &MoveSizes,
-    ensemble: &Ensemble,
-    seeds: &[u64],
-    first_index: u64,
+    work: &Work,
 ) -> Counts {
+    let Work {
+        sizes,
+        ensemble,
+        seeds,
+        first_index,
+        threads,
+    } = *work;
     let mut counts = Counts::default();
     let mut scratch = Scratch::default();
     scratch.marked.resize(system.len(), false);
@@ -369,21 +383,18 @@ impl ParallelSweeps {
         first_index: u64,
     ) -> Counts {
         let threads = rayon::current_num_threads().max(1);
+        let work = Work {
+            sizes,
+            ensemble,
+            seeds,
+            first_index,
+            threads,
+        };
         let lengths = system.periodic_box().lengths();
         let team = slab_count(lengths.max(), system.range, threads)
             .map_or(1, |count| threads.min(count / 2));
         if team == 1 {
-            return member_sweeps(
-                0,
-                1,
-                threads,
-                None,
-                system,
-                sizes,
-                ensemble,
-                seeds,
-                first_index,
-            );
+            return member_sweeps((0, 1), None, system, &work);
         }
         if self.in_step_at != Some(system.stamp()) || self.replicas.len() < team - 1 {
             self.replicas = (1..team).map(|_| system.clone()).collect();
@@ -406,17 +417,7 @@ impl ParallelSweeps {
             }
             let mut system = systems[me].lock().expect("no thread panicked");
             let _member = Member(&exchange.barrier);
-            member_sweeps(
-                me,
-                team,
-                threads,
-                Some(&exchange),
-                &mut system,
-                sizes,
-                ensemble,
-                seeds,
-                first_index,
-            )
+            member_sweeps((me, team), Some(&exchange), &mut system, &work)
         });
         drop(systems);
         self.in_step_at = Some(system.stamp());
