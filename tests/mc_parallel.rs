@@ -6,10 +6,12 @@
 
 use hardbody::bench::mc::dense_start;
 use hardbody::geometry::Shape;
-use hardbody::mc::System;
 use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
 use hardbody::mc::parallel::ParallelSweeps;
 use hardbody::mc::tuning::Tuner;
+use hardbody::mc::{Species, System};
+use hardbody::space::PeriodicBox;
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use statrs::statistics::Statistics;
 
@@ -121,6 +123,61 @@ fn chunks_of_sweeps_are_the_sweeps_one_by_one() {
         assert_eq!(one.particles(), two.particles(), "{text}: states differ");
         assert_eq!(two.first_overlap_all_pairs(), None, "{text}: overlap");
     }
+}
+
+/// A box that shrinks within a chunk from four slabs to two (one per
+/// colour: the second member of the team sweeps none and only places the
+/// first's moves) still makes the sweeps one by one.
+#[test]
+fn a_chunk_in_which_the_slabs_thin_out_is_the_sweeps_one_by_one() {
+    let shape: Shape = "Sphere(radius: 0.5)".parse().unwrap();
+    let species = vec![Species {
+        name: "sphere".into(),
+        shape,
+        rotation: false,
+    }];
+    let box_ = PeriodicBox::new(Vector3::new(4.1, 3.2, 3.2)).unwrap();
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+    let start = hardbody::mc::start::lattice(box_, species, &[12], &mut rng).unwrap();
+    let sizes = MoveSizes {
+        translate: 0.3,
+        rotate: 0.0,
+        volume: 0.03,
+    };
+    let ensemble = Ensemble::Npt {
+        pressure: 30.0,
+        anisotropic: false,
+    };
+    let seeds: Vec<u64> = (0..32u64).map(|k| 7 + 11 * k).collect();
+    let pool = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    };
+    let (mut one, mut two) = (start.clone(), start.clone());
+    let c1 = pool(1).install(|| {
+        let mut parallel = ParallelSweeps::new();
+        (seeds.iter().enumerate()).fold(Counts::default(), |c, (j, &seed)| {
+            c + parallel.sweep(&mut one, &sizes, &ensemble, seed, j as u64)
+        })
+    });
+    let c2 = pool(2).install(|| {
+        let mut parallel = ParallelSweeps::new();
+        (seeds.chunks(16).enumerate()).fold(Counts::default(), |c, (k, chunk)| {
+            c + parallel.sweeps(&mut two, &sizes, &ensemble, chunk, 16 * k as u64)
+        })
+    });
+    assert!(start.periodic_box().lengths().max() >= 4.0);
+    assert!(
+        one.periodic_box().lengths().max() < 4.0,
+        "the box did not shrink past four ranges: {:?}",
+        one.periodic_box().lengths()
+    );
+    assert_eq!(c1, c2);
+    assert_eq!(one.periodic_box().lengths(), two.periodic_box().lengths());
+    assert_eq!(one.particles(), two.particles());
+    assert_eq!(two.first_overlap_all_pairs(), None);
 }
 
 /// Hard-sphere NPT at βP = 3 from the same starts by the parallel sweep
