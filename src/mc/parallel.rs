@@ -184,10 +184,13 @@ impl Slabs {
 }
 
 /// The barrier and the outboxes through which a team's members hand each
-/// other the moves of a colour.
+/// other the moves of a colour: two per member, for even and odd colours
+/// (counted over the team's sweeps). A member refills the outbox of colour
+/// n + 2 only after the barrier of colour n + 1, which every other member
+/// reaches after it has read colour n's: one barrier per colour.
 struct Exchange {
     barrier: SpinBarrier,
-    outboxes: Vec<RwLock<Vec<Placed>>>,
+    outboxes: Vec<[RwLock<Vec<Placed>>; 2]>,
 }
 
 /// What a member keeps from sweep to sweep: the particles of each of its
@@ -251,6 +254,8 @@ fn member_sweeps(
     let mut counts = Counts::default();
     let mut scratch = Scratch::default();
     scratch.marked.resize(system.len(), false);
+    // Colours swept so far (the outboxes alternate with them).
+    let mut colours_done = 0usize;
     for (j, &seed) in seeds.iter().enumerate() {
         let index = first_index + j as u64;
         let mut master = stream(seed, index, u64::MAX, u64::MAX);
@@ -288,8 +293,15 @@ fn member_sweeps(
                 );
             }
             if let Some(exchange) = exchange {
-                exchange.share(me, system, &scratch.moved, &mut scratch.marked);
+                exchange.share(
+                    me,
+                    colours_done % 2,
+                    system,
+                    &scratch.moved,
+                    &mut scratch.marked,
+                );
             }
+            colours_done += 1;
         }
         if let Ensemble::Npt {
             pressure,
@@ -307,10 +319,19 @@ fn member_sweeps(
 
 impl Exchange {
     /// Hands the last pose of each particle in `moved` to the others, and
-    /// places theirs in `system`.
-    fn share(&self, me: usize, system: &mut System, moved: &[usize], marked: &mut [bool]) {
+    /// places theirs in `system` (through the outboxes of `parity`).
+    fn share(
+        &self,
+        me: usize,
+        parity: usize,
+        system: &mut System,
+        moved: &[usize],
+        marked: &mut [bool],
+    ) {
         {
-            let mut outbox = self.outboxes[me].write().expect("no thread panicked");
+            let mut outbox = self.outboxes[me][parity]
+                .write()
+                .expect("no thread panicked");
             outbox.clear();
             for &i in moved {
                 if !std::mem::replace(&mut marked[i], true) {
@@ -323,16 +344,14 @@ impl Exchange {
             }
         }
         self.barrier.wait();
-        for (other, outbox) in self.outboxes.iter().enumerate() {
+        for (other, outboxes) in self.outboxes.iter().enumerate() {
             if other != me {
-                let outbox = outbox.read().expect("no thread panicked");
+                let outbox = outboxes[parity].read().expect("no thread panicked");
                 for &(i, position, orientation, rotation) in outbox.iter() {
                     system.place(i, position, orientation, rotation);
                 }
             }
         }
-        // Nobody refills an outbox before all have read it.
-        self.barrier.wait();
     }
 }
 
@@ -401,7 +420,9 @@ impl ParallelSweeps {
         }
         let exchange = Exchange {
             barrier: SpinBarrier::new(team),
-            outboxes: (0..team).map(|_| RwLock::new(Vec::new())).collect(),
+            outboxes: (0..team)
+                .map(|_| [RwLock::new(Vec::new()), RwLock::new(Vec::new())])
+                .collect(),
         };
         // On rayon's own threads, which stay awake between the sweeps of
         // a run (a thread spawned per sweep cost 50-80 µs to start).
