@@ -15,17 +15,21 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use statrs::statistics::Statistics;
 
+/// A rayon pool of `threads` threads.
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
 fn run(system: &mut System, sweeps: u64, threads: usize, seed: u64) -> Counts {
     let sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.005,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    pool(threads).install(|| {
         let mut counts = Counts::default();
         let mut parallel = ParallelSweeps::new();
         let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
@@ -82,12 +86,6 @@ fn chunks_of_sweeps_are_the_sweeps_one_by_one() {
             anisotropic,
         };
         let seeds: Vec<u64> = (0..28u64).map(|k| 1000 + 37 * k).collect();
-        let pool = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-        };
         let mut one = start.clone();
         let c1 = pool(1).install(|| {
             let mut parallel = ParallelSweeps::new();
@@ -149,12 +147,6 @@ fn a_chunk_in_which_the_slabs_thin_out_is_the_sweeps_one_by_one() {
         anisotropic: false,
     };
     let seeds: Vec<u64> = (0..32u64).map(|k| 7 + 11 * k).collect();
-    let pool = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-    };
     let (mut one, mut two) = (start.clone(), start.clone());
     let c1 = pool(1).install(|| {
         let mut parallel = ParallelSweeps::new();
@@ -188,10 +180,7 @@ fn npt_packing_fraction(parallel: bool) -> (f64, f64) {
     let shape: Shape = "Sphere(radius: 0.5)".parse().unwrap();
     // The trajectory does not depend on the thread count (test above); one
     // thread keeps the two samplers from sharing the cores.
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
+    let pool = pool(1);
     let mut blocks = Vec::new();
     for replica in 0..3u64 {
         let mut system = dense_start(&shape, 500, 0.9 * cs).unwrap();
