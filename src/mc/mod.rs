@@ -997,32 +997,41 @@ impl System {
         let old_lengths = self.box_.lengths();
         let factor = lengths.component_div(&old_lengths);
         let shrinks = factor.iter().any(|&f| f < 1.0);
-        // Every centre moves: the trial starts without lists (and without
-        // copying them), which this box keeps if the change is refused.
+        // Every centre moves: the trial is made in place, on new cells and
+        // without lists; a refused change puts back the centres, the cells
+        // and the lists it kept aside (a copy of the whole system per box
+        // move, fresh pages each time, was a quarter of an NPT sweep of
+        // 4000 spheres).
         let lists = self.sphere_lists.take();
         let capsule_lists = self.capsule_lists.take();
-        let mut trial = self.clone();
-        self.sphere_lists = lists;
-        self.capsule_lists = capsule_lists;
-        trial.list_window = (0, 0.0);
-        trial.box_ = new_box;
-        for p in &mut trial.particles {
+        let old_box = self.box_;
+        let old_positions = self.positions.clone();
+        self.box_ = new_box;
+        for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
             p.position = new_box.wrap(&p.position.component_mul(&factor));
+            *r = p.position;
         }
-        let positions: Vec<V3> = trial.particles.iter().map(|p| p.position).collect();
-        trial.positions.clone_from(&positions);
-        trial.cells = trial.neighbours_as_they_are();
+        let new_cells = self.neighbours_as_they_are();
+        let old_cells = std::mem::replace(&mut self.cells, new_cells);
         // Scaling all centres up cannot create an overlap of convex bodies
         // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some
         // axis needs checking.
         if shrinks
             && !self.ideal
-            && (0..trial.len())
-                .any(|i| trial.overlaps_at(i, &trial.particles[i].position, &trial.rotations[i]))
+            && (0..self.len())
+                .any(|i| self.overlaps_at(i, &self.particles[i].position, &self.rotations[i]))
         {
+            self.box_ = old_box;
+            for (p, r) in self.particles.iter_mut().zip(&old_positions) {
+                p.position = *r;
+            }
+            self.positions = old_positions;
+            self.cells = old_cells;
+            self.sphere_lists = lists;
+            self.capsule_lists = capsule_lists;
             return false;
         }
-        *self = trial;
+        self.list_window = (0, 0.0);
         self.changed = true;
         true
     }
@@ -1033,6 +1042,71 @@ mod tests {
     use super::*;
     use crate::mc::moves::{Ensemble, MoveSizes, sweep};
     use rand::SeedableRng;
+
+    /// A refused box change (made in place, then undone) leaves the system
+    /// as it was: the same state and stamp, and the sweeps after it those
+    /// of a copy that never tried, to the bit (spheres on lists, needles on
+    /// capsule lists, cubes on AABB cells, and a mixture on per-species
+    /// grids).
+    #[test]
+    fn a_refused_box_change_leaves_no_trace() {
+        let mut systems: Vec<System> = [
+            "Sphere(radius: 0.5)",
+            "Ellipsoid(a: 1.25, b: 0.25, c: 0.25)",
+            "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
+        ]
+        .iter()
+        .map(|text| crate::bench::mc::dense_start(&text.parse().unwrap(), 400, 0.5).unwrap())
+        .collect();
+        let species = vec![
+            Species {
+                name: "cube".into(),
+                shape: "Cuboid(a: 1.0, b: 1.0, c: 1.0)".parse().unwrap(),
+                rotation: true,
+            },
+            Species {
+                name: "sphere".into(),
+                shape: "Sphere(radius: 0.15)".parse().unwrap(),
+                rotation: false,
+            },
+        ];
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(8);
+        let box_ = PeriodicBox::new(V3::repeat(15.0)).unwrap();
+        systems.push(crate::mc::start::lattice(box_, species, &[40, 280], &mut rng).unwrap());
+        let sizes = MoveSizes {
+            translate: 0.05,
+            rotate: 0.05,
+            volume: 0.0,
+        };
+        for (k, mut system) in systems.into_iter().enumerate() {
+            let mut r1 = rand_pcg::Pcg64::seed_from_u64(k as u64);
+            for _ in 0..30 {
+                sweep(&mut system, &sizes, &Ensemble::Nvt, &mut r1);
+            }
+            let stamp = system.stamp();
+            let mut untouched = system.clone();
+            assert_eq!(untouched.stamp(), stamp);
+            let lengths = system.box_.lengths();
+            // (The mixture's lattice is loose: halve it.)
+            let shrink = if k < 3 { 0.8 } else { 0.5 };
+            assert!(
+                !system.try_rescale(lengths * shrink),
+                "system {k}: accepted"
+            );
+            assert_eq!(system.stamp(), stamp, "system {k}");
+            assert_eq!(system.box_.lengths(), lengths);
+            assert!(system.particles() == untouched.particles(), "system {k}");
+            let mut r2 = r1.clone();
+            for _ in 0..10 {
+                sweep(&mut system, &sizes, &Ensemble::Nvt, &mut r1);
+                sweep(&mut untouched, &sizes, &Ensemble::Nvt, &mut r2);
+            }
+            assert!(
+                system.particles() == untouched.particles(),
+                "system {k}: the sweeps after the refusal part from the copy's"
+            );
+        }
+    }
 
     /// Sphere lists change no answer: NVT sweeps of dense spheres with
     /// lists (built after four accepted moves per sphere) follow those of
