@@ -146,15 +146,10 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
                 sweeps,
                 (threads, "slabs"),
                 |system, count| {
-                    let seeds = [17; MAX_CHUNK];
+                    let first = index;
                     index += count as u64;
-                    parallel.sweeps(
-                        system,
-                        &sizes,
-                        &Ensemble::Nvt,
-                        &seeds[..count],
-                        index - count as u64,
-                    )
+                    let seeds = [17; MAX_CHUNK];
+                    parallel.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
                 },
             )?);
             rows.push(copies_row(text, &system, &sizes, repeats, sweeps, threads)?);

@@ -869,15 +869,17 @@ impl Runner<'_> {
         // each sweep's streams are keyed on a seed drawn from the stage's
         // generator, so that a resumed stage draws the same ones.
         let mut slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
-        // The sweeps after which something is read or written: slabs hand
-        // the sweeps up to the next of them to their team at once.
+        // What happens after sweep s (the loop below does it), and so
+        // where the slabs' run of sweeps handed to their team at once ends.
+        let tunes_at = |s: u64| s <= tune && s.is_multiple_of(TUNE_WINDOW);
+        let samples_at = |s: u64| s > tune && s.is_multiple_of(sdf_every);
         let sampling = sdf.is_some();
         let eventful = |s: u64| {
             s == sweeps
                 || s.is_multiple_of(stats_every)
                 || s.is_multiple_of(frames_every)
-                || (s <= tune && s.is_multiple_of(TUNE_WINDOW))
-                || (sampling && s > tune && s.is_multiple_of(sdf_every))
+                || tunes_at(s)
+                || (sampling && samples_at(s))
         };
         let mut seeds = Vec::with_capacity(MAX_CHUNK);
         let mut s = first;
@@ -902,13 +904,12 @@ impl Runner<'_> {
             };
             window += c;
             tune_window += c;
-            if s <= tune && s.is_multiple_of(TUNE_WINDOW) {
+            if tunes_at(s) {
                 tuner.update(&mut self.sizes, &tune_window);
                 tune_window = Counts::default();
             }
             if let Some(sdf) = sdf.as_mut()
-                && s > tune
-                && s.is_multiple_of(sdf_every)
+                && samples_at(s)
             {
                 sdf.add(&system);
             }
