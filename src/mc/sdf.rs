@@ -46,26 +46,20 @@ impl Sdf {
     /// wide (all pairs cost N² distances, 8·10⁶ for 4000 particles: once
     /// four times the sweeps between two samples).
     pub fn add(&mut self, system: &System) {
-        let n = system.len();
         let shrink = 1.0 - self.x_max;
         let largest = system.radii.iter().copied().fold(0.0, f64::max);
         // (A hair wider than the farthest pair that counts.)
         let width = 2.0 * largest / shrink * (1.0 + 1e-9);
         let cells = CellList::new(system.box_.lengths(), width, &system.positions);
-        let mut x_min = vec![f64::INFINITY; n];
-        for i in 0..n {
-            for &cell in cells.neighbour_cells(cells.cell_of(i)) {
-                for &j in cells.members(cell as usize) {
-                    let j = j as usize;
-                    if j > i
-                        && let Some(x) = self.pair_shrink(system, i, j)
-                    {
-                        x_min[i] = x_min[i].min(x);
-                        x_min[j] = x_min[j].min(x);
-                    }
-                }
-            }
-        }
+        let pairs = (0..system.len()).flat_map(|i| {
+            let cells = &cells;
+            (cells.neighbour_cells(cells.cell_of(i)).iter())
+                .flat_map(move |&cell| cells.members(cell as usize))
+                .map(|&j| j as usize)
+                .filter(move |&j| j > i)
+                .map(move |j| (i, j))
+        });
+        let x_min = self.smallest_shrinks(system, pairs);
         self.add_shrinks(system, x_min);
     }
 
@@ -74,16 +68,27 @@ impl Sdf {
     #[cfg(test)]
     fn add_all_pairs(&mut self, system: &System) {
         let n = system.len();
-        let mut x_min = vec![f64::INFINITY; n];
-        for i in 0..n {
-            for j in i + 1..n {
-                if let Some(x) = self.pair_shrink(system, i, j) {
-                    x_min[i] = x_min[i].min(x);
-                    x_min[j] = x_min[j].min(x);
-                }
+        let pairs = (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j)));
+        let x_min = self.smallest_shrinks(system, pairs);
+        self.add_shrinks(system, x_min);
+    }
+
+    /// Each particle's smallest shrink at which it overlaps another, over
+    /// `pairs` (each pair once; infinite for a particle that overlaps none
+    /// below x_max).
+    fn smallest_shrinks(
+        &self,
+        system: &System,
+        pairs: impl Iterator<Item = (usize, usize)>,
+    ) -> Vec<f64> {
+        let mut x_min = vec![f64::INFINITY; system.len()];
+        for (i, j) in pairs {
+            if let Some(x) = self.pair_shrink(system, i, j) {
+                x_min[i] = x_min[i].min(x);
+                x_min[j] = x_min[j].min(x);
             }
         }
-        self.add_shrinks(system, x_min);
+        x_min
     }
 
     /// The smallest shrink in [0, x_max) at which particles `i` and `j`
@@ -95,6 +100,7 @@ impl Sdf {
         let (si, sj) = (pi.species as usize, pj.species as usize);
         let d = system.box_.minimum_image(&(pj.position - pi.position));
         let reach = system.radii[si] + system.radii[sj];
+        // Beyond reach even after the largest shrink considered.
         if (d * shrink).norm_squared() > reach * reach {
             return None;
         }
@@ -113,6 +119,8 @@ impl Sdf {
         if !overlaps_at(self.x_max) {
             return None;
         }
+        // Overlap is monotone in the shrink for convex bodies: bisect to
+        // far below a bin width.
         let (mut lo, mut hi) = (0.0, self.x_max);
         let tol = self.x_max / self.counts.len() as f64 * 1e-3;
         while hi - lo > tol {
