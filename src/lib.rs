@@ -16,9 +16,38 @@ pub mod run;
 pub mod scene;
 pub mod space;
 
-/// Deterministic numbers for unit tests, without a dependency.
+/// Deterministic numbers and small systems for unit tests.
 #[cfg(test)]
 pub(crate) mod test_support {
+    /// Cubes of half-edge `half` among spheres of `radius` on a lattice in
+    /// a cubic box of side `side` (`counts`: cubes, spheres), random
+    /// orientations from `seed`: a size-asymmetric mixture.
+    pub fn cubes_among_spheres(
+        half: f64,
+        radius: f64,
+        side: f64,
+        counts: [usize; 2],
+        seed: u64,
+    ) -> crate::mc::System {
+        use crate::geometry::{Cuboid, Shape, Sphere};
+        use rand::SeedableRng;
+        let species = vec![
+            crate::mc::Species {
+                name: "cube".into(),
+                shape: Shape::Cuboid(Cuboid::new(half, half, half).unwrap()),
+                rotation: true,
+            },
+            crate::mc::Species {
+                name: "sphere".into(),
+                shape: Shape::Sphere(Sphere::new(radius).unwrap()),
+                rotation: false,
+            },
+        ];
+        let box_ = crate::space::PeriodicBox::new(nalgebra::Vector3::repeat(side)).unwrap();
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        crate::mc::start::lattice(box_, species, &counts, &mut rng).unwrap()
+    }
+
     /// Uniform numbers in [0, 1) from a 64-bit LCG (Knuth's MMIX constants).
     pub fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
         move || {

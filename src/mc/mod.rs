@@ -1058,21 +1058,13 @@ mod tests {
         .iter()
         .map(|text| crate::bench::mc::dense_start(&text.parse().unwrap(), 400, 0.5).unwrap())
         .collect();
-        let species = vec![
-            Species {
-                name: "cube".into(),
-                shape: "Cuboid(a: 1.0, b: 1.0, c: 1.0)".parse().unwrap(),
-                rotation: true,
-            },
-            Species {
-                name: "sphere".into(),
-                shape: "Sphere(radius: 0.15)".parse().unwrap(),
-                rotation: false,
-            },
-        ];
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(8);
-        let box_ = PeriodicBox::new(V3::repeat(15.0)).unwrap();
-        systems.push(crate::mc::start::lattice(box_, species, &[40, 280], &mut rng).unwrap());
+        systems.push(crate::test_support::cubes_among_spheres(
+            1.0,
+            0.15,
+            15.0,
+            [40, 280],
+            8,
+        ));
         let sizes = MoveSizes {
             translate: 0.05,
             rotate: 0.05,

@@ -226,21 +226,7 @@ mod tests {
         let box_ = PeriodicBox::new(Vector3::repeat(8.0)).unwrap();
         let spheres = crate::mc::start::lattice(box_, sphere, &[340], &mut rng).unwrap();
         systems.push(shaken(spheres, 6));
-        let species = vec![
-            Species {
-                name: "cube".into(),
-                shape: "Cuboid(a: 0.5, b: 0.5, c: 0.5)".parse().unwrap(),
-                rotation: true,
-            },
-            Species {
-                name: "sphere".into(),
-                shape: "Sphere(radius: 0.2)".parse().unwrap(),
-                rotation: false,
-            },
-        ];
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
-        let box_ = PeriodicBox::new(Vector3::repeat(11.0)).unwrap();
-        let mixture = crate::mc::start::lattice(box_, species, &[300, 600], &mut rng).unwrap();
+        let mixture = crate::test_support::cubes_among_spheres(0.5, 0.2, 11.0, [300, 600], 3);
         systems.push(shaken(mixture, 4));
         // (A wide x_max reaches far past the interaction range.)
         for x_max in [0.02, 0.2] {
