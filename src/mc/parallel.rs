@@ -153,7 +153,7 @@ impl Slabs {
         let lengths = system.periodic_box().lengths();
         let axis = lengths.imax();
         let length = lengths[axis];
-        let count = slab_count(length, system.range, threads)?;
+        let count = Self::count_in(system, threads)?;
         let width = length / count as f64;
         Some(Self {
             axis,
@@ -162,6 +162,13 @@ impl Slabs {
             offset: master.r#gen::<f64>() * width,
             inverse_width: 1.0 / width,
         })
+    }
+
+    /// How many slabs `system`'s box takes along its longest axis for
+    /// `threads` threads ([`slab_count`]).
+    fn count_in(system: &System, threads: usize) -> Option<usize> {
+        let lengths = system.periodic_box().lengths();
+        slab_count(lengths.max(), system.range, threads)
     }
 
     /// The slab of a position in the box: shift by the offset (under one
@@ -409,9 +416,7 @@ impl ParallelSweeps {
             first_index,
             threads,
         };
-        let lengths = system.periodic_box().lengths();
-        let team = slab_count(lengths.max(), system.range, threads)
-            .map_or(1, |count| threads.min(count / 2));
+        let team = Slabs::count_in(system, threads).map_or(1, |count| threads.min(count / 2));
         if team == 1 {
             return member_sweeps((0, 1), None, system, &work);
         }
