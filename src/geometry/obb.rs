@@ -171,9 +171,10 @@ pub fn max_axis_separation_with_feature(
             let ra = a[i1] * abs_r[(i2, j)] + a[i2] * abs_r[(i1, j)];
             let rb = b[j1] * abs_r[(i, j2)] + b[j2] * abs_r[(i, j1)];
             let proj = t[i2] * r[(i1, j)] - t[i1] * r[(i2, j)];
-            let sep = (proj.abs() - ra - rb) / len;
-            if sep > best {
-                best = sep;
+            // (sep / len > best, without a division per axis.)
+            let sep = proj.abs() - ra - rb;
+            if sep > best * len {
+                best = sep / len;
                 let mut axis = Vector3::zeros();
                 axis[i1] = -r[(i2, j)] / len;
                 axis[i2] = r[(i1, j)] / len;
