@@ -418,9 +418,11 @@ impl Shape {
     /// Since ḣ = ∇h·u̇ and ḧ = u̇ᵀ∇²h u̇ + ∇h·ü with ∇h the
     /// support point and ∇²h the radii of curvature there: for ellipsoids
     /// slope = x·u̇ and curvature = R_max speed² + a_max accel (R_max =
-    /// a_max²/a_min); for cuboids h = Σ aₖ|uₖ| with each |uₖ(τ)| ≤
-    /// |uₖ + u̇ₖτ| + ½ accel τ² (a kink where uₖ + u̇ₖτ changes sign: a
-    /// face normal crossing the plane of n); superellipsoids, whose faces may be flat, get
+    /// a_max²/a_min); for cuboids h = Σ aₖ|uₖ| with |uₖ(τ)| ≤
+    /// |uₖ + u̇ₖτ| + |Rₖ(τ)| (a kink where uₖ + u̇ₖτ changes sign: a face
+    /// normal crossing the plane of n) and, R being the Taylor remainder,
+    /// Σ aₖ|Rₖ| ≤ |a| |R| ≤ ½ |a| accel τ² (Cauchy–Schwarz: |a|, not
+    /// Σ aₖ); superellipsoids, whose faces may be flat, get
     /// only the Lipschitz bound (|ḣ| ≤ |x × u| |u̇| ≤ moment arm × speed).
     pub fn support_growth(
         &self,
@@ -455,7 +457,7 @@ impl Shape {
                     value: h.dot(&u.abs()),
                     slope: 0.0,
                     kinks: [0, 1, 2].map(|k| (h[k], u[k], u_dot[k])),
-                    curvature: (h.x + h.y + h.z) * accel,
+                    curvature: h.norm() * accel,
                     lipschitz,
                 }
             }
