@@ -78,6 +78,7 @@ pub struct Progress {
     warm: Option<WarmStart>,
     hint: Option<V3>,
     last: Option<(f64, Contact)>,
+    earlier: Option<(f64, Contact)>,
 }
 
 impl Progress {
@@ -231,9 +232,9 @@ impl Predictor {
         // Eq. (32), with the moment arm in place of the bounding radius: the
         // distance changes at the normal velocity of the contact points, and
         // a rotation moves a surface point along its normal by ω·(x × n).
-        let rate_bound = dv.norm()
-            + w_a.angular_velocity(q_a).norm() * shape_a.moment_arm()
-            + w_b.angular_velocity(q_b).norm() * shape_b.moment_arm();
+        let (turn_a, turn_b) = (TurnBound::new(w_a, q_a), TurnBound::new(w_b, q_b));
+        let rate_bound =
+            dv.norm() + turn_a.speed * shape_a.moment_arm() + turn_b.speed * shape_b.moment_arm();
         if rate_bound == 0.0 {
             return Ok(Search::Apart);
         }
@@ -263,7 +264,28 @@ impl Predictor {
         // The last normal seen (A's frame): where the next bound's ascent
         // and a cold distance start (pairs with a superellipsoid).
         let hint: Cell<Option<V3>> = Cell::new(None);
+        // The solution before `last`: a grazing check asks again for the
+        // distance at the step it starts from, solved by the check before.
+        let earlier: Cell<Option<(f64, Contact)>> = Cell::new(None);
         let dist = |t: f64| -> f64 {
+            if let Some((at, c)) = last.get()
+                && at == t
+            {
+                if c.warm_start.is_some() {
+                    warm.set(c.warm_start);
+                }
+                return c.distance;
+            }
+            if let Some((at, c)) = earlier.get()
+                && at == t
+            {
+                if c.warm_start.is_some() {
+                    warm.set(c.warm_start);
+                }
+                earlier.set(last.get());
+                last.set(Some((at, c)));
+                return c.distance;
+            }
             let rel = pose(t);
             let start = warm.get().or_else(|| {
                 hint.get()
@@ -288,6 +310,7 @@ impl Predictor {
                 Status::DeepOverlap => 0,
             };
             self.work.set(work);
+            earlier.set(last.get());
             last.set(Some((t, contact)));
             if !contact.distance.is_finite() {
                 failure.set(Some(format!("{:?} at τ = {t}", contact.status)));
@@ -333,22 +356,10 @@ impl Predictor {
         let apart_for = |t: f64, normal: &V3| -> f64 {
             let (qa_t, qb_t) = orientations(t);
             let n = qa_t * normal;
-            let growth = |shape: &Shape, q: &UnitQuaternion<f64>, spin: &Spin, dir: &V3| {
-                let omega = spin.angular_velocity(q);
-                let speed = omega.norm();
-                // |ü| ≤ |ω|² + |ω̇_body|, and |ω̇_body| ≤ |ω| |ω_lab part|
-                // for a symmetric top (0 for a spherical one).
-                let precession = if spin.body == V3::zeros() {
-                    0.0
-                } else {
-                    spin.lab.norm()
-                };
-                let u = q.inverse_transform_vector(dir);
-                let u_dot = u.cross(&q.inverse_transform_vector(&omega));
-                shape.support_growth(&u, &u_dot, speed, speed * (speed + precession))
-            };
-            let ga = growth(shape_a, &qa_t, w_a, &n);
-            let gb = growth(shape_b, &qb_t, w_b, &-n);
+            // n in A's frame is `normal`; in B's, −n turned back.
+            let u_b = -qb_t.inverse_transform_vector(&n);
+            let ga = turn_a.support_growth(shape_a, w_a, &qa_t, normal);
+            let gb = turn_b.support_growth(shape_b, w_b, &qb_t, &u_b);
             let phi = n.dot(&(d + dv * t)) - ga.value - gb.value;
             // (NaN included: no time is sure then.)
             if phi.is_nan() || phi <= 0.0 {
@@ -486,6 +497,7 @@ impl Predictor {
                 warm.set(p.warm);
                 hint.set(p.hint);
                 last.set(p.last);
+                earlier.set(p.earlier);
                 (p.t, p.distance, p.normal)
             }
             None => {
@@ -533,6 +545,7 @@ impl Predictor {
                     warm: warm.get(),
                     hint: hint.get(),
                     last: last.get(),
+                    earlier: earlier.get(),
                 }));
             }
             steps += 1;
@@ -639,44 +652,94 @@ impl Predictor {
     }
 }
 
+/// What the support-growth bound needs of a body's free rotation, fixed
+/// over a search: |ω| (a constant of the free rotation), the bound on |ü|
+/// for a fixed lab direction's body-frame image u (|ü| ≤ |ω|² + |ω̇_body|,
+/// and |ω̇_body| ≤ |ω| |ω_lab part| for a symmetric top, 0 for a spherical
+/// one), and a spherical top's ω in its own frame (constant as well: the
+/// body turns about ω).
+#[derive(Debug, Clone, Copy)]
+struct TurnBound {
+    speed: f64,
+    accel: f64,
+    body_omega: Option<V3>,
+}
+
+impl TurnBound {
+    fn new(spin: &Spin, q: &UnitQuaternion<f64>) -> Self {
+        let omega = spin.angular_velocity(q);
+        let speed = omega.norm();
+        let spherical = spin.body == V3::zeros();
+        let precession = if spherical { 0.0 } else { spin.lab.norm() };
+        Self {
+            speed,
+            accel: speed * (speed + precession),
+            body_omega: spherical.then(|| q.inverse_transform_vector(&omega)),
+        }
+    }
+
+    /// `Shape::support_growth` along the body-frame direction `u` of the
+    /// body at orientation `q` (u̇ = u × ω_body).
+    #[inline]
+    fn support_growth(
+        &self,
+        shape: &Shape,
+        spin: &Spin,
+        q: &UnitQuaternion<f64>,
+        u: &V3,
+    ) -> crate::geometry::shape::SupportGrowth {
+        let body_omega = self
+            .body_omega
+            .unwrap_or_else(|| q.inverse_transform_vector(&spin.lab) + spin.body);
+        shape.support_growth(u, &u.cross(&body_omega), self.speed, self.accel)
+    }
+}
+
 /// The first τ > 0 at which the concave bound
 /// φ + slope τ − Σ w (|c + rτ| − |c|) − ½ curvature τ² reaches 0 (φ > 0;
 /// the kinks are a cuboid's support value, see `Shape::support_growth`):
 /// between consecutive kinks it is a parabola, solved exactly.
 fn first_zero(phi: f64, slope: f64, kinks: &[(f64, f64, f64); 6], curvature: f64) -> f64 {
-    let bound = |tau: f64| kinked_bound(phi, slope, kinks, curvature, tau);
-    // Where the kinks ahead bend the bound down, in order.
-    let mut breaks = [f64::INFINITY; 7];
-    for (k, &(w, c, r)) in kinks.iter().enumerate() {
+    // The bound's slope from the kinks just after τ = 0, Σ w r sign(c + rτ)
+    // (sign(r) where c = 0), and where the kinks ahead bend it down (c and
+    // r of opposite signs: at τ = −c/r the term's slope rises by 2 w |r|).
+    let mut bend = 0.0;
+    let mut breaks = [(f64::INFINITY, 0.0); 6];
+    let mut ahead = 0;
+    for &(w, c, r) in kinks {
+        let sign = if c != 0.0 { c.signum() } else { r.signum() };
+        bend += w * r * sign;
         if w > 0.0 && c * r < 0.0 {
-            breaks[k] = -c / r;
+            breaks[ahead] = (-c / r, 2.0 * w * r.abs());
+            ahead += 1;
         }
     }
-    breaks[..6].sort_unstable_by(f64::total_cmp);
+    if !bend.is_finite() {
+        return 0.0;
+    }
+    // In order (insertion sort: at most six).
+    for k in 1..ahead {
+        let mut m = k;
+        while m > 0 && breaks[m - 1].0 > breaks[m].0 {
+            breaks.swap(m - 1, m);
+            m -= 1;
+        }
+    }
     let (mut lo, mut f_lo) = (0.0, phi);
-    for &hi in &breaks {
-        // The bound's slope just after lo: each kink's sign there.
-        let probe = if hi.is_finite() {
-            0.5 * (lo + hi)
-        } else {
-            lo + 1.0
-        };
-        let bend: f64 = kinks
-            .iter()
-            .map(|&(w, c, r)| if c + r * probe < 0.0 { -w * r } else { w * r })
-            .sum();
+    for &(hi, rise) in &breaks[..ahead] {
         let x = time_to_zero(f_lo, slope - bend - curvature * lo, curvature);
         if lo + x <= hi {
             return lo + x;
         }
-        f_lo = bound(hi);
+        f_lo = kinked_bound(phi, slope, kinks, curvature, hi);
         lo = hi;
         if f_lo <= 0.0 {
             // Rounding at the kink: the bound is down to zero there.
             return lo;
         }
+        bend += rise;
     }
-    f64::INFINITY
+    lo + time_to_zero(f_lo, slope - bend - curvature * lo, curvature)
 }
 
 /// φ + slope τ − Σ w (|c + rτ| − |c|) − ½ curvature τ² at τ.
@@ -780,6 +843,81 @@ mod tests {
                 other => panic!("{other:?} for d = {d}, dv = {dv}"),
             }
         }
+    }
+
+    /// A search stopped after every step and resumed from its progress
+    /// takes the same steps as one that never stopped: the same contact
+    /// time to the bit and the same distances evaluated (the dynamics'
+    /// searches stop where their neighbours' budgets run out, which depends
+    /// on the neighbour structure). Pairs placed a grazing distance apart,
+    /// turning and drifting, so that the steps within ε_d are taken.
+    #[test]
+    fn a_search_resumed_after_every_step_is_the_search_in_one_go() {
+        let shapes: [Shape; 4] = [
+            "Cuboid(a: 0.5, b: 0.5, c: 0.5)".parse().unwrap(),
+            ellipsoid(1.0, 0.5, 0.5),
+            "Superellipsoid(a: 1.0, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))"
+                .parse()
+                .unwrap(),
+            "Cuboid(a: 0.6, b: 0.5, c: 0.3)".parse().unwrap(),
+        ];
+        let mut u = crate::test_support::uniform(77);
+        let mut unit = || V3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize();
+        let (mut contacts, mut resumed) = (0, 0);
+        for case in 0..400 {
+            let (a, b) = (&shapes[case % 4], &shapes[(case / 4) % 4]);
+            let qa = UnitQuaternion::from_scaled_axis(unit() * 3.0);
+            let qb = UnitQuaternion::from_scaled_axis(unit() * 3.0);
+            let (wa, wb) = (Spin::constant(unit() * 0.5), Spin::constant(unit() * 0.5));
+            // B along a random direction, a gap of 1e-6 to 1e-4 away.
+            let dir = unit();
+            let gap = 10f64.powf(-6.0 + 2.0 * (case % 7) as f64 / 6.0);
+            let at = |s: f64| {
+                let rel = Relative::new(&(dir * s), &qa, &qb);
+                distance(a, b, &rel, &DistanceOptions::default(), None).distance
+            };
+            let (mut lo, mut hi) = (0.0, 4.0);
+            for _ in 0..100 {
+                let mid = 0.5 * (lo + hi);
+                if at(mid) < gap { lo = mid } else { hi = mid }
+            }
+            let d = dir * hi;
+            let dv = unit() * 0.02 - dir * 0.01 * (case % 3) as f64;
+            let one_go = Predictor::new(PredictorOptions::default());
+            let expected = one_go
+                .search((a, &qa, &wa), (b, &qb, &wb), &d, &dv, None, 2.0, u32::MAX)
+                .unwrap();
+            let stepwise = Predictor::new(PredictorOptions::default());
+            let mut progress = None;
+            let got = loop {
+                match stepwise
+                    .search(
+                        (a, &qa, &wa),
+                        (b, &qb, &wb),
+                        &d,
+                        &dv,
+                        progress.as_ref(),
+                        2.0,
+                        1,
+                    )
+                    .unwrap()
+                {
+                    Search::Unfinished(p) => {
+                        resumed += 1;
+                        progress = Some(p)
+                    }
+                    done => break done,
+                }
+            };
+            assert_eq!(got, expected, "case {case}");
+            assert_eq!(stepwise.work(), one_go.work(), "case {case}");
+            contacts += matches!(got, Search::Contact(_)) as usize;
+        }
+        // Both kinds of ending, and many stops on the way.
+        assert!(
+            contacts > 40 && contacts < 360 && resumed > 4000,
+            "{contacts} {resumed}"
+        );
     }
 
     /// A rotating rod sweeping past a sphere at rest: the predicted time is
