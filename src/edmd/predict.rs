@@ -250,7 +250,10 @@ impl Predictor {
             if at == t {
                 return (qa, qb);
             }
-            let (qa, qb) = (w_a.orientation_after(q_a, t), w_b.orientation_after(q_b, t));
+            let (qa, qb) = (
+                turn_a.orientation_after(w_a, q_a, t),
+                turn_b.orientation_after(w_b, q_b, t),
+            );
             turned.set((t, qa, qb));
             (qa, qb)
         };
@@ -663,6 +666,8 @@ struct TurnBound {
     speed: f64,
     accel: f64,
     body_omega: Option<V3>,
+    /// A spherical top's ω/|ω| (lab frame).
+    axis: Option<V3>,
 }
 
 impl TurnBound {
@@ -675,6 +680,31 @@ impl TurnBound {
             speed,
             accel: speed * (speed + precession),
             body_omega: spherical.then(|| q.inverse_transform_vector(&omega)),
+            axis: (spherical && speed > 0.0).then(|| omega / speed),
+        }
+    }
+
+    /// The orientation a time `t` after `q` (the same rotation as
+    /// `Spin::orientation_after`, to rounding): a spherical top turns by
+    /// |ω| t about its fixed axis, without finding the axis again at each
+    /// τ; not renormalised (one product of unit quaternions from the
+    /// stored orientation, nothing accumulates).
+    #[inline]
+    fn orientation_after(
+        &self,
+        spin: &Spin,
+        q: &UnitQuaternion<f64>,
+        t: f64,
+    ) -> UnitQuaternion<f64> {
+        match self.axis {
+            Some(axis) if t != 0.0 => {
+                let (sin, cos) = (0.5 * self.speed * t).sin_cos();
+                let turn = nalgebra::Quaternion::from_parts(cos, axis * sin);
+                UnitQuaternion::new_unchecked(turn * q.quaternion())
+            }
+            Some(_) => *q,
+            None if self.speed == 0.0 => *q,
+            None => spin.orientation_after(q, t),
         }
     }
 
@@ -918,6 +948,36 @@ mod tests {
             contacts > 40 && contacts < 360 && resumed > 4000,
             "{contacts} {resumed}"
         );
+    }
+
+    /// The search's orientations are the free rotation's to rounding, for
+    /// spherical tops (the shortcut), symmetric tops and bodies at rest.
+    #[test]
+    fn the_search_turns_bodies_as_the_free_rotation_does() {
+        let mut u = crate::test_support::uniform(5);
+        let mut vector = || V3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+        for case in 0..300 {
+            let q = UnitQuaternion::from_scaled_axis(vector() * 4.0);
+            let spin = match case % 3 {
+                0 => Spin::constant(vector() * 5.0),
+                1 => Spin {
+                    lab: vector() * 3.0,
+                    body: V3::z() * vector().x,
+                },
+                _ => Spin::constant(V3::zeros()),
+            };
+            let turn = TurnBound::new(&spin, &q);
+            for t in [0.0, 1e-9, 1e-3, 0.3, 2.0, 40.0] {
+                let (got, expected) = (
+                    turn.orientation_after(&spin, &q, t),
+                    spin.orientation_after(&q, t),
+                );
+                assert!(
+                    (got.coords - expected.coords).norm() < 1e-14 * (1.0 + t),
+                    "case {case}, t {t}: {got:?} vs {expected:?}"
+                );
+            }
+        }
     }
 
     /// A rotating rod sweeping past a sphere at rest: the predicted time is
