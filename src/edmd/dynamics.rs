@@ -10,7 +10,7 @@ use rand_distr::StandardNormal;
 use super::calendar::{Calendar, EventKind};
 use super::collision::{Kinetics, collide, collide_patch, collide_spheres};
 use super::motion::{Spin, position_after};
-use super::predict::{Predictor, PredictorOptions, Progress, Search};
+use super::predict::{Found, Predictor, PredictorOptions, Progress};
 use crate::analysis::order::{legendre_p2, nematic_order};
 use crate::geometry::pair::contact_sum;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
@@ -475,15 +475,15 @@ enum WallContact {
 }
 
 /// How a pair's search ended (times absolute).
-#[allow(clippy::large_enum_variant)] // as `Search`
 #[derive(Debug, Clone, Copy)]
 enum PairSearch {
     /// A contact at this time, with the solver state there.
     Contact(f64, Option<WarmStart>),
     /// None before the horizon.
     Apart,
-    /// Out of budget at this time; resume from the progress.
-    Unfinished(f64, Progress),
+    /// Out of budget at this time; the progress to resume from is in the
+    /// caller's slot.
+    Unfinished(f64),
 }
 
 /// Steps a pair's contact search may take before it is put off behind the
@@ -1285,7 +1285,9 @@ impl Dynamics {
             return Ok(());
         }
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
-        if let PairSearch::Contact(t, warm) = self.predict_pair(i, j, horizon, u32::MAX, None)? {
+        if let PairSearch::Contact(t, warm) =
+            self.predict_pair(i, j, horizon, u32::MAX, None, &mut None)?
+        {
             self.bodies[i].horizon = t;
             schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
         }
@@ -1933,6 +1935,8 @@ impl Dynamics {
                 }
             }
         }
+        // Where a search out of budget leaves its progress.
+        let mut stopped = None;
         for &j in &candidates {
             let j = j as usize;
             if !keep(j) {
@@ -1941,13 +1945,15 @@ impl Dynamics {
             // Past j's own horizon, j's first event will have changed it
             // or renewed its search (which covers this pair).
             let horizon = horizon_i.min(self.bodies[j].horizon);
-            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, None)? {
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, None, &mut stopped)? {
                 PairSearch::Contact(t, warm) => {
                     earliest = Some((t, j, warm));
                     horizon_i = t;
                 }
                 PairSearch::Apart => {}
-                PairSearch::Unfinished(t, progress) => deferred.push((j as u32, t, progress)),
+                PairSearch::Unfinished(t) => {
+                    deferred.push((j as u32, t, stopped.take().expect("stopped")))
+                }
             }
         }
         self.candidates = candidates;
@@ -1964,7 +1970,7 @@ impl Dynamics {
                 .expect("not empty");
             let j = j as usize;
             let horizon = horizon_i.min(self.bodies[j].horizon);
-            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, Some(&progress))? {
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, Some(&progress), &mut stopped)? {
                 PairSearch::Contact(t, warm) => {
                     earliest = Some((t, j, warm));
                     horizon_i = t;
@@ -1973,7 +1979,9 @@ impl Dynamics {
                 PairSearch::Apart => {
                     deferred.swap_remove(k);
                 }
-                PairSearch::Unfinished(t, progress) => deferred[k] = (j as u32, t, progress),
+                PairSearch::Unfinished(t) => {
+                    deferred[k] = (j as u32, t, stopped.take().expect("stopped"))
+                }
             }
         }
         self.deferred = deferred;
@@ -2073,6 +2081,7 @@ impl Dynamics {
         horizon: f64,
         budget: u32,
         resume: Option<&Progress>,
+        stopped: &mut Option<Progress>,
     ) -> Result<PairSearch, EdmdError> {
         let (a, b) = (i.min(j), i.max(j));
         let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
@@ -2086,8 +2095,8 @@ impl Dynamics {
         let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
         let found = if let Some(sigma) = self.contact_sums[pair] {
             match crate::geometry::pair::sphere_contact_time(&d, &dv, sigma) {
-                Some(t) => Search::Contact(t),
-                None => Search::Apart,
+                Some(t) => Found::Contact(t),
+                None => Found::Apart,
             }
         } else {
             let (ka, kb) = (
@@ -2097,7 +2106,7 @@ impl Dynamics {
             // A free rotation's two parts are constants of the motion.
             let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
             self.predictor
-                .search(
+                .search_into(
                     (&ka.shape, &qa, &spin_a),
                     (&kb.shape, &qb, &spin_b),
                     &d,
@@ -2105,6 +2114,7 @@ impl Dynamics {
                     resume,
                     horizon - t0,
                     budget,
+                    stopped,
                 )
                 .map_err(|why| EdmdError::Solver {
                     i,
@@ -2116,11 +2126,11 @@ impl Dynamics {
         let warm = self.predictor.take_found();
         Ok(match found {
             // Not before now (rounding at a contact found right now).
-            Search::Contact(t) if t0 + t < horizon => {
+            Found::Contact(t) if t0 + t < horizon => {
                 PairSearch::Contact((t0 + t).max(self.now), warm)
             }
-            Search::Contact(_) | Search::Apart => PairSearch::Apart,
-            Search::Unfinished(progress) => PairSearch::Unfinished(t0 + progress.time(), progress),
+            Found::Contact(_) | Found::Apart => PairSearch::Apart,
+            Found::Stopped(t) => PairSearch::Unfinished(t0 + t),
         })
     }
 }

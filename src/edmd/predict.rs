@@ -67,6 +67,19 @@ pub enum Search {
     Unfinished(Progress),
 }
 
+/// How a search ended, without its progress (see
+/// [`Predictor::search_into`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Found {
+    /// The bodies touch at this time.
+    Contact(f64),
+    /// They stay apart up to the horizon.
+    Apart,
+    /// Out of budget, apart up to this time at least; the progress to
+    /// resume from is in the caller's slot.
+    Stopped(f64),
+}
+
 /// Where an unfinished search stopped: the step it had reached and the
 /// solver state it carries (warm starts), so that a resumed search takes
 /// the same steps, to the bit, as one that never stopped.
@@ -191,6 +204,33 @@ impl Predictor {
     #[allow(clippy::too_many_arguments)]
     pub fn search(
         &self,
+        a: Rotor,
+        b: Rotor,
+        d: &V3,
+        dv: &V3,
+        resume: Option<&Progress>,
+        horizon: f64,
+        budget: u32,
+    ) -> Result<Search, String> {
+        let mut stopped = None;
+        Ok(
+            match self.search_into(a, b, d, dv, resume, horizon, budget, &mut stopped)? {
+                Found::Contact(t) => Search::Contact(t),
+                Found::Apart => Search::Apart,
+                Found::Stopped(_) => {
+                    Search::Unfinished(stopped.expect("a stopped search's progress"))
+                }
+            },
+        )
+    }
+
+    /// [`Predictor::search`] that leaves the progress of a search out of
+    /// budget in `stopped` and returns only how it ended: a search's
+    /// progress is a few hundred bytes, which the dynamics' many searches
+    /// that end at once should not copy through every return.
+    #[allow(clippy::too_many_arguments)]
+    pub fn search_into(
+        &self,
         (shape_a, q_a, w_a): Rotor,
         (shape_b, q_b, w_b): Rotor,
         d: &V3,
@@ -198,9 +238,10 @@ impl Predictor {
         resume: Option<&Progress>,
         horizon: f64,
         budget: u32,
-    ) -> Result<Search, String> {
+        stopped: &mut Option<Progress>,
+    ) -> Result<Found, String> {
         if horizon <= resume.map_or(0.0, |p| p.t) {
-            return Ok(Search::Apart);
+            return Ok(Found::Apart);
         }
         let (la, lb) = (shape_a.bounding_radius(), shape_b.bounding_radius());
         // The bounding spheres' interval [t1, t2].
@@ -211,7 +252,7 @@ impl Predictor {
         let (t1, t2) = if c > 0.0 {
             let disc = b * b - v2 * c;
             if b >= 0.0 || disc < 0.0 {
-                return Ok(Search::Apart);
+                return Ok(Found::Apart);
             }
             let root = disc.sqrt();
             (c / (-b + root), (-b + root) / v2)
@@ -227,7 +268,7 @@ impl Predictor {
         let t_exit = t2;
         let t2 = t2.min(horizon);
         if t1 > t2 {
-            return Ok(Search::Apart);
+            return Ok(Found::Apart);
         }
         // Eq. (32), with the moment arm in place of the bounding radius: the
         // distance changes at the normal velocity of the contact points, and
@@ -236,7 +277,7 @@ impl Predictor {
         let rate_bound =
             dv.norm() + turn_a.speed * shape_a.moment_arm() + turn_b.speed * shape_b.moment_arm();
         if rate_bound == 0.0 {
-            return Ok(Search::Apart);
+            return Ok(Found::Apart);
         }
         let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
         let eps = self.options.grazing_threshold * scale;
@@ -403,7 +444,7 @@ impl Predictor {
             let (omega_a, omega_b) = (w_a.angular_velocity(&qa_t), w_b.angular_velocity(&qb_t));
             -normal.dot(&(dv + omega_b.cross(&arm_b) - omega_a.cross(&arm_a)))
         };
-        let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Search, String> {
+        let narrow = |lo: (f64, f64), hi: (f64, f64)| -> Result<Found, String> {
             // The lower end's value may be a lower bound on the distance
             // (all the stepping needed); the root finder needs the distance
             // (and Newton below the solution there).
@@ -447,7 +488,7 @@ impl Predictor {
                     // would have said).
                     failed(dist(touching))?;
                     self.found.set(warm.get());
-                    return Ok(Search::Contact(touching));
+                    return Ok(Found::Contact(touching));
                 }
             }
             // Newton's method in τ from the end where the pair is apart:
@@ -490,7 +531,7 @@ impl Predictor {
                 failed(dist(lo))?;
             }
             self.found.set(warm.get());
-            Ok(Search::Contact(lo))
+            Ok(Found::Contact(lo))
         };
         // Where the stepping starts: from the bounding spheres' first
         // touch, or where an unfinished search stopped, with its solver
@@ -511,7 +552,7 @@ impl Predictor {
                 if let Some(across) = across.try_normalize(0.0)
                     && t + apart_for(t, &across) >= t2
                 {
-                    return Ok(Search::Apart);
+                    return Ok(Found::Apart);
                 }
                 let (mut d_t, mut normal_t) = step_distance(t);
                 failed(d_t)?;
@@ -532,7 +573,7 @@ impl Predictor {
                     // made to collide twice at one time), else follow the pair.
                     if closing_speed(t) > 0.0 {
                         self.found.set(warm.get());
-                        return Ok(Search::Contact(t));
+                        return Ok(Found::Contact(t));
                     }
                 }
                 (t, d_t, normal_t)
@@ -541,7 +582,7 @@ impl Predictor {
         let mut steps = 0u32;
         while t < t2 {
             if steps >= budget {
-                return Ok(Search::Unfinished(Progress {
+                *stopped = Some(Progress {
                     t,
                     distance: d_t,
                     normal: normal_t,
@@ -549,7 +590,8 @@ impl Predictor {
                     hint: hint.get(),
                     last: last.get(),
                     earlier: earlier.get(),
-                }));
+                });
+                return Ok(Found::Stopped(t));
             }
             steps += 1;
             // A step that cannot jump over a contact: d/ḋ_max (eq. 39), or
@@ -597,7 +639,7 @@ impl Predictor {
                 }
                 // Overlapping from the start to round-off: touching now.
                 self.found.set(None);
-                return Ok(Search::Contact(hi));
+                return Ok(Found::Contact(hi));
             }
             if !sure && d_next < eps {
                 // A grazing contact may hide between t and t_next (step 6).
@@ -651,7 +693,7 @@ impl Predictor {
             d_t = d_next;
             normal_t = normal_next;
         }
-        Ok(Search::Apart)
+        Ok(Found::Apart)
     }
 }
 
