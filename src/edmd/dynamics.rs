@@ -2086,8 +2086,8 @@ impl Dynamics {
         let (a, b) = (i.min(j), i.max(j));
         let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
         let t0 = ba.time.max(bb.time);
-        let (ra, qa) = self.pose_at(a, t0);
-        let (rb, qb) = self.pose_at(b, t0);
+        let ra = position_after(&ba.position, &ba.velocity, t0 - ba.time);
+        let rb = position_after(&bb.position, &bb.velocity, t0 - bb.time);
         let dv = bb.velocity - ba.velocity;
         // The image nearest now (as for closed-form pairs).
         let raw = rb - ra;
@@ -2105,10 +2105,14 @@ impl Dynamics {
             );
             // A free rotation's two parts are constants of the motion.
             let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
+            // The stored orientations, each turned on from its own time
+            // inside the search (one rotation per step, none to bring it
+            // to t0 first).
             self.predictor
                 .search_into(
-                    (&ka.shape, &qa, &spin_a),
-                    (&kb.shape, &qb, &spin_b),
+                    (&ka.shape, &ba.orientation, &spin_a),
+                    (&kb.shape, &bb.orientation, &spin_b),
+                    (t0 - ba.time, t0 - bb.time),
                     &d,
                     &dv,
                     resume,

@@ -214,7 +214,17 @@ impl Predictor {
     ) -> Result<Search, String> {
         let mut stopped = None;
         Ok(
-            match self.search_into(a, b, d, dv, resume, horizon, budget, &mut stopped)? {
+            match self.search_into(
+                a,
+                b,
+                (0.0, 0.0),
+                d,
+                dv,
+                resume,
+                horizon,
+                budget,
+                &mut stopped,
+            )? {
                 Found::Contact(t) => Search::Contact(t),
                 Found::Apart => Search::Apart,
                 Found::Stopped(_) => {
@@ -227,12 +237,15 @@ impl Predictor {
     /// [`Predictor::search`] that leaves the progress of a search out of
     /// budget in `stopped` and returns only how it ended: a search's
     /// progress is a few hundred bytes, which the dynamics' many searches
-    /// that end at once should not copy through every return.
+    /// that end at once should not copy through every return. The bodies'
+    /// orientations are given `since` (A, B) before the search's origin
+    /// (each turns on from there).
     #[allow(clippy::too_many_arguments)]
     pub fn search_into(
         &self,
         (shape_a, q_a, w_a): Rotor,
         (shape_b, q_b, w_b): Rotor,
+        (since_a, since_b): (f64, f64),
         d: &V3,
         dv: &V3,
         resume: Option<&Progress>,
@@ -285,15 +298,15 @@ impl Predictor {
         // Both orientations at τ, kept for the last τ asked (the pose, the
         // bounds and the closing speed at one τ share them).
         let turned: Cell<(f64, UnitQuaternion<f64>, UnitQuaternion<f64>)> =
-            Cell::new((0.0, *q_a, *q_b));
+            Cell::new((f64::NAN, *q_a, *q_b));
         let orientations = |t: f64| {
             let (at, qa, qb) = turned.get();
             if at == t {
                 return (qa, qb);
             }
             let (qa, qb) = (
-                turn_a.orientation_after(w_a, q_a, t),
-                turn_b.orientation_after(w_b, q_b, t),
+                turn_a.orientation_after(w_a, q_a, since_a + t),
+                turn_b.orientation_after(w_b, q_b, since_b + t),
             );
             turned.set((t, qa, qb));
             (qa, qb)
@@ -990,6 +1003,74 @@ mod tests {
             contacts > 40 && contacts < 360 && resumed > 4000,
             "{contacts} {resumed}"
         );
+    }
+
+    /// Orientations given some time before the search's origin (turned on
+    /// inside it) give the contact found from the orientations turned to
+    /// the origin first: the same time to rounding.
+    #[test]
+    fn orientations_given_earlier_are_turned_on_to_the_origin() {
+        let shapes: [Shape; 3] = [
+            "Cuboid(a: 0.5, b: 0.4, c: 0.3)".parse().unwrap(),
+            ellipsoid(1.0, 0.5, 0.5),
+            "Superellipsoid(a: 1.0, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))"
+                .parse()
+                .unwrap(),
+        ];
+        let mut u = crate::test_support::uniform(78);
+        let mut unit = || V3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize();
+        let mut contacts = 0;
+        for case in 0..150 {
+            let (a, b) = (&shapes[case % 3], &shapes[(case / 3) % 3]);
+            let (qa, qb) = (
+                UnitQuaternion::from_scaled_axis(unit() * 3.0),
+                UnitQuaternion::from_scaled_axis(unit() * 3.0),
+            );
+            let (wa, wb) = (Spin::constant(unit() * 2.0), Spin::constant(unit() * 2.0));
+            let since = (0.3 * (case % 4) as f64, 0.2 * (case % 5) as f64);
+            let dir = unit();
+            let d = dir * 3.0;
+            let dv = -dir + unit() * 0.3;
+            let p = Predictor::new(PredictorOptions::default());
+            let mut stopped = None;
+            let given_earlier = p
+                .search_into(
+                    (a, &qa, &wa),
+                    (b, &qb, &wb),
+                    since,
+                    &d,
+                    &dv,
+                    None,
+                    10.0,
+                    u32::MAX,
+                    &mut stopped,
+                )
+                .unwrap();
+            let (qa_now, qb_now) = (
+                wa.orientation_after(&qa, since.0),
+                wb.orientation_after(&qb, since.1),
+            );
+            let turned_first = p
+                .search(
+                    (a, &qa_now, &wa),
+                    (b, &qb_now, &wb),
+                    &d,
+                    &dv,
+                    None,
+                    10.0,
+                    u32::MAX,
+                )
+                .unwrap();
+            match (given_earlier, turned_first) {
+                (Found::Contact(s), Search::Contact(t)) => {
+                    contacts += 1;
+                    assert!((s - t).abs() < 1e-9, "case {case}: {s} vs {t}")
+                }
+                (Found::Apart, Search::Apart) => {}
+                other => panic!("case {case}: {other:?}"),
+            }
+        }
+        assert!(contacts > 100, "{contacts}");
     }
 
     /// The search's orientations are the free rotation's to rounding, for
