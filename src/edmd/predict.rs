@@ -101,8 +101,9 @@ impl Progress {
     }
 }
 
-/// A body's shape and rotation, for prediction: (shape, orientation now,
-/// free rotation; |ω| is constant in it).
+/// A body's shape and rotation, for prediction: (shape, orientation at the
+/// search's origin, or a given time before it for
+/// [`Predictor::search_into`], free rotation; |ω| is constant in it).
 pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
 
 /// The work the searches have done: exact distances evaluated and the
