@@ -223,6 +223,24 @@ fn ocsi_scene_edmd_and_tolerance_suites_run_quick() {
     }
     let rows = json("edmd");
     check_rows("edmd", &rows);
+    // The paper's Fig. 7 setting for both ellipsoids, cells and lists:
+    // ε_d = 1e-5 and a shell of 0.15 smallest semi-axes.
+    for (system, semi_axis) in [
+        ("ellipsoids, aspect 2", 0.5),
+        ("ellipsoids, aspect 0.5", 0.25),
+    ] {
+        let fig7: Vec<_> = rows
+            .iter()
+            .filter(|r| r["system"] == system && r["grazing_threshold"] == 1e-5)
+            .collect();
+        assert_eq!(fig7.len(), 2, "{system}: {fig7:?}");
+        assert!(fig7.iter().any(|r| r["shell"].is_null()), "{system}");
+        assert!(
+            fig7.iter()
+                .any(|r| (r["shell"].as_f64().unwrap_or(0.0) - 0.15 * semi_axis).abs() < 1e-12),
+            "{system}: {fig7:?}"
+        );
+    }
 
     let rows = bench("edmd-tolerance", &dir);
     assert!(rows.iter().any(|r| r["reference"] == true));

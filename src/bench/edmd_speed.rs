@@ -42,6 +42,9 @@ pub struct SpeedRow {
     pub neighbours: String,
     /// The neighbour-list shell (None: cells).
     pub shell: Option<f64>,
+    /// ε_d of the contact searches (eq. 39), in units of the smallest
+    /// semi-axis.
+    pub grazing_threshold: f64,
     /// Collisions per timed repeat.
     pub collisions_per_repeat: u64,
     /// Timed repeats.
@@ -180,7 +183,9 @@ fn start(setup: &Setup, seed: u64) -> Result<System, String> {
 }
 
 /// Runs the suite (`quick`: smaller systems, a tenth of the collisions,
-/// three repeats).
+/// three repeats): each system with cells and with neighbour lists of three
+/// shells at the default ε_d, and the ellipsoids also in the setting of the
+/// paper's Fig. 7.
 pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
     let repeats = if quick { 3 } else { 5 };
     let mut rows = Vec::new();
@@ -193,6 +198,33 @@ pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
             let shell = shell.map(|f| f * diameter);
             rows.push(time_system(&setup, &system, shell, repeats, quick)?);
         }
+        if setup.system.starts_with("ellipsoids") {
+            rows.extend(figure_7_setting(&setup, &system, repeats, quick)?);
+        }
+    }
+    Ok(rows)
+}
+
+/// The setting of De Michele's Fig. 7 (Sec. 4.2), in the paper's unit of
+/// length, the smallest semi-axis: ε_d = 1e-5, cells only and with
+/// neighbour lists of shell Δ_NNL = 0.15.
+fn figure_7_setting(
+    setup: &Setup,
+    system: &System,
+    repeats: usize,
+    quick: bool,
+) -> Result<Vec<SpeedRow>, String> {
+    let unit = system.species()[0].shape.min_half_extent();
+    let mut rows = Vec::with_capacity(2);
+    for neighbour_shell in [None, Some(0.15 * unit)] {
+        let mut options = DynamicsOptions {
+            neighbour_shell,
+            ..DynamicsOptions::default()
+        };
+        options.predictor.grazing_threshold = 1e-5;
+        let mut row = time_with(setup, system, &options, repeats, quick)?;
+        row.neighbours.push_str(" (Fig. 7: eps_d 1e-5, shell 0.15)");
+        rows.push(row);
     }
     Ok(rows)
 }
@@ -231,8 +263,20 @@ fn time_system(
         neighbour_shell,
         ..DynamicsOptions::default()
     };
+    time_with(setup, system, &options, repeats, quick)
+}
+
+/// Times one system run with `options`.
+fn time_with(
+    setup: &Setup,
+    system: &System,
+    options: &DynamicsOptions,
+    repeats: usize,
+    quick: bool,
+) -> Result<SpeedRow, String> {
+    let neighbour_shell = options.neighbour_shell;
     let mut rng = Pcg64::seed_from_u64(2);
-    let mut md = Dynamics::from_state(system, &options, &mut rng).map_err(|e| e.to_string())?;
+    let mut md = Dynamics::from_state(system, options, &mut rng).map_err(|e| e.to_string())?;
     let fail = |e: crate::edmd::EdmdError| format!("{}: {e}", setup.system);
     md.run_collisions(10 * setup.n as u64 / if quick { 10 } else { 1 })
         .map_err(fail)?;
@@ -264,6 +308,7 @@ fn time_system(
             Some(shell) => format!("lists, shell {shell:.3}"),
         },
         shell: neighbour_shell,
+        grazing_threshold: options.predictor.grazing_threshold,
         collisions_per_repeat: setup.collisions,
         repeats,
         median_us_per_collision: times[repeats / 2],
