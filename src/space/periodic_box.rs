@@ -95,14 +95,20 @@ impl PeriodicBox {
     /// instruction; the hot loop of the hard-sphere dynamics calls this).
     #[inline]
     pub fn image_shift(&self, d: &Vector3<f64>) -> Vector3<f64> {
-        const SHIFTER: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
-        let nearest = |x: f64| (x + SHIFTER) - SHIFTER;
-        let (l, inv) = (&self.lengths, &self.inverse);
         Vector3::new(
-            -l.x * nearest(d.x * inv.x),
-            -l.y * nearest(d.y * inv.y),
-            -l.z * nearest(d.z * inv.z),
+            self.image_shift_along(0, d.x),
+            self.image_shift_along(1, d.y),
+            self.image_shift_along(2, d.z),
         )
+    }
+
+    /// Component `axis` of [`PeriodicBox::image_shift`] for a separation
+    /// whose component on that axis is `x` (written for loops the compiler
+    /// vectorises).
+    #[inline(always)]
+    pub fn image_shift_along(&self, axis: usize, x: f64) -> f64 {
+        const SHIFTER: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
+        -self.lengths[axis] * ((x * self.inverse[axis] + SHIFTER) - SHIFTER)
     }
 
     /// The shortest periodic image of `d` when |dₖ| < 3Lₖ/2, as for the
