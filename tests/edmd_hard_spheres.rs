@@ -223,3 +223,50 @@ fn neighbour_lists_give_the_same_collisions_as_cells() {
         }
     }
 }
+
+/// The same for a size-asymmetric mixture (radii 0.5 and 0.06): cells are
+/// sized by the large pairs, so the 27 cells around a sphere hold about
+/// a hundred small ones, more than the dynamics gathers at once (the
+/// search then goes one partner at a time), while a crossing's 9 cells
+/// and the neighbour lists hold fewer (searched four at a time). Every
+/// way of searching gives the same collisions.
+#[test]
+fn a_size_asymmetric_mixture_gives_the_same_collisions_with_cells_and_lists() {
+    let species: Vec<hardbody::mc::Species> = [("large", 0.5), ("small", 0.06)]
+        .iter()
+        .map(|&(name, radius)| hardbody::mc::Species {
+            name: name.into(),
+            shape: format!("Sphere(radius: {radius})").parse().unwrap(),
+            rotation: false,
+        })
+        .collect();
+    let box_ = hardbody::space::PeriodicBox::new(nalgebra::Vector3::repeat(8.0)).unwrap();
+    let system = hardbody::mc::start::random_insertion(
+        box_,
+        species,
+        &[100, 2000],
+        1_000_000,
+        &mut Pcg64::seed_from_u64(8),
+    )
+    .unwrap();
+    let sequence = |shell: Option<f64>| {
+        let mut rng = Pcg64::seed_from_u64(80);
+        let opts = DynamicsOptions {
+            neighbour_shell: shell,
+            ..DynamicsOptions::default()
+        };
+        let mut md = Dynamics::from_state(&system, &opts, &mut rng).unwrap();
+        md.record_collisions(true);
+        md.run_collisions(30_000).unwrap();
+        let t = md.time();
+        md.run_until(t + 1e-9).unwrap();
+        md.to_system()
+            .unwrap_or_else(|e| panic!("shell {shell:?}: {e}"));
+        md.take_collisions()
+    };
+    let cells = sequence(None);
+    let lists = sequence(Some(0.05));
+    let same = cells.iter().zip(&lists).take_while(|(a, b)| a == b).count();
+    assert_eq!(same, cells.len(), "sequences part after {same} collisions");
+    assert_eq!(lists.len(), cells.len());
+}
