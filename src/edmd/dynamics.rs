@@ -2089,13 +2089,10 @@ impl Dynamics {
         let mut dv = [[0.0; LANES]; 3];
         let mut t0 = [0.0; LANES];
         let mut sigma = [0.0; LANES];
-        let mut never = [0u64; LANES];
         for (k, &j) in others.iter().enumerate() {
             let bj = &self.bodies[j];
-            match self.contact_sums[self.pair_index(i, j)] {
-                Some(s) => sigma[k] = s,
-                None => never[k] = u64::MAX,
-            }
+            // A species pair that never touches: NaN, which meets nothing.
+            sigma[k] = self.contact_sums[self.pair_index(i, j)].unwrap_or(f64::NAN);
             // Both bodies brought to the later of their times (the one
             // already there moves by zero: the same bits as moving only the
             // other, as `closed_form_contact` does).
@@ -2109,25 +2106,18 @@ impl Dynamics {
         }
         let mut times = [0.0; LANES];
         for k in 0..LANES {
+            // The image nearest now (as `closed_form_contact`), and the
+            // products in the order of nalgebra's (from zero, x, y, z).
             let dt = self.now - t0[k];
-            let mut b = 0.0;
-            let mut dd = 0.0;
-            let mut v2 = 0.0;
+            let (mut b, mut dd, mut v2) = (0.0, 0.0, 0.0);
             for a in 0..3 {
-                let later = d[a][k] + dv[a][k] * dt;
-                let x = d[a][k] + self.box_.image_shift_along(a, later);
+                let x = d[a][k] + self.box_.image_shift_along(a, d[a][k] + dv[a][k] * dt);
                 b += x * dv[a][k];
                 dd += x * x;
                 v2 += dv[a][k] * dv[a][k];
             }
-            // `sphere_contact_time_or_never`, lane by lane.
-            let c = dd - sigma[k] * sigma[k];
-            let disc = b * b - v2 * c;
-            let t = (c / (-b + disc.max(0.0).sqrt())).max(0.0);
-            let meets = ((b < 0.0) & (disc >= 0.0)) as u64;
-            let mask = meets.wrapping_neg() & !never[k];
-            let t = (t0[k] + t).max(self.now);
-            times[k] = f64::from_bits((t.to_bits() & mask) | (f64::INFINITY.to_bits() & !mask));
+            let t = crate::geometry::pair::sphere_contact_time_from_products(b, dd, v2, sigma[k]);
+            times[k] = (t0[k] + t).max(self.now); // t0 + ∞ stays ∞
         }
         times
     }

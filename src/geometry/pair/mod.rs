@@ -517,6 +517,7 @@ pub fn contact_sum(a: &Shape, b: &Shape) -> Option<f64> {
 }
 
 pub use sphere_sphere::contact_time as sphere_contact_time;
+pub use sphere_sphere::contact_time_from_products as sphere_contact_time_from_products;
 pub use sphere_sphere::contact_time_or_never as sphere_contact_time_or_never;
 
 /// The kernels the dispatch uses for a pair of shapes: (overlap test,

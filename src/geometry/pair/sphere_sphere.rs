@@ -54,10 +54,18 @@ pub fn contact_time(d: &Vector3<f64>, v: &Vector3<f64>, sigma: f64) -> Option<f6
 /// predictor loses half the time.
 #[inline(always)]
 pub fn contact_time_or_never(d: &Vector3<f64>, v: &Vector3<f64>, sigma: f64) -> f64 {
-    let b = d.dot(v);
-    let c = d.norm_squared() - sigma * sigma;
-    let v2 = v.norm_squared();
-    let disc = b * b - v2 * c;
+    contact_time_from_products(d.dot(v), d.norm_squared(), v.norm_squared(), sigma)
+}
+
+/// [`contact_time_or_never`] from the products `d·v`, `|d|²` and `|v|²`:
+/// for callers that compute them for several pairs side by side (the
+/// dynamics' sphere searches, whose compiler then keeps the pairs in
+/// vector registers; a separate loop over pairs here was not vectorised).
+#[inline(always)]
+pub fn contact_time_from_products(d_dot_v: f64, d_squared: f64, v_squared: f64, sigma: f64) -> f64 {
+    let b = d_dot_v;
+    let c = d_squared - sigma * sigma;
+    let disc = b * b - v_squared * c;
     // Computed whatever the signs (a receding or missing pair gives a
     // meaningless number, or NaN), then selected.
     let t = (c / (-b + disc.max(0.0).sqrt())).max(0.0);
