@@ -9,6 +9,13 @@
 //! others' lists), through cells of its own over the reference centres,
 //! as wide as the largest contact distance plus the skin: the moves' own
 //! cells stay as wide as the interaction range.
+//!
+//! A box change scales the references with the centres, and the lists
+//! stand: the gap they guarantee between unlisted references (the skin,
+//! at first) shrinks with every shrink of the box, and half of it is what
+//! a centre may stray from its reference; centres farther out then are
+//! relisted at once. Lists whose gap has fallen below half the skin are
+//! given up (and built afresh later).
 
 use nalgebra::Vector3;
 
@@ -20,6 +27,10 @@ type V3 = Vector3<f64>;
 #[derive(Debug, Clone)]
 pub struct SphereLists {
     skin: f64,
+    /// Unlisted references are farther apart than their contact distance
+    /// plus this (the skin until the box shrinks); a centre may stray half
+    /// of it from its reference.
+    gap: f64,
     /// Reference centres (in the box).
     reference: Vec<V3>,
     /// The reference centres binned, to relist from.
@@ -36,6 +47,7 @@ impl SphereLists {
         let largest = radii.iter().copied().fold(0.0, f64::max);
         let mut this = Self {
             skin,
+            gap: skin,
             reference: positions.to_vec(),
             references: PackedCells::new(box_, 2.0 * largest + skin, positions, radii),
             radii: radii.to_vec(),
@@ -57,6 +69,7 @@ impl SphereLists {
             references,
             radii,
             lists,
+            ..
         } = self;
         references.any_near(&reference[i], |j, d| {
             if j != i && wanted(j) {
@@ -81,7 +94,7 @@ impl SphereLists {
         box_: &PeriodicBox,
         keep: impl Fn(usize) -> bool,
     ) -> Option<bool> {
-        let half = 0.5 * self.skin;
+        let half = 0.5 * self.gap;
         let drift = box_.minimum_image_near(&(centre - self.reference[i]));
         if drift.norm_squared() > half * half {
             return None;
@@ -98,15 +111,53 @@ impl SphereLists {
     /// Records that sphere `i` now sits at `centre` (in the box):
     /// relisted if it left half the skin around its reference.
     pub fn moved(&mut self, i: usize, centre: &V3, box_: &PeriodicBox) {
-        let half = 0.5 * self.skin;
+        let half = 0.5 * self.gap;
         let drift = box_.minimum_image_near(&(centre - self.reference[i]));
         if drift.norm_squared() <= half * half {
             return;
         }
+        self.relist(i, centre);
+    }
+
+    /// Sphere `i` takes `centre` as its reference and is listed afresh
+    /// (with the whole skin: its unlisted pairs are then farther apart than
+    /// the gap asks).
+    fn relist(&mut self, i: usize, centre: &V3) {
         self.lists.unlink_all(i);
         self.reference[i] = *centre;
         self.references.update(i, centre);
         self.link_neighbours(i, |_| true);
+    }
+
+    /// The box has become `box_`, every centre scaled by `factor` along
+    /// the axes to `positions` (in the box): the references are scaled the
+    /// same way and the lists kept. The gap shrinks by the largest contact
+    /// distance's share of the shrink: references d apart, with d above
+    /// σ + gap, end up at least f·d apart, above σ + (f·(σ + gap) − σ), f the
+    /// smallest factor. Centres that have strayed more than half the new
+    /// gap (strays grow with an expansion) are relisted. Returns `false`,
+    /// and the lists are no longer to be used, when the gap left would be
+    /// under half the skin.
+    pub fn rescaled(&mut self, box_: &PeriodicBox, factor: &V3, positions: &[V3]) -> bool {
+        let shrink = factor.min().min(1.0);
+        let sigma = 2.0 * self.radii.iter().copied().fold(0.0, f64::max);
+        let gap = shrink * (sigma + self.gap) - sigma;
+        if gap < 0.5 * self.skin {
+            return false;
+        }
+        self.gap = gap;
+        for r in &mut self.reference {
+            *r = box_.wrap(&r.component_mul(factor));
+        }
+        self.references = PackedCells::new(box_, sigma + self.skin, &self.reference, &self.radii);
+        let half = 0.5 * gap;
+        for (i, centre) in positions.iter().enumerate() {
+            let drift = box_.minimum_image_near(&(centre - self.reference[i]));
+            if drift.norm_squared() > half * half {
+                self.relist(i, centre);
+            }
+        }
+        true
     }
 }
 
@@ -173,5 +224,102 @@ mod tests {
             }
         }
         assert!(answered > 5_000, "{answered} answered by the lists");
+    }
+
+    /// What makes a list's answer right: every centre within half the gap
+    /// of its reference, and every sphere j unlisted by i farther than
+    /// their contact distance from anywhere i may be tried (within half the
+    /// gap of its reference).
+    fn assert_unlisted_out_of_reach(lists: &SphereLists, positions: &[V3], box_: &PeriodicBox) {
+        let n = positions.len();
+        for (i, (r, reference)) in positions.iter().zip(&lists.reference).enumerate() {
+            let drift = box_.minimum_image(&(r - reference)).norm();
+            assert!(
+                drift <= 0.5 * lists.gap,
+                "{i} strayed {drift} > {}",
+                0.5 * lists.gap
+            );
+        }
+        for i in 0..n {
+            let listed = lists.lists.of(i);
+            for j in (0..n).filter(|&j| j != i && !listed.contains(&(j as u32))) {
+                let d = box_
+                    .minimum_image(&(positions[j] - lists.reference[i]))
+                    .norm();
+                let reach = lists.radii[i] + lists.radii[j] + 0.5 * lists.gap;
+                assert!(d > reach, "{j} unlisted by {i} within {d} < {reach}");
+            }
+        }
+    }
+
+    /// The same through box changes (isotropic and along one axis, shrinks
+    /// and expansions, overlaps allowed): the lists rescaled with the box
+    /// answer as all pairs wherever they answer, and every unlisted pair
+    /// stays out of reach; a run of shrinks uses up their gap and they give
+    /// up, to be built afresh.
+    #[test]
+    fn rescaled_lists_answer_as_all_pairs() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        let mut box_ = PeriodicBox::new(V3::new(6.0, 7.0, 8.0)).unwrap();
+        let n = 150;
+        let radii: Vec<f64> = (0..n)
+            .map(|i| if i % 3 == 0 { 0.25 } else { 0.5 })
+            .collect();
+        let mut positions: Vec<V3> = (0..n)
+            .map(|_| {
+                box_.wrap(&V3::from_fn(|k, _| {
+                    rng.gen_range(-3.0..3.0) * (1.0 + k as f64 / 6.0)
+                }))
+            })
+            .collect();
+        let skin = 0.4;
+        let mut lists = SphereLists::new(&box_, &positions, &radii, skin);
+        let (mut answered, mut kept, mut given_up) = (0, 0, 0);
+        for step in 0..30_000 {
+            if step % 50 == 49 {
+                // Shrinks more often than expansions: the gap runs out.
+                let f = 1.0 + rng.gen_range(-0.012..0.008);
+                let factor = if rng.r#gen::<bool>() {
+                    V3::repeat(f)
+                } else {
+                    V3::from_fn(|k, _| if k == step % 3 { f } else { 1.0 })
+                };
+                box_ = box_
+                    .with_lengths(box_.lengths().component_mul(&factor))
+                    .unwrap();
+                for r in &mut positions {
+                    *r = box_.wrap(&r.component_mul(&factor));
+                }
+                if lists.rescaled(&box_, &factor, &positions) {
+                    kept += 1;
+                    assert_unlisted_out_of_reach(&lists, &positions, &box_);
+                } else {
+                    given_up += 1;
+                    lists = SphereLists::new(&box_, &positions, &radii, skin);
+                }
+            }
+            let i = rng.gen_range(0..n);
+            let trial = box_.wrap(&(positions[i] + V3::from_fn(|_, _| rng.gen_range(-0.15..0.15))));
+            let all_pairs = (0..n).any(|j| {
+                j != i && {
+                    let d = box_.minimum_image(&(positions[j] - trial));
+                    d.norm() <= radii[i] + radii[j]
+                }
+            });
+            if let Some(answer) = lists.overlaps(i, &trial, &positions, &box_, |j| j != i) {
+                assert_eq!(answer, all_pairs, "step {step}, sphere {i}");
+                answered += 1;
+            }
+            positions[i] = trial;
+            lists.moved(i, &trial, &box_);
+            if step % 1000 == 0 {
+                assert_unlisted_out_of_reach(&lists, &positions, &box_);
+            }
+        }
+        assert!(answered > 5_000, "{answered} answered by the lists");
+        assert!(
+            kept > 100 && given_up > 3,
+            "kept {kept}, given up {given_up}"
+        );
     }
 }
