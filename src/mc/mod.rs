@@ -1016,10 +1016,18 @@ impl System {
         // Scaling all centres up cannot create an overlap of convex bodies
         // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some
         // axis needs checking.
+        let overlaps =
+            |i: usize| self.overlaps_at(i, &self.particles[i].position, &self.rotations[i]);
+        // Sphere lists answer for all but the centres that strayed far from
+        // their references (walls aside).
         if shrinks
             && !self.ideal
-            && (0..self.len())
-                .any(|i| self.overlaps_at(i, &self.particles[i].position, &self.rotations[i]))
+            && match &lists {
+                Some(lists) if !self.box_.has_walls() => {
+                    lists.overlap_after_rescale(&self.box_, &factor, &self.positions, overlaps)
+                }
+                _ => (0..self.len()).any(overlaps),
+            }
         {
             self.box_ = old_box;
             for (p, r) in self.particles.iter_mut().zip(&old_positions) {

@@ -139,9 +139,7 @@ impl SphereLists {
     /// and the lists are no longer to be used, when the gap left would be
     /// under half the skin.
     pub fn rescaled(&mut self, box_: &PeriodicBox, factor: &V3, positions: &[V3]) -> bool {
-        let shrink = factor.min().min(1.0);
-        let sigma = 2.0 * self.radii.iter().copied().fold(0.0, f64::max);
-        let gap = shrink * (sigma + self.gap) - sigma;
+        let (gap, sigma) = self.gap_after(factor);
         if gap < 0.5 * self.skin {
             return false;
         }
@@ -158,6 +156,53 @@ impl SphereLists {
             }
         }
         true
+    }
+
+    /// The gap the lists would keep after a box change by `factor`, and
+    /// the largest contact distance.
+    fn gap_after(&self, factor: &V3) -> (f64, f64) {
+        let shrink = factor.min().min(1.0);
+        let sigma = 2.0 * self.radii.iter().copied().fold(0.0, f64::max);
+        (shrink * (sigma + self.gap) - sigma, sigma)
+    }
+
+    /// Whether spheres at `positions`, the centres scaled by `factor` into
+    /// `box_` (the lists not yet rescaled), overlap: listed pairs are
+    /// measured; unlisted pairs of centres within half the gap left of
+    /// their scaled references cannot touch; `overlaps(i)` answers for
+    /// sphere i against every other where its centre strayed farther (or
+    /// for every sphere when no gap would be left).
+    pub fn overlap_after_rescale(
+        &self,
+        box_: &PeriodicBox,
+        factor: &V3,
+        positions: &[V3],
+        mut overlaps: impl FnMut(usize) -> bool,
+    ) -> bool {
+        let (gap, _) = self.gap_after(factor);
+        if gap <= 0.0 {
+            return (0..positions.len()).any(overlaps);
+        }
+        let half = 0.5 * gap;
+        for (i, centre) in positions.iter().enumerate() {
+            let reference = box_.wrap(&self.reference[i].component_mul(factor));
+            let drift = box_.minimum_image_near(&(centre - reference));
+            let touches = if drift.norm_squared() > half * half {
+                overlaps(i)
+            } else {
+                let ri = self.radii[i];
+                self.lists.of(i).iter().any(|&j| {
+                    let j = j as usize;
+                    let d = box_.minimum_image_near(&(positions[j] - centre));
+                    let reach = ri + self.radii[j];
+                    d.norm_squared() <= reach * reach
+                })
+            };
+            if touches {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -224,6 +269,106 @@ mod tests {
             }
         }
         assert!(answered > 5_000, "{answered} answered by the lists");
+    }
+
+    /// Before a box change, the lists say whether the scaled spheres
+    /// overlap as all pairs do (hard spheres from random insertion, box
+    /// changes of −3 % to +1 % along all axes or one, each kept only if it
+    /// overlaps nothing, as a Monte Carlo box move).
+    #[test]
+    fn overlaps_after_a_box_change_are_those_of_all_pairs() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
+        let mut box_ = PeriodicBox::new(V3::new(6.0, 6.5, 7.0)).unwrap();
+        let radii: Vec<f64> = (0..150)
+            .map(|i| if i % 3 == 0 { 0.3 } else { 0.5 })
+            .collect();
+        let mut positions: Vec<V3> = Vec::new();
+        while positions.len() < radii.len() {
+            let k = positions.len();
+            let r = box_.wrap(&V3::from_fn(|a, _| {
+                rng.gen_range(-3.5..3.5) * box_.lengths()[a] / 7.0
+            }));
+            if positions
+                .iter()
+                .enumerate()
+                .all(|(j, p)| box_.minimum_image(&(p - r)).norm() > radii[j] + radii[k])
+            {
+                positions.push(r);
+            }
+        }
+        let mut lists = SphereLists::new(&box_, &positions, &radii, 0.4);
+        let (mut refused, mut accepted) = (0, 0);
+        for step in 0..400 {
+            let f = 1.0 + rng.gen_range(-0.03..0.01);
+            let factor = if step % 2 == 0 {
+                V3::repeat(f)
+            } else {
+                V3::from_fn(|a, _| if a == step % 3 { f } else { 1.0 })
+            };
+            let new_box = box_
+                .with_lengths(box_.lengths().component_mul(&factor))
+                .unwrap();
+            let scaled: Vec<V3> = positions
+                .iter()
+                .map(|r| new_box.wrap(&r.component_mul(&factor)))
+                .collect();
+            let touching = |i: usize| {
+                (0..scaled.len()).any(|j| {
+                    j != i
+                        && new_box.minimum_image(&(scaled[j] - scaled[i])).norm()
+                            <= radii[i] + radii[j]
+                })
+            };
+            let all_pairs = (0..scaled.len()).any(touching);
+            assert_eq!(
+                lists.overlap_after_rescale(&new_box, &factor, &scaled, touching),
+                all_pairs,
+                "step {step}"
+            );
+            if all_pairs {
+                refused += 1;
+                continue;
+            }
+            accepted += 1;
+            box_ = new_box;
+            positions = scaled;
+            if !lists.rescaled(&box_, &factor, &positions) {
+                lists = SphereLists::new(&box_, &positions, &radii, 0.4);
+            }
+        }
+        assert!(
+            refused > 20 && accepted > 20,
+            "refused {refused}, accepted {accepted}"
+        );
+    }
+
+    /// Two spheres listed apart (their references beyond contact plus the
+    /// skin), the second since moved half a skin closer: a shrink by a
+    /// fifth brings them into contact, which only the strays' own check
+    /// (or a gap that ignored the shrink) can see.
+    #[test]
+    fn a_shrink_that_brings_unlisted_spheres_into_contact_is_seen() {
+        let box_ = PeriodicBox::new(V3::repeat(10.0)).unwrap();
+        let radii = [0.5, 0.5];
+        let skin = 0.4;
+        let mut positions = vec![V3::zeros(), V3::new(1.0 + skin + 0.01, 0.0, 0.0)];
+        let mut lists = SphereLists::new(&box_, &positions, &radii, skin);
+        assert!(lists.lists.of(0).is_empty());
+        positions[1].x -= 0.5 * skin - 0.01;
+        lists.moved(1, &positions[1], &box_);
+        assert!(
+            lists.lists.of(0).is_empty(),
+            "within half a skin: not relisted"
+        );
+        let factor = V3::repeat(0.81);
+        let new_box = box_.with_lengths(box_.lengths() * 0.81).unwrap();
+        let scaled: Vec<V3> = positions
+            .iter()
+            .map(|r| new_box.wrap(&(r * 0.81)))
+            .collect();
+        assert!(new_box.minimum_image(&(scaled[1] - scaled[0])).norm() < 1.0);
+        let touching = |i: usize| new_box.minimum_image(&(scaled[1 - i] - scaled[i])).norm() <= 1.0;
+        assert!(lists.overlap_after_rescale(&new_box, &factor, &scaled, touching));
     }
 
     /// What makes a list's answer right: every centre within half the gap
