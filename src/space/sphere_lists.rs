@@ -211,6 +211,32 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
+    /// One step of a random walk (overlaps allowed: the lists do not
+    /// care): a random sphere tried up to 0.15 away, the lists' answer
+    /// compared with all pairs where they answer (then `true`), and the
+    /// sphere moved there.
+    fn random_step(
+        rng: &mut impl Rng,
+        lists: &mut SphereLists,
+        positions: &mut [V3],
+        radii: &[f64],
+        box_: &PeriodicBox,
+    ) -> bool {
+        let n = positions.len();
+        let i = rng.gen_range(0..n);
+        let trial = box_.wrap(&(positions[i] + V3::from_fn(|_, _| rng.gen_range(-0.15..0.15))));
+        let all_pairs = (0..n).any(|j| {
+            j != i && box_.minimum_image(&(positions[j] - trial)).norm() <= radii[i] + radii[j]
+        });
+        let answer = lists.overlaps(i, &trial, positions, box_, |j| j != i);
+        if let Some(answer) = answer {
+            assert_eq!(answer, all_pairs, "sphere {i} at {trial}");
+        }
+        positions[i] = trial;
+        lists.moved(i, &trial, box_);
+        answer.is_some()
+    }
+
     /// Random walks of spheres (overlaps allowed: the lists do not care):
     /// after every step the overlap answer from the lists (where they
     /// reach) equals the all-pairs answer, and every list is exactly the
@@ -236,20 +262,13 @@ mod tests {
         let mut lists = SphereLists::new(&box_, &positions, &radii, skin);
         let mut answered = 0;
         for step in 0..20_000 {
-            let i = rng.gen_range(0..n);
-            let trial = box_.wrap(&(positions[i] + V3::from_fn(|_, _| rng.gen_range(-0.15..0.15))));
-            let all_pairs = (0..n).any(|j| {
-                j != i && {
-                    let d = box_.minimum_image(&(positions[j] - trial));
-                    d.norm() <= radii[i] + radii[j]
-                }
-            });
-            if let Some(answer) = lists.overlaps(i, &trial, &positions, &box_, |j| j != i) {
-                assert_eq!(answer, all_pairs, "step {step}, sphere {i}");
-                answered += 1;
-            }
-            positions[i] = trial;
-            lists.moved(i, &trial, &box_);
+            answered += usize::from(random_step(
+                &mut rng,
+                &mut lists,
+                &mut positions,
+                &radii,
+                &box_,
+            ));
             if step % 1000 == 0 {
                 for a in 0..n {
                     let mut listed: Vec<u32> = lists.lists.of(a).to_vec();
@@ -443,20 +462,13 @@ mod tests {
                     lists = SphereLists::new(&box_, &positions, &radii, skin);
                 }
             }
-            let i = rng.gen_range(0..n);
-            let trial = box_.wrap(&(positions[i] + V3::from_fn(|_, _| rng.gen_range(-0.15..0.15))));
-            let all_pairs = (0..n).any(|j| {
-                j != i && {
-                    let d = box_.minimum_image(&(positions[j] - trial));
-                    d.norm() <= radii[i] + radii[j]
-                }
-            });
-            if let Some(answer) = lists.overlaps(i, &trial, &positions, &box_, |j| j != i) {
-                assert_eq!(answer, all_pairs, "step {step}, sphere {i}");
-                answered += 1;
-            }
-            positions[i] = trial;
-            lists.moved(i, &trial, &box_);
+            answered += usize::from(random_step(
+                &mut rng,
+                &mut lists,
+                &mut positions,
+                &radii,
+                &box_,
+            ));
             if step % 1000 == 0 {
                 assert_unlisted_out_of_reach(&lists, &positions, &box_);
             }
