@@ -1588,21 +1588,12 @@ impl Dynamics {
                 cells.index_of(c)
             })
         });
-        let horizon = self.bodies[i].horizon;
-        let mut near = [0u32; GATHERED];
-        let earliest = match gather(layer_cells.clone().map(|c| cells.members(c)), &mut near) {
-            Some(count) => {
-                prefetch_bodies(&self.bodies, &near[..count]);
-                self.earliest_closed_form_listed(i, &near[..count], |j| j != i, horizon)
-            }
-            None => {
-                let bodies = layer_cells
-                    .flat_map(|c| cells.members(c))
-                    .map(|&j| j as usize)
-                    .filter(|&j| j != i);
-                self.earliest_closed_form(i, bodies, horizon)
-            }
-        };
+        let earliest = self.earliest_closed_form_in_cells(
+            i,
+            layer_cells.map(|c| cells.members(c)),
+            |j| j != i,
+            self.bodies[i].horizon,
+        );
         self.schedule_earliest(i, earliest);
         Ok(())
     }
@@ -1918,23 +1909,12 @@ impl Dynamics {
                 None => {
                     let cells = &self.cells;
                     let around = cells.neighbour_cells(cells.cell_of(i));
-                    let mut near = [0u32; GATHERED];
-                    match gather(
+                    self.earliest_closed_form_in_cells(
+                        i,
                         around.iter().map(|&nc| cells.members(nc as usize)),
-                        &mut near,
-                    ) {
-                        Some(count) => {
-                            prefetch_bodies(&self.bodies, &near[..count]);
-                            self.earliest_closed_form_listed(i, &near[..count], keep, f64::INFINITY)
-                        }
-                        None => {
-                            let near = around
-                                .iter()
-                                .flat_map(|&nc| cells.members(nc as usize))
-                                .map(|&j| j as usize);
-                            self.earliest_closed_form(i, near.filter(|&j| keep(j)), f64::INFINITY)
-                        }
-                    }
+                        keep,
+                        f64::INFINITY,
+                    )
                 }
             };
             self.bodies[i].horizon = f64::INFINITY;
@@ -2067,15 +2047,32 @@ impl Dynamics {
             }
         }
         // The rest one by one (padding them into a batch was no faster).
-        for &j in tail {
-            let j = j as usize;
-            let t = self.closed_form_contact(i, j);
-            if keep(j) && t < horizon.min(self.bodies[j].horizon) {
-                earliest = Some((t, j));
-                horizon = t;
+        let rest = tail.iter().map(|&j| j as usize).filter(|&j| keep(j));
+        self.earliest_closed_form(i, rest, horizon).or(earliest)
+    }
+
+    /// [`Dynamics::earliest_closed_form_listed`] over the members of
+    /// `cells` that `keep` lets through, gathered into a small array first
+    /// (and prefetched); more than fit are searched one at a time.
+    #[inline(always)]
+    fn earliest_closed_form_in_cells<'a>(
+        &self,
+        i: usize,
+        cells: impl Iterator<Item = &'a [u32]> + Clone,
+        keep: impl Fn(usize) -> bool,
+        horizon: f64,
+    ) -> Option<(f64, usize)> {
+        let mut near = [0u32; GATHERED];
+        match gather(cells.clone(), &mut near) {
+            Some(count) => {
+                prefetch_bodies(&self.bodies, &near[..count]);
+                self.earliest_closed_form_listed(i, &near[..count], keep, horizon)
+            }
+            None => {
+                let near = cells.flatten().map(|&j| j as usize);
+                self.earliest_closed_form(i, near.filter(|&j| keep(j)), horizon)
             }
         }
-        earliest
     }
 
     /// [`Dynamics::closed_form_contact`] of body `i` with each of `others`,

@@ -27,6 +27,8 @@ type V3 = Vector3<f64>;
 #[derive(Debug, Clone)]
 pub struct SphereLists {
     skin: f64,
+    /// The largest contact distance.
+    sigma_max: f64,
     /// Unlisted references are farther apart than their contact distance
     /// plus this (the skin until the box shrinks); a centre may stray half
     /// of it from its reference.
@@ -47,6 +49,7 @@ impl SphereLists {
         let largest = radii.iter().copied().fold(0.0, f64::max);
         let mut this = Self {
             skin,
+            sigma_max: 2.0 * largest,
             gap: skin,
             reference: positions.to_vec(),
             references: PackedCells::new(box_, 2.0 * largest + skin, positions, radii),
@@ -84,7 +87,8 @@ impl SphereLists {
 
     /// Whether sphere `i` at `centre` (in the box) touches a listed sphere
     /// j at `positions[j]` with `keep(j)`; `None` if `centre` is more than
-    /// half the skin from i's reference, where the list does not reach.
+    /// half the gap (the skin until the box shrinks) from i's reference,
+    /// where the list does not reach.
     #[inline]
     pub fn overlaps(
         &self,
@@ -99,17 +103,31 @@ impl SphereLists {
         if drift.norm_squared() > half * half {
             return None;
         }
+        Some(self.touches_listed(i, centre, positions, box_, keep))
+    }
+
+    /// Whether sphere `i` at `centre` touches a listed sphere j at
+    /// `positions[j]` with `keep(j)`.
+    #[inline]
+    fn touches_listed(
+        &self,
+        i: usize,
+        centre: &V3,
+        positions: &[V3],
+        box_: &PeriodicBox,
+        keep: impl Fn(usize) -> bool,
+    ) -> bool {
         let ri = self.radii[i];
-        Some(self.lists.of(i).iter().any(|&j| {
+        self.lists.of(i).iter().any(|&j| {
             let j = j as usize;
             let d = box_.minimum_image_near(&(positions[j] - centre));
             let reach = ri + self.radii[j];
             d.norm_squared() <= reach * reach && keep(j)
-        }))
+        })
     }
 
     /// Records that sphere `i` now sits at `centre` (in the box):
-    /// relisted if it left half the skin around its reference.
+    /// relisted if it left half the gap around its reference.
     pub fn moved(&mut self, i: usize, centre: &V3, box_: &PeriodicBox) {
         let half = 0.5 * self.gap;
         let drift = box_.minimum_image_near(&(centre - self.reference[i]));
@@ -139,7 +157,7 @@ impl SphereLists {
     /// and the lists are no longer to be used, when the gap left would be
     /// under half the skin.
     pub fn rescaled(&mut self, box_: &PeriodicBox, factor: &V3, positions: &[V3]) -> bool {
-        let (gap, sigma) = self.gap_after(factor);
+        let gap = self.gap_after(factor);
         if gap < 0.5 * self.skin {
             return false;
         }
@@ -147,7 +165,12 @@ impl SphereLists {
         for r in &mut self.reference {
             *r = box_.wrap(&r.component_mul(factor));
         }
-        self.references = PackedCells::new(box_, sigma + self.skin, &self.reference, &self.radii);
+        self.references = PackedCells::new(
+            box_,
+            self.sigma_max + self.skin,
+            &self.reference,
+            &self.radii,
+        );
         let half = 0.5 * gap;
         for (i, centre) in positions.iter().enumerate() {
             let drift = box_.minimum_image_near(&(centre - self.reference[i]));
@@ -158,12 +181,10 @@ impl SphereLists {
         true
     }
 
-    /// The gap the lists would keep after a box change by `factor`, and
-    /// the largest contact distance.
-    fn gap_after(&self, factor: &V3) -> (f64, f64) {
+    /// The gap the lists would keep after a box change by `factor`.
+    fn gap_after(&self, factor: &V3) -> f64 {
         let shrink = factor.min().min(1.0);
-        let sigma = 2.0 * self.radii.iter().copied().fold(0.0, f64::max);
-        (shrink * (sigma + self.gap) - sigma, sigma)
+        shrink * (self.sigma_max + self.gap) - self.sigma_max
     }
 
     /// Whether spheres at `positions`, the centres scaled by `factor` into
@@ -179,7 +200,7 @@ impl SphereLists {
         positions: &[V3],
         mut overlaps: impl FnMut(usize) -> bool,
     ) -> bool {
-        let (gap, _) = self.gap_after(factor);
+        let gap = self.gap_after(factor);
         if gap <= 0.0 {
             return (0..positions.len()).any(overlaps);
         }
@@ -190,13 +211,7 @@ impl SphereLists {
             let touches = if drift.norm_squared() > half * half {
                 overlaps(i)
             } else {
-                let ri = self.radii[i];
-                self.lists.of(i).iter().any(|&j| {
-                    let j = j as usize;
-                    let d = box_.minimum_image_near(&(positions[j] - centre));
-                    let reach = ri + self.radii[j];
-                    d.norm_squared() <= reach * reach
-                })
+                self.touches_listed(i, centre, positions, box_, |_| true)
             };
             if touches {
                 return true;
