@@ -162,6 +162,31 @@ fn bad_settings_are_errors() {
     }
 }
 
+/// The first `collisions` collisions (time, pair) of the dynamics started
+/// from `system` with velocities of `seed`, on cells (`shell` None) or
+/// neighbour lists; the state is checked overlap-free just after the last
+/// collision (whose pair touches at it).
+fn collision_sequence(
+    system: &System,
+    shell: Option<f64>,
+    seed: u64,
+    collisions: u64,
+) -> Vec<(f64, u32, u32)> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let opts = DynamicsOptions {
+        neighbour_shell: shell,
+        ..DynamicsOptions::default()
+    };
+    let mut md = Dynamics::from_state(system, &opts, &mut rng).unwrap();
+    md.record_collisions(true);
+    md.run_collisions(collisions).unwrap();
+    let t = md.time();
+    md.run_until(t + 1e-9).unwrap();
+    md.to_system()
+        .unwrap_or_else(|e| panic!("shell {shell:?}: {e}"));
+    md.take_collisions()
+}
+
 /// Neighbour lists change how pairs are found, not the trajectory: from
 /// the same state and velocities, cells and lists (two shells) give the
 /// same collisions, pair by pair and bit for bit in time, over 10^5
@@ -189,23 +214,7 @@ fn neighbour_lists_give_the_same_collisions_as_cells() {
             hardbody::mc::start::lattice(box_, species, &[512], &mut Pcg64::seed_from_u64(4))
                 .unwrap()
         };
-        let sequence = |shell: Option<f64>| {
-            let mut rng = Pcg64::seed_from_u64(40);
-            let opts = DynamicsOptions {
-                neighbour_shell: shell,
-                ..DynamicsOptions::default()
-            };
-            let mut md = Dynamics::from_state(&system, &opts, &mut rng).unwrap();
-            md.record_collisions(true);
-            md.run_collisions(collisions).unwrap();
-            // Overlap-free just after the last collision (whose pair
-            // touches at it).
-            let t = md.time();
-            md.run_until(t + 1e-9).unwrap();
-            md.to_system()
-                .unwrap_or_else(|e| panic!("phi {phi}, shell {shell:?}: {e}"));
-            md.take_collisions()
-        };
+        let sequence = |shell| collision_sequence(&system, shell, 40, collisions);
         let cells = sequence(None);
         for shell in [0.1, 0.4] {
             let lists = sequence(Some(shell));
@@ -249,23 +258,8 @@ fn a_size_asymmetric_mixture_gives_the_same_collisions_with_cells_and_lists() {
         &mut Pcg64::seed_from_u64(8),
     )
     .unwrap();
-    let sequence = |shell: Option<f64>| {
-        let mut rng = Pcg64::seed_from_u64(80);
-        let opts = DynamicsOptions {
-            neighbour_shell: shell,
-            ..DynamicsOptions::default()
-        };
-        let mut md = Dynamics::from_state(&system, &opts, &mut rng).unwrap();
-        md.record_collisions(true);
-        md.run_collisions(30_000).unwrap();
-        let t = md.time();
-        md.run_until(t + 1e-9).unwrap();
-        md.to_system()
-            .unwrap_or_else(|e| panic!("shell {shell:?}: {e}"));
-        md.take_collisions()
-    };
-    let cells = sequence(None);
-    let lists = sequence(Some(0.05));
+    let cells = collision_sequence(&system, None, 80, 30_000);
+    let lists = collision_sequence(&system, Some(0.05), 80, 30_000);
     let same = cells.iter().zip(&lists).take_while(|(a, b)| a == b).count();
     assert_eq!(same, cells.len(), "sequences part after {same} collisions");
     assert_eq!(lists.len(), cells.len());
