@@ -7,7 +7,7 @@
 use hardbody::bench::mc::dense_start;
 use hardbody::geometry::Shape;
 use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
-use hardbody::mc::parallel::ParallelSweeps;
+use hardbody::mc::parallel::{ParallelSweeps, SharedCounts};
 use hardbody::mc::tuning::Tuner;
 use hardbody::mc::{Species, System};
 use hardbody::space::PeriodicBox;
@@ -170,6 +170,122 @@ fn a_chunk_in_which_the_slabs_thin_out_is_the_sweeps_one_by_one() {
     assert_eq!(one.periodic_box().lengths(), two.periodic_box().lengths());
     assert_eq!(one.particles(), two.particles());
     assert_eq!(two.first_overlap_all_pairs(), None);
+}
+
+/// `sweeps` sweeps on `threads` threads handed over in chunks of up to
+/// 7, sharing the system where the sweeps can (`replicas` false) or on
+/// replicas: the counts, and the sweeps shared and made alone.
+fn chunked(
+    system: &mut System,
+    (sizes, ensemble): (&MoveSizes, &Ensemble),
+    sweeps: usize,
+    threads: usize,
+    replicas: bool,
+) -> (Counts, SharedCounts) {
+    let seeds: Vec<u64> = (0..sweeps as u64).map(|k| 3 + 29 * k).collect();
+    pool(threads).install(|| {
+        let mut parallel = if replicas {
+            ParallelSweeps::replicas_only()
+        } else {
+            ParallelSweeps::new()
+        };
+        let mut counts = Counts::default();
+        for (k, chunk) in seeds.chunks(7).enumerate() {
+            counts += parallel.sweeps(system, sizes, ensemble, chunk, 7 * k as u64);
+        }
+        (counts, parallel.sharing())
+    })
+}
+
+/// Dense hard spheres (φ = 0.5, N = 2916), where the members of a team
+/// of two share one system: the same moves as one thread and as a team on
+/// replicas, to the bit, in NVT and NPT (per-axis box moves), with short
+/// moves (on Verlet lists) and long ones (on cells); no overlaps.
+#[test]
+fn members_sharing_a_system_make_the_moves_of_one_thread() {
+    let shape: Shape = "Sphere(radius: 0.5)".parse().unwrap();
+    let start = dense_start(&shape, 3000, 0.5).unwrap();
+    assert!(ParallelSweeps::new().would_share(&start, 2));
+    assert!(!ParallelSweeps::replicas_only().would_share(&start, 2));
+    for (translate, lists) in [(0.08, true), (0.5, false)] {
+        let sizes = MoveSizes {
+            translate,
+            rotate: 0.0,
+            volume: 0.002,
+        };
+        for ensemble in [
+            Ensemble::Nvt,
+            Ensemble::Npt {
+                pressure: 8.0,
+                anisotropic: true,
+            },
+        ] {
+            let what = format!("step {translate}, {ensemble:?}");
+            let (mut one, mut shared, mut replicas) = (start.clone(), start.clone(), start.clone());
+            let job = (&sizes, &ensemble);
+            let (c1, _) = chunked(&mut one, job, 60, 1, false);
+            let (c2, sharing) = chunked(&mut shared, job, 60, 2, false);
+            let (c3, none) = chunked(&mut replicas, job, 60, 2, true);
+            assert_eq!(sharing.shared, 60, "{what}: {sharing:?}");
+            assert_eq!(none, SharedCounts::default(), "{what}");
+            assert_eq!(shared.uses_sphere_lists(), lists, "{what}");
+            assert_eq!((c1, c1), (c2, c3), "{what}: counts differ");
+            assert!(c1.translate.accepted > 0 && c1.translate.accepted < c1.translate.tried);
+            if let Ensemble::Npt { .. } = ensemble {
+                assert!(c1.volume.accepted > 0, "{what}: no box move accepted");
+            }
+            assert_eq!(
+                one.periodic_box().lengths(),
+                shared.periodic_box().lengths()
+            );
+            assert_eq!(one.particles(), shared.particles(), "{what}: states differ");
+            assert_eq!(
+                one.particles(),
+                replicas.particles(),
+                "{what}: states differ"
+            );
+            assert_eq!(shared.first_overlap_all_pairs(), None, "{what}: overlap");
+        }
+    }
+}
+
+/// A box compressed within a team's chunk until its slabs are too thin to
+/// share (four slabs 3.5 diameters wide at least, with sphere lists of
+/// skin 0.5: see `SharingTerms`): member 0 makes those sweeps alone, the
+/// same moves as one thread.
+#[test]
+fn sweeps_whose_slabs_grow_too_thin_to_share_are_made_alone() {
+    let shape: Shape = "Sphere(radius: 0.5)".parse().unwrap();
+    // fcc of 9³ cells, 14.008 diameters across, nearest neighbours 1.10
+    // apart, short moves: the box can shrink at once.
+    let start = dense_start(&shape, 2916, 0.5555).unwrap();
+    let length = start.periodic_box().lengths().max();
+    assert!((14.0..14.01).contains(&length), "{length}");
+    let sizes = MoveSizes {
+        translate: 0.02,
+        rotate: 0.0,
+        volume: 0.002,
+    };
+    let ensemble = Ensemble::Npt {
+        pressure: 40.0,
+        anisotropic: false,
+    };
+    let (mut one, mut shared) = (start.clone(), start.clone());
+    let (c1, _) = chunked(&mut one, (&sizes, &ensemble), 70, 1, false);
+    let (c2, sharing) = chunked(&mut shared, (&sizes, &ensemble), 70, 2, false);
+    assert!(
+        sharing.shared > 0 && sharing.alone > 0,
+        "{sharing:?}, φ {} to {}",
+        start.packing_fraction(),
+        shared.packing_fraction()
+    );
+    assert_eq!(c1, c2);
+    assert_eq!(
+        one.periodic_box().lengths(),
+        shared.periodic_box().lengths()
+    );
+    assert_eq!(one.particles(), shared.particles());
+    assert_eq!(shared.first_overlap_all_pairs(), None);
 }
 
 /// Hard-sphere NPT at βP = 3 from the same starts by the parallel sweep

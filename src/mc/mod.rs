@@ -313,6 +313,10 @@ pub struct System {
     /// Accepted moves in this box since the lists were last reviewed, and
     /// the sum of their squared steps.
     list_window: (usize, f64),
+    /// The lists are reviewed after the moves rather than during them: a
+    /// member of a team sharing this system's memory
+    /// ([`parallel`]) only counts its moves in the window.
+    review_deferred: bool,
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
     /// An identity of the state (see [`System::stamp`]), renewed when it
@@ -422,6 +426,7 @@ impl System {
             capsules,
             capsule_lists: None,
             list_window: (0, 0.0),
+            review_deferred: false,
             ideal: false,
             stamp: new_stamp(),
             changed: false,
@@ -906,9 +911,14 @@ impl System {
     /// 0.19 at φ 0.3, 0.4, 0.45, 0.5; lists against cells at φ 0.45
     /// 4.3–4.4e6 against 3.8–4.0e6 moves/s, at φ 0.5 7.5e6 against 5.0e6.)
     fn review_sphere_lists(&mut self, step_sq: f64, skin: f64) {
-        let Some(short) = self.moves_short(step_sq, 0.25 * skin) else {
-            return;
-        };
+        if let Some(short) = self.moves_short(step_sq, 0.25 * skin) {
+            self.keep_sphere_lists(short, skin);
+        }
+    }
+
+    /// Builds the sphere lists if the moves are `short` and they are not
+    /// there, drops them if the moves are not.
+    fn keep_sphere_lists(&mut self, short: bool, skin: f64) {
         if short && self.sphere_lists.is_none() {
             let radii: Vec<f64> = (self.particles.iter())
                 .map(|p| self.radii[p.species as usize])
@@ -924,15 +934,35 @@ impl System {
     /// empties it and says whether their root-mean-square length was
     /// under `limit`.
     fn moves_short(&mut self, step_sq: f64, limit: f64) -> Option<bool> {
-        let (moves, sum) = &mut self.list_window;
-        *moves += 1;
-        *sum += step_sq;
-        if *moves < SPHERE_LISTS_REVIEW * self.positions.len() {
+        self.list_window.0 += 1;
+        self.list_window.1 += step_sq;
+        if self.review_deferred {
             return None;
         }
-        let short = *sum / (*moves as f64) < limit * limit;
+        self.window_verdict(limit)
+    }
+
+    /// Once the review window holds [`SPHERE_LISTS_REVIEW`] moves per
+    /// particle, empties it and says whether their root-mean-square length
+    /// was under `limit`.
+    fn window_verdict(&mut self, limit: f64) -> Option<bool> {
+        let (moves, sum) = self.list_window;
+        if moves < SPHERE_LISTS_REVIEW * self.positions.len() {
+            return None;
+        }
         self.list_window = (0, 0.0);
-        Some(short)
+        Some(sum / (moves as f64) < limit * limit)
+    }
+
+    /// Reviews the sphere lists on the window counted so far (moves a
+    /// team made with the review deferred): as the last of those moves
+    /// would have, had it been made alone.
+    fn review_sphere_lists_now(&mut self) {
+        if let Some(skin) = self.plan.sphere_skin
+            && let Some(short) = self.window_verdict(0.25 * skin)
+        {
+            self.keep_sphere_lists(short, skin);
+        }
     }
 
     /// As [`System::review_sphere_lists`] for the capsule lists: built if

@@ -31,8 +31,8 @@ use rand_pcg::Pcg64;
 use std::sync::RwLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use super::System;
 use super::moves::{Counts, Ensemble, MoveSizes, box_move, particle_moves, sweep};
+use super::{Neighbours, System};
 
 type V3 = Vector3<f64>;
 
@@ -277,28 +277,19 @@ fn member_sweeps(
         let first = usize::from(master.r#gen::<bool>());
         for colour in [first, 1 - first] {
             scratch.moved.clear();
-            for k in (colour..slabs.count).step_by(2) {
-                let members = &scratch.slab_members[k];
-                if members.is_empty() {
-                    continue;
-                }
-                let mut rng = stream(seed, index, colour as u64, k as u64);
-                let box_ = *system.periodic_box();
-                let moved = &mut scratch.moved;
-                counts += particle_moves(
-                    system,
-                    members.len(),
-                    |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
-                    sizes,
-                    &mut rng,
-                    |r| slabs.slab_of(&box_.wrap_near(r)) == k,
-                    |i| {
-                        if exchange.is_some() {
-                            moved.push(i);
-                        }
-                    },
-                );
-            }
+            let moved = &mut scratch.moved;
+            counts += colour_moves(
+                system,
+                &scratch.slab_members,
+                (&slabs, colour),
+                (seed, index),
+                sizes,
+                |i| {
+                    if exchange.is_some() {
+                        moved.push(i);
+                    }
+                },
+            );
             if let Some(exchange) = exchange {
                 exchange.share(
                     me,
@@ -320,6 +311,39 @@ fn member_sweeps(
                 counts.volume.record(accepted);
             }
         }
+    }
+    counts
+}
+
+/// The moves of the slabs of `colour` listed in `slab_members` (those of
+/// other members empty), each slab drawing from its stream keyed on
+/// (`seed`, `index`, colour, slab) and every move confined to its slab;
+/// `accepted` hears of each particle moved.
+fn colour_moves(
+    system: &mut System,
+    slab_members: &[Vec<usize>],
+    (slabs, colour): (&Slabs, usize),
+    (seed, index): (u64, u64),
+    sizes: &MoveSizes,
+    mut accepted: impl FnMut(usize),
+) -> Counts {
+    let mut counts = Counts::default();
+    for k in (colour..slabs.count).step_by(2) {
+        let members = &slab_members[k];
+        if members.is_empty() {
+            continue;
+        }
+        let mut rng = stream(seed, index, colour as u64, k as u64);
+        let box_ = *system.periodic_box();
+        counts += particle_moves(
+            system,
+            members.len(),
+            |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
+            sizes,
+            &mut rng,
+            |r| slabs.slab_of(&box_.wrap_near(r)) == k,
+            &mut accepted,
+        );
     }
     counts
 }
@@ -362,21 +386,351 @@ impl Exchange {
     }
 }
 
-/// Parallel sweeps with the replicas they keep between sweeps (one per
-/// thread beyond the first). Replicas are copied from the system when it
-/// changed since they were last in step with it (a serial sweep, another
-/// system): reuse one `ParallelSweeps` for a run of sweeps of one system.
+/// What a team of threads sharing one system of hard spheres must keep
+/// to (see the module docs): the least slab width, and the room cells and
+/// lists must have for no move of the team to grow them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SharingTerms {
+    /// Members sweeping slabs two apart (at least this wide) touch
+    /// disjoint memory.
+    least_width: f64,
+    /// The most members a cell of the moves' cells can hold.
+    cell_room: usize,
+    /// The most references a reference cell of the sphere lists can hold,
+    /// and the most entries of one list (0 without sphere lists).
+    reference_room: usize,
+    list_room: usize,
+}
+
+/// Room above which sharing is not worth its memory (spheres of very
+/// different sizes: the smallest sets the bounds).
+const MOST_ROOM: usize = 512;
+
+/// The most points pairwise farther apart than `closest` in a box with
+/// edges `sides`: the fewer of the boxes of diameter `closest` it divides
+/// into (one point each at most) and of the balls of diameter `closest`
+/// around the points the box grown by `closest` holds by volume.
+fn room_in_box(sides: &V3, closest: f64) -> usize {
+    let pieces: f64 = sides
+        .iter()
+        .map(|&s| (s * 3f64.sqrt() / closest).ceil().max(1.0))
+        .product();
+    let ball = std::f64::consts::PI / 6.0 * closest.powi(3);
+    let by_volume = sides.iter().map(|&s| s + closest).product::<f64>() / ball;
+    pieces.min(by_volume.floor()) as usize
+}
+
+/// The most points pairwise farther apart than `closest` within `radius`
+/// of one of them, that one included (balls of diameter `closest` around
+/// them, by volume).
+fn room_in_ball(radius: f64, closest: f64) -> usize {
+    ((radius + 0.5 * closest) / (0.5 * closest)).powi(3).floor() as usize
+}
+
+impl SharingTerms {
+    /// The terms for `system` with slabs along `axis`; `None` unless it is
+    /// hard spheres on one grid of cells (for other shapes and for
+    /// spheres of very different sizes, members keep replicas).
+    ///
+    /// Member A sweeps slab k, member B slab k + 2 (W apart, W the slab
+    /// width; one slab between them either way round the box). A trial
+    /// centre q lies in the slab; the 27 cells around it hold only points
+    /// less than two cell widths from q, and B writes only cells holding
+    /// one of its centres: W ≥ 2 cell widths. With sphere lists of skin
+    /// s (σ the largest contact distance, a centre never more than s/2
+    /// from its reference): A relists from the 27 reference cells around
+    /// a centre in its slab and moves references that lay within s/2 of
+    /// it, so W ≥ 2 reference-cell widths + s/2; A touches the lists of
+    /// spheres whose references lie within σ + s of a reference within
+    /// s/2 of its slab, so W > 2(σ + s) + s; the centres it reads lie
+    /// within σ + 2s of its slab, which that covers.
+    fn of(system: &System, axis: usize) -> Option<Self> {
+        let Neighbours::Cells(cells) = &system.cells else {
+            return None;
+        };
+        if !system.all_spheres || system.ideal || system.plan.per_species {
+            return None;
+        }
+        let lengths = system.periodic_box().lengths();
+        let widths = |dims: [usize; 3]| V3::from_fn(|k, _| lengths[k] / dims[k] as f64);
+        // The closest two centres come: the smallest contact distance,
+        // less a margin for pairs let through as touching.
+        let closest = 0.999 * 2.0 * system.radii.iter().copied().fold(f64::INFINITY, f64::min);
+        let cell = widths(cells.dims());
+        let mut terms = Self {
+            least_width: 2.0 * cell[axis],
+            cell_room: room_in_box(&cell, closest),
+            reference_room: 0,
+            list_room: 0,
+        };
+        if let Some(skin) = system.plan.sphere_skin {
+            let reach = system.range + skin;
+            let dims = match &system.sphere_lists {
+                Some(lists) => lists.reference_dims(),
+                None => crate::space::cell_grid(&lengths, reach, system.len()),
+            };
+            let reference = widths(dims);
+            terms.least_width = (terms.least_width)
+                .max(2.0 * reference[axis] + 0.5 * skin)
+                .max(2.0 * reach + skin);
+            // A reference cell's references belong to centres within s/2
+            // of it; listed centres lie within σ + 2s of each other.
+            terms.reference_room = room_in_box(&reference.add_scalar(skin), closest);
+            terms.list_room = room_in_ball(reach + skin, closest) - 1;
+        }
+        // A margin for the rounding of slab and cell boundaries.
+        terms.least_width += 1e-9 * lengths[axis];
+        let room = terms
+            .cell_room
+            .max(terms.reference_room)
+            .max(terms.list_room);
+        (room <= MOST_ROOM).then_some(terms)
+    }
+
+    /// Whether `system`'s cells and lists have the room.
+    fn roomy(&self, system: &System) -> bool {
+        let Neighbours::Cells(cells) = &system.cells else {
+            return false;
+        };
+        cells.capacity() >= self.cell_room
+            && system.sphere_lists.as_ref().is_none_or(|lists| {
+                let (references, list) = lists.room();
+                references >= self.reference_room && list >= self.list_room
+            })
+    }
+
+    /// Makes the room in `system`'s cells and lists.
+    fn reserve(&self, system: &mut System) {
+        if let Neighbours::Cells(cells) = &mut system.cells {
+            cells.reserve(self.cell_room);
+        }
+        if let Some(lists) = &mut system.sphere_lists {
+            lists.reserve(self.reference_room, self.list_room);
+        }
+    }
+}
+
+impl Slabs {
+    /// Whether members can share `system`'s memory on these slabs (at
+    /// least as wide as [`SharingTerms`] asks, the room made).
+    fn shareable(&self, system: &System) -> bool {
+        SharingTerms::of(system, self.axis).is_some_and(|terms| {
+            self.length / self.count as f64 >= terms.least_width && terms.roomy(system)
+        })
+    }
+}
+
+/// The caller's system, which the members of a team of hard spheres share
+/// (see the module docs).
+struct SharedSystem(*mut System);
+
+// SAFETY: the members touch the system only as `member_copy` and `whole`
+// say.
+unsafe impl Sync for SharedSystem {}
+
+impl SharedSystem {
+    /// A member's own header over the shared storage: the same vectors
+    /// (positions, cells, lists), its own scalars. Its review window
+    /// starts empty and is not reviewed (the review is made for the team
+    /// between sweeps), and its cells and lists panic rather than grow
+    /// (which would move storage from under the others). Never dropped:
+    /// the storage is the system's.
+    ///
+    /// SAFETY: no member may be writing the system's header (between
+    /// barriers, where only the storage changes), and the copy is used
+    /// only until the next change of it (to the next barrier); members
+    /// moving particles of slabs that [`Slabs::shareable`] allows touch
+    /// disjoint storage.
+    unsafe fn member_copy(&self) -> std::mem::ManuallyDrop<System> {
+        // SAFETY: as the caller promises; the copy is never dropped.
+        let mut copy = std::mem::ManuallyDrop::new(unsafe { std::ptr::read(self.0) });
+        copy.review_deferred = true;
+        copy.list_window = (0, 0.0);
+        copy.changed = false;
+        if let Neighbours::Cells(cells) = &mut copy.cells {
+            cells.fix_capacity();
+        }
+        if let Some(lists) = &mut copy.sphere_lists {
+            lists.fix_capacity();
+        }
+        copy
+    }
+
+    /// The system itself, for the one member that works on it while the
+    /// others wait at a barrier holding no copy they will use again.
+    ///
+    /// SAFETY: as said; the reference is dropped before the barrier.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn whole(&self) -> &mut System {
+        // SAFETY: as the caller promises.
+        unsafe { &mut *self.0 }
+    }
+}
+
+/// What members of a sharing team report after their moves of a sweep:
+/// their review window and whether they moved anything.
+type Report = std::sync::Mutex<((usize, f64), bool)>;
+
+/// The work of member `me` of a team of `team` sharing `shared` (the
+/// sweeps of [`member_sweeps`], with the same moves): at each sweep every
+/// member takes its copy of the header, sorts its slabs and sweeps them,
+/// a barrier after each colour; member 0 then folds the members' review
+/// windows into the system, reviews its lists, makes the box move and the
+/// room, while the others wait. A sweep whose slabs are too thin to share
+/// (a box move shrank them) or that has none is member 0's alone, as a
+/// team of one makes it.
+fn shared_member_sweeps(
+    (me, team): (usize, usize),
+    barrier: &SpinBarrier,
+    reports: &[Report],
+    shared: &SharedSystem,
+    work: &Work,
+) -> (Counts, SharedCounts) {
+    let Work {
+        sizes,
+        ensemble,
+        seeds,
+        first_index,
+        threads,
+    } = *work;
+    let mut counts = Counts::default();
+    let mut sharing = SharedCounts::default();
+    let mut scratch = Scratch::default();
+    for (j, &seed) in seeds.iter().enumerate() {
+        let index = first_index + j as u64;
+        let mut master = stream(seed, index, u64::MAX, u64::MAX);
+        // SAFETY: after a barrier (or before the first sweep), where
+        // member 0 has finished with the header.
+        let mut local = unsafe { shared.member_copy() };
+        let slabs = Slabs::of_sweep(&local, threads, &mut master).filter(|s| s.shareable(&local));
+        let Some(slabs) = slabs else {
+            // Once every member has read what it decided on.
+            barrier.wait();
+            if me == 0 {
+                let alone = Work {
+                    seeds: &seeds[j..=j],
+                    first_index: index,
+                    ..*work
+                };
+                // SAFETY: the others wait at the barrier below.
+                counts += member_sweeps((0, 1), None, unsafe { shared.whole() }, &alone);
+                sharing.alone += 1;
+            }
+            barrier.wait();
+            continue;
+        };
+        scratch.sort(&local, &slabs, me, team);
+        let first = usize::from(master.r#gen::<bool>());
+        for colour in [first, 1 - first] {
+            counts += colour_moves(
+                &mut local,
+                &scratch.slab_members,
+                (&slabs, colour),
+                (seed, index),
+                sizes,
+                |_| {},
+            );
+            if colour != first {
+                *reports[me].lock().expect("no member panicked") =
+                    (local.list_window, local.changed);
+            }
+            barrier.wait();
+        }
+        if me == 0 {
+            // SAFETY: the others wait at the barrier below, their copies
+            // spent.
+            let system = unsafe { shared.whole() };
+            for report in reports {
+                let ((moves, sum), changed) = *report.lock().expect("no member panicked");
+                system.list_window.0 += moves;
+                system.list_window.1 += sum;
+                system.changed |= changed;
+            }
+            system.review_sphere_lists_now();
+            if let Ensemble::Npt {
+                pressure,
+                anisotropic,
+            } = *ensemble
+            {
+                let accepted = box_move(system, pressure, sizes.volume, anisotropic, &mut master);
+                counts.volume.record(accepted);
+            }
+            if let Some(terms) = SharingTerms::of(system, slabs.axis) {
+                terms.reserve(system);
+            }
+            sharing.shared += 1;
+        }
+        barrier.wait();
+    }
+    (counts, sharing)
+}
+
+/// Sweeps of teams that shared their system: how many were shared, and
+/// how many member 0 made alone (the slabs too thin to share).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SharedCounts {
+    /// Sweeps whose slabs the members swept at once.
+    pub shared: u64,
+    /// Sweeps member 0 made alone.
+    pub alone: u64,
+}
+
+impl std::ops::AddAssign for SharedCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.shared += o.shared;
+        self.alone += o.alone;
+    }
+}
+
+/// Parallel sweeps, on one system the members share (hard spheres in
+/// slabs wide enough, see [`SharingTerms`]) or each on a replica of its
+/// own kept between sweeps (one per thread beyond the first). Replicas are
+/// copied from the system when it changed since they were last in step
+/// with it (a serial sweep, another system): reuse one `ParallelSweeps`
+/// for a run of sweeps of one system.
 #[derive(Debug, Default)]
 pub struct ParallelSweeps {
     replicas: Vec<System>,
     /// The system's stamp when the replicas were last equal to it.
     in_step_at: Option<u64>,
+    /// Never share a system: always replicas (to compare the two).
+    replicas_only: bool,
+    /// The sweeps of teams that shared the system so far.
+    sharing: SharedCounts,
 }
 
 impl ParallelSweeps {
-    /// No replicas yet (made at the first sweep on more than one thread).
+    /// No replicas yet (made at the first sweep on more than one thread
+    /// that does not share the system).
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Sweeps that always keep replicas, also where members could share
+    /// the system: the same moves, for comparison.
+    pub fn replicas_only() -> Self {
+        Self {
+            replicas_only: true,
+            ..Self::default()
+        }
+    }
+
+    /// The sweeps of teams that shared the system so far.
+    pub fn sharing(&self) -> SharedCounts {
+        self.sharing
+    }
+
+    /// Whether sweeps of `system` on `threads` threads share it (hard
+    /// spheres in slabs wide enough) rather than keep replicas, as things
+    /// stand.
+    pub fn would_share(&self, system: &System, threads: usize) -> bool {
+        let lengths = system.periodic_box().lengths();
+        !self.replicas_only
+            && threads > 1
+            && Slabs::count_in(system, threads).is_some_and(|count| {
+                SharingTerms::of(system, lengths.imax())
+                    .is_some_and(|terms| lengths.max() / count as f64 >= terms.least_width)
+            })
     }
 
     /// One sweep (N trial moves, then a box move in NPT) on the slabs:
@@ -420,6 +774,11 @@ impl ParallelSweeps {
         if team == 1 {
             return member_sweeps((0, 1), None, system, &work);
         }
+        if self.would_share(system, threads) {
+            let (counts, sharing) = shared_sweeps(system, team, &work);
+            self.sharing += sharing;
+            return counts;
+        }
         if self.in_step_at != Some(system.stamp()) || self.replicas.len() < team - 1 {
             self.replicas = (1..team).map(|_| system.clone()).collect();
         }
@@ -449,6 +808,26 @@ impl ParallelSweeps {
         self.in_step_at = Some(system.stamp());
         per_thread.into_iter().fold(Counts::default(), |a, c| a + c)
     }
+}
+
+/// The sweeps of `work` by a team of `team` sharing `system`.
+fn shared_sweeps(system: &mut System, team: usize, work: &Work) -> (Counts, SharedCounts) {
+    if let Some(terms) = SharingTerms::of(system, 0) {
+        terms.reserve(system);
+    }
+    let barrier = SpinBarrier::new(team);
+    let reports: Vec<Report> = (0..team).map(|_| Report::default()).collect();
+    let shared = SharedSystem(system);
+    let per_thread: Vec<(Counts, SharedCounts)> = rayon::broadcast(|context| {
+        let me = context.index();
+        if me >= team {
+            return Default::default();
+        }
+        let _member = Member(&barrier);
+        shared_member_sweeps((me, team), &barrier, &reports, &shared, work)
+    });
+    let counts = per_thread.iter().fold(Counts::default(), |a, c| a + c.0);
+    (counts, per_thread[0].1)
 }
 
 #[cfg(test)]
@@ -488,6 +867,61 @@ mod tests {
             .map(|&(seed, sweep, colour, slab)| stream(seed, sweep, colour, slab).r#gen::<u64>())
             .collect();
         assert_eq!(firsts.len(), keys.len());
+    }
+
+    /// The rooms bound what random insertion packs: points pairwise
+    /// farther apart than 1, inserted where they fit over a million
+    /// tries, in boxes and in a ball (a room too small, say with a floor
+    /// for the ceiling, fails it).
+    #[test]
+    fn rooms_hold_what_random_insertion_packs() {
+        let mut u = crate::test_support::uniform(21);
+        let mut pack = |inside: &dyn Fn(&V3) -> bool, corner: V3, sides: V3| {
+            let mut points: Vec<V3> = Vec::new();
+            for _ in 0..1_000_000 {
+                let p = corner + V3::from_fn(|k, _| u() * sides[k]);
+                if inside(&p) && points.iter().all(|q| (p - q).norm() > 1.0) {
+                    points.push(p);
+                }
+            }
+            points.len()
+        };
+        for sides in [
+            V3::new(1.02, 1.02, 1.02),
+            V3::new(1.6, 1.6, 1.6),
+            V3::new(2.1, 2.1, 2.1),
+            V3::new(1.1, 1.7, 2.6),
+        ] {
+            let packed = pack(&|_| true, V3::zeros(), sides);
+            let room = room_in_box(&sides, 1.0);
+            assert!(packed <= room, "{sides:?}: {packed} > {room}");
+        }
+        let radius = 2.0;
+        let packed = 1 + pack(
+            &|p: &V3| p.norm() <= radius,
+            V3::repeat(-radius),
+            V3::repeat(2.0 * radius),
+        );
+        let room = room_in_ball(radius, 1.0);
+        assert!(packed <= room, "ball: {packed} > {room}");
+    }
+
+    /// Dense spheres of the benchmark (N = 4096, φ = 0.5) share their
+    /// system on two threads: four slabs 4.06 diameters wide, over the
+    /// 3.5 the Verlet lists ask (skin 0.5); a cell of the moves' holds at
+    /// most 8 centres, a list at most 124 spheres. Other shapes do not.
+    #[test]
+    fn dense_spheres_are_shared_and_other_shapes_not() {
+        let sphere: crate::geometry::Shape = "Sphere(radius: 0.5)".parse().unwrap();
+        let system = crate::bench::mc::dense_start(&sphere, 4096, 0.5).unwrap();
+        let terms = SharingTerms::of(&system, 0).unwrap();
+        assert!((terms.least_width - 3.5).abs() < 1e-6, "{terms:?}");
+        assert_eq!((terms.cell_room, terms.list_room), (8, 124), "{terms:?}");
+        assert!(ParallelSweeps::new().would_share(&system, 2));
+        assert!(!ParallelSweeps::new().would_share(&system, 1));
+        let needle: crate::geometry::Shape = "Ellipsoid(a: 2.5, b: 0.5, c: 0.5)".parse().unwrap();
+        let system = crate::bench::mc::dense_start(&needle, 1000, 0.3).unwrap();
+        assert!(SharingTerms::of(&system, 0).is_none());
     }
 
     #[test]

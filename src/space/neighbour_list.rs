@@ -47,6 +47,22 @@ impl NeighbourLists {
         self.lists.to_front(i, at);
     }
 
+    /// Room for at least `capacity` neighbours per body.
+    pub fn reserve(&mut self, capacity: usize) {
+        self.lists.reserve(capacity);
+    }
+
+    /// The room per body before a list must grow.
+    pub fn capacity(&self) -> usize {
+        self.lists.capacity
+    }
+
+    /// From now on a list that would outgrow its room panics instead of
+    /// growing (see [`FlatLists::fix_capacity`]).
+    pub fn fix_capacity(&mut self) {
+        self.lists.fix_capacity();
+    }
+
     /// Links bodies `i` and `j` (not already linked, `i` ≠ `j`).
     pub fn link(&mut self, i: usize, j: usize) {
         debug_assert!(i != j && !self.of(i).contains(&(j as u32)));
@@ -61,6 +77,9 @@ impl NeighbourLists {
 #[derive(Debug, Clone, Default)]
 pub struct FlatLists {
     capacity: usize,
+    /// Growing is a bug: the storage is shared by threads that each hold
+    /// a copy of this header (see [`FlatLists::fix_capacity`]).
+    fixed: bool,
     counts: Vec<u32>,
     /// List-major: `slots[i · capacity + k]`, the first `counts[i]` used.
     slots: Vec<u32>,
@@ -72,6 +91,7 @@ impl FlatLists {
         let capacity = capacity.max(4);
         Self {
             capacity,
+            fixed: false,
             counts: vec![0; n],
             slots: vec![0; n * capacity],
         }
@@ -121,8 +141,29 @@ impl FlatLists {
         self.counts[i] = 0;
     }
 
+    /// Room for at least `capacity` entries per list (doubled until it
+    /// fits).
+    pub fn reserve(&mut self, capacity: usize) {
+        while self.capacity < capacity {
+            self.grow();
+        }
+    }
+
+    /// From now on a list that would outgrow its room panics instead of
+    /// growing: for a copy of these lists' header whose storage other
+    /// threads share, where growing would move the storage from under
+    /// them. (The room is reserved beforehand for the most entries the
+    /// physics allows.)
+    pub fn fix_capacity(&mut self) {
+        self.fixed = true;
+    }
+
     /// Twice the room per list.
     fn grow(&mut self) {
+        assert!(
+            !self.fixed,
+            "a list outgrew the room reserved for a parallel sweep"
+        );
         let capacity = 2 * self.capacity;
         let mut slots = vec![0; self.counts.len() * capacity];
         for (i, &count) in self.counts.iter().enumerate() {

@@ -30,6 +30,9 @@ pub struct PackedCells {
     box_: PeriodicBox,
     dims: [usize; 3],
     capacity: usize,
+    /// Growing is a bug: the storage is shared by threads that each hold
+    /// a copy of this header (see [`PackedCells::fix_capacity`]).
+    fixed: bool,
     /// Slot-major: `slots[c · capacity + k]` is member k of cell c, as
     /// (x, y, z, radius); NaN where empty.
     slots: Vec<[f64; 4]>,
@@ -107,6 +110,7 @@ impl PackedCells {
             box_: *box_,
             dims,
             capacity: 4,
+            fixed: false,
             slots: Vec::new(),
             members: Vec::new(),
             counts: vec![0; dims[0] * dims[1] * dims[2]],
@@ -132,9 +136,52 @@ impl PackedCells {
         this
     }
 
+    /// Room for at least `capacity` members per cell (doubled until it
+    /// fits).
+    pub fn reserve(&mut self, capacity: usize) {
+        if self.capacity >= capacity {
+            return;
+        }
+        let placed = self.placed();
+        while self.capacity < capacity {
+            self.capacity *= 2;
+        }
+        self.rebin(&placed);
+    }
+
+    /// The room per cell before the cells must grow.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// From now on a cell that would outgrow its room panics instead of
+    /// growing: for a copy of these cells' header whose storage other
+    /// threads share, where growing would move the storage from under
+    /// them. (The room is reserved beforehand for the most members the
+    /// physics allows.)
+    pub fn fix_capacity(&mut self) {
+        self.fixed = true;
+    }
+
+    /// Every member as (particle, cell, slot).
+    fn placed(&self) -> Vec<(usize, usize, [f64; 4])> {
+        let mut placed = Vec::with_capacity(self.slot_of.len());
+        for c in 0..self.counts.len() {
+            let base = c * self.capacity;
+            for s in base..base + self.counts[c] as usize {
+                placed.push((self.members[s] as usize, c, self.slots[s]));
+            }
+        }
+        placed
+    }
+
     /// Bins (particle, cell, position), growing the capacity until every
     /// cell fits.
     fn rebin(&mut self, placed: &[(usize, usize, [f64; 4])]) {
+        assert!(
+            !self.fixed,
+            "a cell outgrew the room reserved for a parallel sweep"
+        );
         'grow: loop {
             let slots = self.capacity * self.counts.len();
             self.slots = vec![[f64::NAN; 4]; slots];
@@ -206,13 +253,7 @@ impl PackedCells {
         self.slots[last] = [f64::NAN; 4];
         self.counts[old] -= 1;
         if self.counts[new] as usize == self.capacity {
-            let mut placed = Vec::with_capacity(self.slot_of.len());
-            for c in 0..self.counts.len() {
-                let base = c * self.capacity;
-                for s in base..base + self.counts[c] as usize {
-                    placed.push((self.members[s] as usize, c, self.slots[s]));
-                }
-            }
+            let mut placed = self.placed();
             placed.push((i, new, entry));
             self.capacity *= 2;
             self.rebin(&placed);

@@ -62,6 +62,30 @@ impl SphereLists {
         this
     }
 
+    /// Room for at least `per_cell` references in each of their cells and
+    /// `per_list` entries in each list.
+    pub fn reserve(&mut self, per_cell: usize, per_list: usize) {
+        self.references.reserve(per_cell);
+        self.lists.reserve(per_list);
+    }
+
+    /// The room per reference cell and per list before they must grow.
+    pub fn room(&self) -> (usize, usize) {
+        (self.references.capacity(), self.lists.capacity())
+    }
+
+    /// The reference cells along each axis.
+    pub fn reference_dims(&self) -> [usize; 3] {
+        self.references.dims()
+    }
+
+    /// From now on a reference cell or a list that would outgrow its room
+    /// panics instead of growing (see [`PackedCells::fix_capacity`]).
+    pub fn fix_capacity(&mut self) {
+        self.references.fix_capacity();
+        self.lists.fix_capacity();
+    }
+
     /// Links sphere `i` with every sphere j ≠ i with `wanted(j)` whose
     /// reference lies within the contact distance plus the skin of i's
     /// reference (the reference cells are that wide).
