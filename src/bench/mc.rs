@@ -36,10 +36,12 @@ pub struct McRow {
     pub acceptance_translate: f64,
     /// Threads used.
     pub threads: usize,
-    /// How: `serial`, `slabs` (the parallel sweep), or `copies` (as many
-    /// copies as threads, each swept serially on its own thread at once:
-    /// what the machine gives that many threads that never wait for
-    /// each other, the ceiling for the slabs).
+    /// How: `serial`, `slabs` (the parallel sweep, members sharing the
+    /// system where they can), `replicas` (the same sweep with a replica
+    /// per member, timed where `slabs` shares, for comparison), or
+    /// `copies` (as many copies as threads, each swept serially on its
+    /// own thread at once: what the machine gives that many threads that
+    /// never wait for each other, the ceiling for the slabs).
     pub sweep: &'static str,
 }
 
@@ -152,6 +154,22 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
                     parallel.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
                 },
             )?);
+            if parallel.would_share(&system, threads) {
+                let mut replicas = ParallelSweeps::replicas_only();
+                rows.push(timed_row(
+                    text,
+                    &mut system,
+                    repeats,
+                    sweeps,
+                    (threads, "replicas"),
+                    |system, count| {
+                        let first = index;
+                        index += count as u64;
+                        let seeds = [17; MAX_CHUNK];
+                        replicas.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
+                    },
+                )?);
+            }
             rows.push(copies_row(text, &system, &sizes, repeats, sweeps, threads)?);
         }
     }

@@ -7,9 +7,22 @@
 //! proposal symmetric) and the other colour frozen; the two colours go in
 //! random order.
 //!
-//! Each thread sweeps its slabs on a system of its own: the first thread
-//! on the caller's, the others on replicas kept between sweeps
-//! ([`ParallelSweeps`]). A replica is exact for its own slabs (its cells
+//! Hard spheres in slabs wide enough share one system: every member sweeps
+//! its slabs on its own copy of the system's header (the scalars; the
+//! vectors of positions, cells and lists are the system's), and members
+//! sweeping slabs two apart touch disjoint storage ([`SharingTerms`] says
+//! how wide that asks, and why). Accepted moves are placed once, by the
+//! member that made them, so placing runs in parallel as trials do. What
+//! could be shared and is not: the growth of a cell or list (room is made
+//! beforehand for the most hard spheres allow, and growing inside a team
+//! panics, never moves storage from under another member) and the review
+//! of the Verlet lists, which member 0 makes between sweeps from the
+//! members' windows, with the box move, while the others wait. A sweep
+//! whose slabs a box move made too thin is member 0's alone.
+//!
+//! Other systems keep replicas: each thread sweeps its slabs on a system
+//! of its own, the first thread on the caller's, the others on replicas
+//! kept between sweeps ([`ParallelSweeps`]). A replica is exact for its own slabs (its cells
 //! and lists follow its moves as in a serial sweep) and for the frozen
 //! colour; the slabs other threads sweep lie out of reach. After each
 //! colour every thread places the moves the others made into its own
@@ -23,7 +36,9 @@
 //!
 //! Every slab draws from its own stream keyed on (seed, sweep, colour,
 //! slab), and the slabs do not depend on the thread count below
-//! [`MIN_SLABS`] / 2 threads: a run is the same for one thread and for two.
+//! [`MIN_SLABS`] / 2 threads: a run is the same for one thread and for
+//! two, and the same whether the members share the system or keep
+//! replicas (the lists' review, deferred or not, changes no answer).
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
