@@ -317,6 +317,9 @@ pub struct System {
     /// member of a team sharing this system's memory
     /// ([`parallel`]) only counts its moves in the window.
     review_deferred: bool,
+    /// For such a member: the moves in the system's window when it took
+    /// its copy.
+    list_window_base: usize,
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
     /// An identity of the state (see [`System::stamp`]), renewed when it
@@ -427,6 +430,7 @@ impl System {
             capsule_lists: None,
             list_window: (0, 0.0),
             review_deferred: false,
+            list_window_base: 0,
             ideal: false,
             stamp: new_stamp(),
             changed: false,

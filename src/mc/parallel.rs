@@ -47,7 +47,7 @@ use std::sync::RwLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use super::moves::{Counts, Ensemble, MoveSizes, box_move, particle_moves, sweep};
-use super::{Neighbours, System};
+use super::{Neighbours, SPHERE_LISTS_REVIEW, System};
 
 type V3 = Vector3<f64>;
 
@@ -560,6 +560,7 @@ impl SharedSystem {
         // SAFETY: as the caller promises; the copy is never dropped.
         let mut copy = std::mem::ManuallyDrop::new(unsafe { std::ptr::read(self.0) });
         copy.review_deferred = true;
+        copy.list_window_base = copy.list_window.0;
         copy.list_window = (0, 0.0);
         copy.changed = false;
         if let Neighbours::Cells(cells) = &mut copy.cells {
@@ -584,16 +585,43 @@ impl SharedSystem {
 
 /// What members of a sharing team report after their moves of a sweep:
 /// their review window and whether they moved anything.
-type Report = std::sync::Mutex<((usize, f64), bool)>;
+type Report = std::sync::Mutex<Pending>;
+
+/// Review windows and changes the members made since the system's header
+/// last heard of them.
+#[derive(Debug, Clone, Copy, Default)]
+struct Pending {
+    moves: usize,
+    sum: f64,
+    changed: bool,
+}
+
+impl Pending {
+    fn add(&mut self, o: &Pending) {
+        self.moves += o.moves;
+        self.sum += o.sum;
+        self.changed |= o.changed;
+    }
+
+    /// Hands the moves to `system`'s header and reviews its lists.
+    fn fold_into(self, system: &mut System) {
+        system.list_window.0 += self.moves;
+        system.list_window.1 += self.sum;
+        system.changed |= self.changed;
+        system.review_sphere_lists_now();
+    }
+}
 
 /// The work of member `me` of a team of `team` sharing `shared` (the
-/// sweeps of [`member_sweeps`], with the same moves): at each sweep every
-/// member takes its copy of the header, sorts its slabs and sweeps them,
-/// a barrier after each colour; member 0 then folds the members' review
-/// windows into the system, reviews its lists, makes the box move and the
-/// room, while the others wait. A sweep whose slabs are too thin to share
-/// (a box move shrank them) or that has none is member 0's alone, as a
-/// team of one makes it.
+/// sweeps of [`member_sweeps`], with the same moves): every member sorts
+/// its slabs and sweeps them on its copy of the header, a barrier after
+/// each colour. Where the header must change (a box move, a review of the
+/// lists due, the team's last sweep), member 0 hands it the members'
+/// review windows, reviews the lists, makes the box move and the room,
+/// while the others wait and then take a fresh copy; in NVT that is one
+/// sweep in [`SPHERE_LISTS_REVIEW`]. A sweep whose slabs are too thin to
+/// share (a box move shrank them) or that has none is member 0's alone,
+/// as a team of one makes it.
 fn shared_member_sweeps(
     (me, team): (usize, usize),
     barrier: &SpinBarrier,
@@ -611,12 +639,14 @@ fn shared_member_sweeps(
     let mut counts = Counts::default();
     let mut sharing = SharedCounts::default();
     let mut scratch = Scratch::default();
+    // SAFETY: before the first sweep, where no one writes the header.
+    let mut local = unsafe { shared.member_copy() };
+    let mut pending = Pending::default();
+    let npt = matches!(ensemble, Ensemble::Npt { .. });
     for (j, &seed) in seeds.iter().enumerate() {
         let index = first_index + j as u64;
+        let last = j + 1 == seeds.len();
         let mut master = stream(seed, index, u64::MAX, u64::MAX);
-        // SAFETY: after a barrier (or before the first sweep), where
-        // member 0 has finished with the header.
-        let mut local = unsafe { shared.member_copy() };
         let slabs = Slabs::of_sweep(&local, threads, &mut master).filter(|s| s.shareable(&local));
         let Some(slabs) = slabs else {
             // Once every member has read what it decided on.
@@ -628,10 +658,15 @@ fn shared_member_sweeps(
                     ..*work
                 };
                 // SAFETY: the others wait at the barrier below.
-                counts += member_sweeps((0, 1), None, unsafe { shared.whole() }, &alone);
+                let system = unsafe { shared.whole() };
+                pending.fold_into(system);
+                counts += member_sweeps((0, 1), None, system, &alone);
                 sharing.alone += 1;
             }
+            pending = Pending::default();
             barrier.wait();
+            // SAFETY: after the barrier, member 0 done with the header.
+            local = unsafe { shared.member_copy() };
             continue;
         };
         scratch.sort(&local, &slabs, me, team);
@@ -646,22 +681,32 @@ fn shared_member_sweeps(
                 |_| {},
             );
             if colour != first {
-                *reports[me].lock().expect("no member panicked") =
-                    (local.list_window, local.changed);
+                *reports[me].lock().expect("no member panicked") = Pending {
+                    moves: local.list_window.0,
+                    sum: local.list_window.1,
+                    changed: local.changed,
+                };
+                (local.list_window, local.changed) = ((0, 0.0), false);
             }
             barrier.wait();
         }
+        // Every member sums the reports alike (a member writes its next
+        // one only after the next colour's barrier, which all reach after
+        // reading these).
+        for report in reports {
+            pending.add(&report.lock().expect("no member panicked"));
+        }
+        sharing.shared += u64::from(me == 0);
+        let review_due = local.plan.sphere_skin.is_some()
+            && local.list_window_base + pending.moves >= SPHERE_LISTS_REVIEW * local.len();
+        if !(npt || review_due || last) {
+            continue;
+        }
         if me == 0 {
-            // SAFETY: the others wait at the barrier below, their copies
-            // spent.
+            // SAFETY: the others wait at the barrier below (or are done),
+            // and take a fresh copy after it.
             let system = unsafe { shared.whole() };
-            for report in reports {
-                let ((moves, sum), changed) = *report.lock().expect("no member panicked");
-                system.list_window.0 += moves;
-                system.list_window.1 += sum;
-                system.changed |= changed;
-            }
-            system.review_sphere_lists_now();
+            pending.fold_into(system);
             if let Ensemble::Npt {
                 pressure,
                 anisotropic,
@@ -673,9 +718,13 @@ fn shared_member_sweeps(
             if let Some(terms) = SharingTerms::of(system, slabs.axis) {
                 terms.reserve(system);
             }
-            sharing.shared += 1;
         }
-        barrier.wait();
+        pending = Pending::default();
+        if !last {
+            barrier.wait();
+            // SAFETY: after the barrier, member 0 done with the header.
+            local = unsafe { shared.member_copy() };
+        }
     }
     (counts, sharing)
 }
