@@ -320,6 +320,8 @@ pub struct System {
     /// For such a member: the moves in the system's window when it took
     /// its copy.
     list_window_base: usize,
+    /// Scratch for the centres of a trial box change.
+    scaled: Vec<V3>,
     /// Overlap tests switched off (ideal-gas checks only).
     ideal: bool,
     /// An identity of the state (see [`System::stamp`]), renewed when it
@@ -431,6 +433,7 @@ impl System {
             list_window: (0, 0.0),
             review_deferred: false,
             list_window_base: 0,
+            scaled: Vec::new(),
             ideal: false,
             stamp: new_stamp(),
             changed: false,
@@ -1031,6 +1034,24 @@ impl System {
         let old_lengths = self.box_.lengths();
         let factor = lengths.component_div(&old_lengths);
         let shrinks = factor.iter().any(|&f| f < 1.0);
+        // Most shrinks that fail make a listed pair overlap: that is found
+        // on the scaled centres alone, before any cell is rebuilt (the
+        // same arithmetic as the full check below, so the same answer).
+        if shrinks
+            && !self.ideal
+            && !self.box_.has_walls()
+            && let Some(lists) = &self.sphere_lists
+        {
+            self.scaled.clear();
+            (self.scaled).extend(
+                self.positions
+                    .iter()
+                    .map(|r| new_box.wrap(&r.component_mul(&factor))),
+            );
+            if lists.overlap_after_rescale(&new_box, &factor, &self.scaled, |_| false) {
+                return false;
+            }
+        }
         // Every centre moves: the trial is made in place, on new cells and
         // without lists; a refused change puts back the centres, the cells
         // and the lists it kept aside (a copy of the whole system per box
