@@ -122,58 +122,114 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
     for text in SHAPES {
         let shape: Shape = text.parse().expect("built-in shape");
         let (mut system, sizes) = tuned(&shape, n, 0.5, if quick { 20 } else { 60 })?;
-        let mut rng = Pcg64::seed_from_u64(17);
-        rows.push(timed_row(
-            text,
-            &mut system,
-            repeats,
-            sweeps,
-            (1, "serial"),
-            |system, count| serial_sweeps(system, &sizes, &mut rng, count),
-        )?);
-        // The parallel sweep on all of rayon's threads, same sizes,
-        // interleaved with nothing else, handed over as a run does (up to
-        // MAX_CHUNK sweeps at once): the speed-up is the ratio of the two
-        // rows. Then what independent copies get on as many threads: on a
-        // shared machine, far from twice one thread, and moving with the
-        // load on the host.
         let threads = rayon::current_num_threads();
+        // The parallel sweep on all of rayon's threads, same sizes, handed
+        // over as a run does (up to MAX_CHUNK sweeps at once): the speed-up
+        // is the ratio of the rows. Where members share the system, the
+        // same sweeps on replicas. Then what independent copies get on as
+        // many threads: on a shared machine, far from twice one thread,
+        // and moving with the load on the host. Each repeat times every
+        // way in turn, so that all see the same load.
+        let mut rng = Pcg64::seed_from_u64(17);
+        let mut parallel = ParallelSweeps::new();
+        let mut replicas = ParallelSweeps::replicas_only();
+        let shares = parallel.would_share(&system, threads);
+        let mut copies: Vec<(System, Pcg64)> = (0..threads)
+            .map(|k| (system.clone(), Pcg64::seed_from_u64(100 + k as u64)))
+            .collect();
+        let mut index = 0;
+        let mut slab_sweeps = |sweeps: &mut ParallelSweeps, system: &mut System, count: usize| {
+            let first = index;
+            index += count as u64;
+            let seeds = [17; MAX_CHUNK];
+            sweeps.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
+        };
+        let mut ways: Vec<Way> = vec![Way::new(1, "serial", 1)];
         if threads > 1 {
-            let mut index = 0;
-            let mut parallel = ParallelSweeps::new();
-            rows.push(timed_row(
-                text,
-                &mut system,
-                repeats,
-                sweeps,
-                (threads, "slabs"),
-                |system, count| {
-                    let first = index;
-                    index += count as u64;
-                    let seeds = [17; MAX_CHUNK];
-                    parallel.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
-                },
-            )?);
-            if parallel.would_share(&system, threads) {
-                let mut replicas = ParallelSweeps::replicas_only();
-                rows.push(timed_row(
-                    text,
-                    &mut system,
-                    repeats,
-                    sweeps,
-                    (threads, "replicas"),
-                    |system, count| {
-                        let first = index;
-                        index += count as u64;
-                        let seeds = [17; MAX_CHUNK];
-                        replicas.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
-                    },
-                )?);
+            ways.push(Way::new(threads, "slabs", 1));
+            if shares {
+                ways.push(Way::new(threads, "replicas", 1));
             }
-            rows.push(copies_row(text, &system, &sizes, repeats, sweeps, threads)?);
+            ways.push(Way::new(threads, "copies", threads));
+        }
+        for _ in 0..repeats {
+            for way in &mut ways {
+                let start = Instant::now();
+                way.counts += match way.how {
+                    "serial" => {
+                        in_chunks(sweeps, |c| serial_sweeps(&mut system, &sizes, &mut rng, c))
+                    }
+                    "slabs" => in_chunks(sweeps, |c| slab_sweeps(&mut parallel, &mut system, c)),
+                    "replicas" => in_chunks(sweeps, |c| slab_sweeps(&mut replicas, &mut system, c)),
+                    _ => copies_sweeps(&mut copies, &sizes, sweeps),
+                };
+                let moves = way.systems * sweeps * system.len();
+                way.rates.push(moves as f64 / start.elapsed().as_secs_f64());
+            }
+        }
+        for mut way in ways {
+            let checked: Vec<&System> = match way.how {
+                "copies" => copies.iter().map(|(copy, _)| copy).collect(),
+                _ => vec![&system],
+            };
+            rows.push(checked_row(
+                text,
+                &checked,
+                &mut way.rates,
+                &way.counts,
+                (way.threads, way.how),
+            )?);
         }
     }
     Ok(rows)
+}
+
+/// A way of sweeping that [`run`] times, in turn with the others.
+struct Way {
+    threads: usize,
+    how: &'static str,
+    /// Systems swept at once (copies: one per thread).
+    systems: usize,
+    rates: Vec<f64>,
+    counts: Counts,
+}
+
+impl Way {
+    fn new(threads: usize, how: &'static str, systems: usize) -> Self {
+        Self {
+            threads,
+            how,
+            systems,
+            rates: Vec::new(),
+            counts: Counts::default(),
+        }
+    }
+}
+
+/// `sweeps` sweeps made by `step` at most [`MAX_CHUNK`] at a time, as a
+/// run hands them over.
+fn in_chunks(sweeps: usize, mut step: impl FnMut(usize) -> Counts) -> Counts {
+    let mut counts = Counts::default();
+    let mut left = sweeps;
+    while left > 0 {
+        let count = left.min(MAX_CHUNK);
+        counts += step(count);
+        left -= count;
+    }
+    counts
+}
+
+/// `sweeps` serial sweeps of each of `copies`, each on its own thread, at
+/// once.
+fn copies_sweeps(copies: &mut [(System, Pcg64)], sizes: &MoveSizes, sweeps: usize) -> Counts {
+    std::thread::scope(|scope| {
+        let running: Vec<_> = (copies.iter_mut())
+            .map(|(copy, rng)| scope.spawn(move || serial_sweeps(copy, sizes, rng, sweeps)))
+            .collect();
+        (running.into_iter())
+            .map(|c| c.join().expect("a copy's sweeps do not panic"))
+            .fold(Counts::default(), |a, c| a + c)
+    })
 }
 
 /// `count` serial NVT sweeps.
@@ -198,12 +254,7 @@ fn timed_row(
     let mut counts = Counts::default();
     for _ in 0..repeats {
         let start = Instant::now();
-        let mut left = sweeps;
-        while left > 0 {
-            let count = left.min(MAX_CHUNK);
-            counts += step(system, count);
-            left -= count;
-        }
+        counts += in_chunks(sweeps, |count| step(system, count));
         rates.push((sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
     }
     checked_row(shape, &[system], &mut rates, &counts, (threads, how))
@@ -232,39 +283,6 @@ fn checked_row(
         threads,
         sweep: how,
     })
-}
-
-/// `threads` copies of `system`, each swept serially on its own thread, at
-/// once: the trial moves per second of all of them (median of `repeats`
-/// runs of `sweeps` sweeps each).
-fn copies_row(
-    shape: &str,
-    system: &System,
-    sizes: &MoveSizes,
-    repeats: usize,
-    sweeps: usize,
-    threads: usize,
-) -> Result<McRow, McError> {
-    let mut copies: Vec<(System, Pcg64)> = (0..threads)
-        .map(|k| (system.clone(), Pcg64::seed_from_u64(100 + k as u64)))
-        .collect();
-    let mut rates = Vec::new();
-    let mut counts = Counts::default();
-    for _ in 0..repeats {
-        let start = Instant::now();
-        let done: Vec<Counts> = std::thread::scope(|scope| {
-            let copies: Vec<_> = (copies.iter_mut())
-                .map(|(copy, rng)| scope.spawn(move || serial_sweeps(copy, sizes, rng, sweeps)))
-                .collect();
-            (copies.into_iter())
-                .map(|c| c.join().expect("a copy's sweeps do not panic"))
-                .collect()
-        });
-        rates.push((threads * sweeps * system.len()) as f64 / start.elapsed().as_secs_f64());
-        counts = done.into_iter().fold(counts, |a, c| a + c);
-    }
-    let copies: Vec<&System> = copies.iter().map(|(copy, _)| copy).collect();
-    checked_row(shape, &copies, &mut rates, &counts, (threads, "copies"))
 }
 
 /// One compression of the benchmark.
