@@ -136,7 +136,8 @@ pub const SLABS_FROM: usize = 4000;
 /// on any thread count, so that its trajectory is the same on one core
 /// and on two: from [`SLABS_FROM`] particles. (On one thread the slab
 /// sweep of dense spheres on Verlet lists measured 5 % slower than the
-/// serial sweep, and 1.4x faster on two: the same trajectory on any
+/// serial sweep; on two, members sharing the system, 1.1-1.8x faster
+/// than serial, as the host's load allowed: the same trajectory on any
 /// machine is worth that.)
 pub fn sweeps_on_slabs(n: usize) -> bool {
     n >= SLABS_FROM

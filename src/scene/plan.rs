@@ -244,9 +244,14 @@ impl fmt::Display for Report<'_> {
         if plan.has_mc {
             let n: usize = plan.species.iter().map(|s| s.count).sum();
             if crate::mc::parallel::sweeps_on_slabs(n) {
+                let how = if plan.species.iter().all(|s| s.species.shape.is_sphere()) {
+                    "the threads share one system where the slabs are wide enough (3.5 diameters for spheres of one size), else keep a replica each"
+                } else {
+                    "each thread keeps a replica"
+                };
                 writeln!(
                     f,
-                    "  Monte Carlo sweeps: on slabs, in parallel on {} threads (N = {n} >= {}; the same trajectory on one thread or two; RAYON_NUM_THREADS sets the threads)",
+                    "  Monte Carlo sweeps: on slabs, in parallel on {} threads (N = {n} >= {}; {how}; the same trajectory on one thread or two; RAYON_NUM_THREADS sets the threads)",
                     rayon::current_num_threads(),
                     crate::mc::parallel::SLABS_FROM
                 )?;
