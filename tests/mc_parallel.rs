@@ -249,6 +249,42 @@ fn members_sharing_a_system_make_the_moves_of_one_thread() {
     }
 }
 
+/// A small sharing team, on Verlet lists from the fifth sweep: small
+/// enough to run under Miri, whose race detector sees every access the
+/// two members make (`MIRIFLAGS="-Zmiri-tree-borrows -Zmiri-ignore-leaks"
+/// cargo +nightly miri test --test mc_parallel small_sharing`, about 7
+/// minutes; the leaks ignored are rayon's thread pools' at exit): a race
+/// or an aliasing violation there is an error, where natively it would
+/// pass. Before the shared storage was reached element by element
+/// (`Slots`), Miri stopped it at a member indexing the particles while
+/// the other wrote one of them.
+#[test]
+fn a_small_sharing_team_makes_the_moves_of_one_thread() {
+    let shape: Shape = "Sphere(radius: 0.5)".parse().unwrap();
+    let species = vec![Species {
+        name: "sphere".into(),
+        shape,
+        rotation: false,
+    }];
+    // Four slabs 3.6 wide, over the 3.5 the lists ask.
+    let box_ = PeriodicBox::new(Vector3::new(14.4, 14.4, 14.4)).unwrap();
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
+    let start = hardbody::mc::start::lattice(box_, species, &[200], &mut rng).unwrap();
+    assert!(ParallelSweeps::new().would_share(&start, 2));
+    let sizes = MoveSizes {
+        translate: 0.05,
+        rotate: 0.0,
+        volume: 0.0,
+    };
+    let (mut one, mut two) = (start.clone(), start.clone());
+    let (c1, _) = chunked(&mut one, (&sizes, &Ensemble::Nvt), 7, 1, false);
+    let (c2, sharing) = chunked(&mut two, (&sizes, &Ensemble::Nvt), 7, 2, false);
+    assert_eq!(sharing.shared, 7);
+    assert!(two.uses_sphere_lists());
+    assert_eq!(c1, c2);
+    assert_eq!(one.particles(), two.particles());
+}
+
 /// A box compressed within a team's chunk until its slabs are too thin to
 /// share (four slabs 3.5 diameters wide at least, with sphere lists of
 /// skin 0.5: see `SharingTerms`): member 0 makes those sweeps alone, the

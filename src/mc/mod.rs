@@ -17,6 +17,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use crate::geometry::capsule::{Capsule, bounding_capsule};
 use crate::geometry::{Placed, Relative, Shape, overlap, placed_overlap};
 use crate::space::capsule_lists::Segment;
+use crate::space::slots::Slots;
 use crate::space::{AabbCells, CapsuleLists, PackedCells, PeriodicBox, SphereLists};
 
 type V3 = Vector3<f64>;
@@ -279,7 +280,9 @@ fn aabb_half_extents(r: &Matrix3<f64>, h: &V3) -> V3 {
 pub struct System {
     box_: PeriodicBox,
     species: Vec<Species>,
-    particles: Vec<Particle>,
+    /// Written element by element by the members of a team that shares
+    /// the system ([`parallel`]), as are the centres, cells and lists.
+    particles: Slots<Particle>,
     /// Cached rotation matrices of the orientations.
     rotations: Vec<Matrix3<f64>>,
     /// Bounding radius per species, and the largest.
@@ -287,7 +290,7 @@ pub struct System {
     max_radius: f64,
     /// Centres, contiguous (the hot loop reads only these); kept equal to
     /// `particles[i].position`.
-    positions: Vec<V3>,
+    positions: Slots<V3>,
     /// OBB half-extents per species.
     obb: Vec<V3>,
     /// Lab-frame AABB half-extents per particle.
@@ -415,11 +418,11 @@ impl System {
         let system = Self {
             box_,
             species,
-            particles,
+            particles: particles.into(),
             rotations,
             radii,
             max_radius,
-            positions,
+            positions: positions.into(),
             obb,
             aabb,
             placed,
@@ -501,7 +504,7 @@ impl System {
 
     /// The particles.
     pub fn particles(&self) -> &[Particle] {
-        &self.particles
+        self.particles.as_slice()
     }
 
     /// The species.
@@ -930,7 +933,12 @@ impl System {
             let radii: Vec<f64> = (self.particles.iter())
                 .map(|p| self.radii[p.species as usize])
                 .collect();
-            self.sphere_lists = Some(SphereLists::new(&self.box_, &self.positions, &radii, skin));
+            self.sphere_lists = Some(SphereLists::new(
+                &self.box_,
+                self.positions.as_slice(),
+                &radii,
+                skin,
+            ));
         } else if !short {
             self.sphere_lists = None;
         }
@@ -1003,7 +1011,7 @@ impl System {
             &self.plan,
             self.range,
             &self.box_,
-            &self.positions,
+            self.positions.as_slice(),
             &self.aabb,
             &kinds,
             &self.radii,
@@ -1078,9 +1086,12 @@ impl System {
         if shrinks
             && !self.ideal
             && match &lists {
-                Some(lists) if !self.box_.has_walls() => {
-                    lists.overlap_after_rescale(&self.box_, &factor, &self.positions, overlaps)
-                }
+                Some(lists) if !self.box_.has_walls() => lists.overlap_after_rescale(
+                    &self.box_,
+                    &factor,
+                    self.positions.as_slice(),
+                    overlaps,
+                ),
                 _ => (0..self.len()).any(overlaps),
             }
         {
@@ -1097,7 +1108,7 @@ impl System {
         // The sphere lists go with the box (scaled) while the gap they keep
         // allows; the capsule lists do not.
         if let Some(mut lists) = lists
-            && lists.rescaled(&self.box_, &factor, &self.positions)
+            && lists.rescaled(&self.box_, &factor, self.positions.as_slice())
         {
             self.sphere_lists = Some(lists);
         }

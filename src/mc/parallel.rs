@@ -11,8 +11,12 @@
 //! its slabs on its own copy of the system's header (the scalars; the
 //! vectors of positions, cells and lists are the system's), and members
 //! sweeping slabs two apart touch disjoint storage ([`SharingTerms`] says
-//! how wide that asks, and why). Accepted moves are placed once, by the
-//! member that made them, so placing runs in parallel as trials do. What
+//! how wide that asks, and why), which they reach element by element
+//! ([`crate::space::slots::Slots`]), so that no member reads what another
+//! writes: Miri's race detector, under Tree Borrows, runs the small
+//! sharing team of `tests/mc_parallel.rs` clean. Accepted moves are
+//! placed once, by the member that made them, so placing runs in
+//! parallel as trials do. What
 //! could be shared and is not: the growth of a cell or list (room is made
 //! beforehand for the most hard spheres allow, and growing inside a team
 //! panics, never moves storage from under another member) and the review
@@ -671,6 +675,9 @@ fn shared_member_sweeps(
             continue;
         };
         scratch.sort(&local, &slabs, me, team);
+        // Sorting reads every centre: no member moves one before all have
+        // sorted.
+        barrier.wait();
         let first = usize::from(master.r#gen::<bool>());
         for colour in [first, 1 - first] {
             counts += colour_moves(

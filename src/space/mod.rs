@@ -8,6 +8,7 @@ pub mod cell_list;
 pub mod neighbour_list;
 pub mod packed_cells;
 pub mod periodic_box;
+pub mod slots;
 pub mod sphere_lists;
 
 pub use aabb_cells::AabbCells;

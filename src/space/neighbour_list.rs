@@ -4,6 +4,8 @@
 //! between linked bodies. Fixed-capacity slots per body (no allocation while
 //! running), doubled when a list fills.
 
+use super::slots::Slots;
+
 /// Per-body lists of neighbours, kept symmetric.
 #[derive(Debug, Clone)]
 pub struct NeighbourLists {
@@ -80,9 +82,9 @@ pub struct FlatLists {
     /// Growing is a bug: the storage is shared by threads that each hold
     /// a copy of this header (see [`FlatLists::fix_capacity`]).
     fixed: bool,
-    counts: Vec<u32>,
+    counts: Slots<u32>,
     /// List-major: `slots[i · capacity + k]`, the first `counts[i]` used.
-    slots: Vec<u32>,
+    slots: Slots<u32>,
 }
 
 impl FlatLists {
@@ -92,8 +94,8 @@ impl FlatLists {
         Self {
             capacity,
             fixed: false,
-            counts: vec![0; n],
-            slots: vec![0; n * capacity],
+            counts: vec![0; n].into(),
+            slots: vec![0; n * capacity].into(),
         }
     }
 
@@ -172,7 +174,7 @@ impl FlatLists {
                 .copy_from_slice(&self.slots[i * self.capacity..i * self.capacity + n]);
         }
         self.capacity = capacity;
-        self.slots = slots;
+        self.slots = slots.into();
     }
 }
 

@@ -21,6 +21,7 @@
 use nalgebra::Vector3;
 
 use super::PeriodicBox;
+use super::slots::Slots;
 
 type V3 = Vector3<f64>;
 
@@ -35,11 +36,11 @@ pub struct PackedCells {
     fixed: bool,
     /// Slot-major: `slots[c · capacity + k]` is member k of cell c, as
     /// (x, y, z, radius); NaN where empty.
-    slots: Vec<[f64; 4]>,
-    members: Vec<u32>,
-    counts: Vec<u32>,
+    slots: Slots<[f64; 4]>,
+    members: Slots<u32>,
+    counts: Slots<u32>,
     /// Per particle: its slot.
-    slot_of: Vec<u32>,
+    slot_of: Slots<u32>,
     /// Every periodic axis is at least three cells wide: neighbour cells
     /// are distinct and carry exact image shifts.
     shifted: bool,
@@ -111,10 +112,10 @@ impl PackedCells {
             dims,
             capacity: 4,
             fixed: false,
-            slots: Vec::new(),
-            members: Vec::new(),
-            counts: vec![0; dims[0] * dims[1] * dims[2]],
-            slot_of: vec![0; count],
+            slots: Slots::default(),
+            members: Slots::default(),
+            counts: vec![0; dims[0] * dims[1] * dims[2]].into(),
+            slot_of: vec![0; count].into(),
             shifted,
             neighbours,
             neighbour_counts,
@@ -184,8 +185,8 @@ impl PackedCells {
         );
         'grow: loop {
             let slots = self.capacity * self.counts.len();
-            self.slots = vec![[f64::NAN; 4]; slots];
-            self.members = vec![0; slots];
+            self.slots = vec![[f64::NAN; 4]; slots].into();
+            self.members = vec![0; slots].into();
             self.counts.iter_mut().for_each(|c| *c = 0);
             for &(i, c, p) in placed {
                 let k = self.counts[c] as usize;

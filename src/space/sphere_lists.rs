@@ -19,6 +19,9 @@
 
 use nalgebra::Vector3;
 
+use std::ops::Index;
+
+use super::slots::Slots;
 use super::{NeighbourLists, PackedCells, PeriodicBox};
 
 type V3 = Vector3<f64>;
@@ -34,7 +37,7 @@ pub struct SphereLists {
     /// of it from its reference.
     gap: f64,
     /// Reference centres (in the box).
-    reference: Vec<V3>,
+    reference: Slots<V3>,
     /// The reference centres binned, to relist from.
     references: PackedCells,
     radii: Vec<f64>,
@@ -51,7 +54,7 @@ impl SphereLists {
             skin,
             sigma_max: 2.0 * largest,
             gap: skin,
-            reference: positions.to_vec(),
+            reference: positions.to_vec().into(),
             references: PackedCells::new(box_, 2.0 * largest + skin, positions, radii),
             radii: radii.to_vec(),
             lists: NeighbourLists::new(n, 16),
@@ -118,7 +121,7 @@ impl SphereLists {
         &self,
         i: usize,
         centre: &V3,
-        positions: &[V3],
+        positions: &(impl Index<usize, Output = V3> + ?Sized),
         box_: &PeriodicBox,
         keep: impl Fn(usize) -> bool,
     ) -> Option<bool> {
@@ -137,7 +140,7 @@ impl SphereLists {
         &self,
         i: usize,
         centre: &V3,
-        positions: &[V3],
+        positions: &(impl Index<usize, Output = V3> + ?Sized),
         box_: &PeriodicBox,
         keep: impl Fn(usize) -> bool,
     ) -> bool {
@@ -186,13 +189,13 @@ impl SphereLists {
             return false;
         }
         self.gap = gap;
-        for r in &mut self.reference {
+        for r in self.reference.iter_mut() {
             *r = box_.wrap(&r.component_mul(factor));
         }
         self.references = PackedCells::new(
             box_,
             self.sigma_max + self.skin,
-            &self.reference,
+            self.reference.as_slice(),
             &self.radii,
         );
         let half = 0.5 * gap;
