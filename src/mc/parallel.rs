@@ -16,18 +16,19 @@
 //! writes: Miri's race detector, under Tree Borrows, runs the small
 //! sharing team of `tests/mc_parallel.rs` clean. Accepted moves are
 //! placed once, by the member that made them, so placing runs in
-//! parallel as trials do. What
-//! could be shared and is not: the growth of a cell or list (room is made
-//! beforehand for the most hard spheres allow, and growing inside a team
-//! panics, never moves storage from under another member) and the review
-//! of the Verlet lists, which member 0 makes between sweeps from the
-//! members' windows, with the box move, while the others wait. A sweep
-//! whose slabs a box move made too thin is member 0's alone.
+//! parallel as trials do. What is not shared: the growth of a cell or
+//! list (room is made beforehand for the most hard spheres allow, and
+//! growing inside a team panics, never moves storage from under another
+//! member) and the review of the Verlet lists, which member 0 makes
+//! between sweeps from the members' windows, with the box move, while the
+//! others wait. A sweep whose slabs a box move made too thin is member
+//! 0's alone.
 //!
 //! Other systems keep replicas: each thread sweeps its slabs on a system
 //! of its own, the first thread on the caller's, the others on replicas
-//! kept between sweeps ([`ParallelSweeps`]). A replica is exact for its own slabs (its cells
-//! and lists follow its moves as in a serial sweep) and for the frozen
+//! kept between sweeps ([`ParallelSweeps`]). A replica is exact for its
+//! own slabs (its cells and lists follow its moves as in a serial sweep)
+//! and for the frozen
 //! colour; the slabs other threads sweep lie out of reach. After each
 //! colour every thread places the moves the others made into its own
 //! system, so that all of them hold the same state again. A trial move
@@ -620,7 +621,7 @@ impl Pending {
 /// The work of member `me` of a team of `team` sharing `shared` (the
 /// sweeps of [`member_sweeps`], with the same moves): every member sorts
 /// its slabs and sweeps them on its copy of the header, a barrier after
-/// each colour. Where the header must change (a box move, a review of the
+/// the sort and after each colour. Where the header must change (a box move, a review of the
 /// lists due, the team's last sweep), member 0 hands it the members'
 /// review windows, reviews the lists, makes the box move and the room,
 /// while the others wait and then take a fresh copy; in NVT that is one
