@@ -34,7 +34,7 @@ pub fn orientation_after(
 /// ω(t) = `lab` + R(t) `body`, with `lab` fixed in space and `body` fixed in
 /// the body: a symmetric top (I₁ = I₂ ≠ I₃ about body axis ê₃) has
 /// `lab` = L/I₁ and `body` = ω₃ (1 − I₃/I₁) ê₃, since then
-/// Ṙ = [ω]×R with R(t) = exp(t [lab]×) R(0) exp(t [body]×) (the body turns
+/// Ṙ = \[ω\]×R with R(t) = exp(t \[lab\]×) R(0) exp(t \[body\]×) (the body turns
 /// about the fixed angular momentum at |L|/I₁ and about its own axis); a
 /// spherical top has `lab` = ω and `body` = 0 (eqs. 4–6).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -10,7 +10,7 @@
 //! Hard spheres in slabs wide enough share one system: every member sweeps
 //! its slabs on its own copy of the system's header (the scalars; the
 //! vectors of positions, cells and lists are the system's), and members
-//! sweeping slabs two apart touch disjoint storage ([`SharingTerms`] says
+//! sweeping slabs two apart touch disjoint storage (`SharingTerms` says
 //! how wide that asks, and why), which they reach element by element
 //! ([`crate::space::slots::Slots`]), so that no member reads what another
 //! writes: Miri's race detector, under Tree Borrows, runs the small
@@ -756,7 +756,7 @@ impl std::ops::AddAssign for SharedCounts {
 }
 
 /// Parallel sweeps, on one system the members share (hard spheres in
-/// slabs wide enough, see [`SharingTerms`]) or each on a replica of its
+/// slabs wide enough: see the module docs) or each on a replica of its
 /// own kept between sweeps (one per thread beyond the first). Replicas are
 /// copied from the system when it changed since they were last in step
 /// with it (a serial sweep, another system): reuse one `ParallelSweeps`
