@@ -646,3 +646,53 @@ fn large_monte_carlo_stages_sweep_on_slabs_the_same_on_any_thread_count() {
         "the resumed run ends elsewhere"
     );
 }
+
+/// A Monte Carlo stage of 4000 dense spheres (φ = 0.5), whose slabs are
+/// wide enough for the two threads to share one system, compressed by
+/// NPT: the run is the same bit for bit on one thread and on two, and no
+/// pair overlaps by all pairs.
+#[test]
+fn dense_spheres_sharing_a_system_run_the_same_on_any_thread_count() {
+    const DENSE: &str = r#"Scene(
+    seed: 5,
+    box: (16.2, 16.2, 16.2),
+    species: [
+        Species(name: "ball", shape: Sphere(radius: 0.5), count: 4000),
+    ],
+    stages: [
+        MonteCarlo(ensemble: Nvt, sweeps: 30),
+        MonteCarlo(ensemble: Npt(pressure: 14.0), sweeps: 20),
+    ],
+    log: Log(path: "unused.mcap", stats_every: 7, frames_every: 10),
+)"#;
+    let scene = Scene::parse(DENSE).unwrap();
+    let plan = Plan::of(&scene);
+    let dir = scratch("shared-spheres");
+    let ends: Vec<Vec<u64>> = [1, 2]
+        .iter()
+        .map(|&threads| {
+            let path = dir.join(format!("threads-{threads}.mcap"));
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                run_scene(&scene, DENSE, &path, &mut Silent, &AtomicBool::new(false)).unwrap()
+            });
+            let log = read_log(&path, true).unwrap();
+            let end = &log.states.last().unwrap().1;
+            let system = system_from_record(end, &plan).unwrap();
+            assert_eq!(system.first_overlap_all_pairs(), None, "{threads} threads");
+            assert!(system.packing_fraction() > 0.49, "{threads} threads");
+            if threads == 2 {
+                let sweeps = hardbody::mc::parallel::ParallelSweeps::new();
+                assert!(
+                    sweeps.would_share(&system, 2),
+                    "the end state is not shared"
+                );
+            }
+            bits(end)
+        })
+        .collect();
+    assert!(ends[0] == ends[1], "one thread and two end apart");
+}
