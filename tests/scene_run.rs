@@ -584,6 +584,23 @@ fn ctrl_c_finishes_the_log_cleanly() {
     assert!(last.resume.as_ref().is_some_and(|r| !r.stage_complete));
 }
 
+/// Runs `scene` (spelt `text`) on a rayon pool of `threads` threads into
+/// `dir/threads-{threads}.mcap`, and reads back the log with every state.
+fn run_on_threads(
+    scene: &Scene,
+    text: &str,
+    dir: &Path,
+    threads: usize,
+) -> hardbody::log::read::LogContents {
+    let path = dir.join(format!("threads-{threads}.mcap"));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| run_scene(scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap());
+    read_log(&path, true).unwrap()
+}
+
 /// A Monte Carlo stage of 4000 rods sweeps on slabs (`hardbody check` says
 /// so), here cut across hard walls (the longest axis, z, has them): the run
 /// is the same bit for bit on one thread and on two, and a run resumed from
@@ -615,15 +632,7 @@ fn large_monte_carlo_stages_sweep_on_slabs_the_same_on_any_thread_count() {
     let ends: Vec<(Vec<u64>, usize)> = [1, 2]
         .iter()
         .map(|&threads| {
-            let path = dir.join(format!("threads-{threads}.mcap"));
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
-                run_scene(&scene, LARGE, &path, &mut Silent, &AtomicBool::new(false)).unwrap()
-            });
-            let log = read_log(&path, true).unwrap();
+            let log = run_on_threads(&scene, LARGE, &dir, threads);
             let end = &log.states.last().unwrap().1;
             // Overlap-free by all pairs, and clear of the walls.
             let system = system_from_record(end, &plan).unwrap();
@@ -671,15 +680,7 @@ fn dense_spheres_sharing_a_system_run_the_same_on_any_thread_count() {
     let ends: Vec<Vec<u64>> = [1, 2]
         .iter()
         .map(|&threads| {
-            let path = dir.join(format!("threads-{threads}.mcap"));
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
-                run_scene(&scene, DENSE, &path, &mut Silent, &AtomicBool::new(false)).unwrap()
-            });
-            let log = read_log(&path, true).unwrap();
+            let log = run_on_threads(&scene, DENSE, &dir, threads);
             let end = &log.states.last().unwrap().1;
             let system = system_from_record(end, &plan).unwrap();
             assert_eq!(system.first_overlap_all_pairs(), None, "{threads} threads");
