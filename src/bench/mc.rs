@@ -144,62 +144,88 @@ pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
             let seeds = [17; MAX_CHUNK];
             sweeps.sweeps(system, &sizes, &Ensemble::Nvt, &seeds[..count], first)
         };
-        let mut ways: Vec<Way> = vec![Way::new(1, "serial", 1)];
+        let mut ways = vec![Way::new(How::Serial)];
         if threads > 1 {
-            ways.push(Way::new(threads, "slabs", 1));
+            ways.push(Way::new(How::Slabs));
             if shares {
-                ways.push(Way::new(threads, "replicas", 1));
+                ways.push(Way::new(How::Replicas));
             }
-            ways.push(Way::new(threads, "copies", threads));
+            ways.push(Way::new(How::Copies));
         }
         for _ in 0..repeats {
             for way in &mut ways {
                 let start = Instant::now();
                 way.counts += match way.how {
-                    "serial" => {
+                    How::Serial => {
                         in_chunks(sweeps, |c| serial_sweeps(&mut system, &sizes, &mut rng, c))
                     }
-                    "slabs" => in_chunks(sweeps, |c| slab_sweeps(&mut parallel, &mut system, c)),
-                    "replicas" => in_chunks(sweeps, |c| slab_sweeps(&mut replicas, &mut system, c)),
-                    _ => copies_sweeps(&mut copies, &sizes, sweeps),
+                    How::Slabs => in_chunks(sweeps, |c| slab_sweeps(&mut parallel, &mut system, c)),
+                    How::Replicas => {
+                        in_chunks(sweeps, |c| slab_sweeps(&mut replicas, &mut system, c))
+                    }
+                    How::Copies => copies_sweeps(&mut copies, &sizes, sweeps),
                 };
-                let moves = way.systems * sweeps * system.len();
+                let moves = copies_at_once(way.how, threads) * sweeps * system.len();
                 way.rates.push(moves as f64 / start.elapsed().as_secs_f64());
             }
         }
         for mut way in ways {
             let checked: Vec<&System> = match way.how {
-                "copies" => copies.iter().map(|(copy, _)| copy).collect(),
+                How::Copies => copies.iter().map(|(copy, _)| copy).collect(),
                 _ => vec![&system],
             };
+            let used = if way.how == How::Serial { 1 } else { threads };
             rows.push(checked_row(
                 text,
                 &checked,
                 &mut way.rates,
                 &way.counts,
-                (way.threads, way.how),
+                (used, way.how.label()),
             )?);
         }
     }
     Ok(rows)
 }
 
-/// A way of sweeping that [`run`] times, in turn with the others.
+/// The ways of sweeping that [`run`] times (see [`McRow::sweep`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum How {
+    Serial,
+    Slabs,
+    Replicas,
+    Copies,
+}
+
+impl How {
+    /// The row's `sweep`.
+    fn label(self) -> &'static str {
+        match self {
+            How::Serial => "serial",
+            How::Slabs => "slabs",
+            How::Replicas => "replicas",
+            How::Copies => "copies",
+        }
+    }
+}
+
+/// Systems `how` sweeps at once on `threads` threads (copies: one per
+/// thread).
+fn copies_at_once(how: How, threads: usize) -> usize {
+    if how == How::Copies { threads } else { 1 }
+}
+
+/// A way of sweeping that [`run`] times, in turn with the others, and what
+/// it measured.
 struct Way {
-    threads: usize,
-    how: &'static str,
-    /// Systems swept at once (copies: one per thread).
-    systems: usize,
+    how: How,
     rates: Vec<f64>,
     counts: Counts,
 }
 
 impl Way {
-    fn new(threads: usize, how: &'static str, systems: usize) -> Self {
+    fn new(how: How) -> Self {
         Self {
-            threads,
             how,
-            systems,
             rates: Vec::new(),
             counts: Counts::default(),
         }
