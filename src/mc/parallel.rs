@@ -508,6 +508,12 @@ impl SharingTerms {
         (room <= MOST_ROOM).then_some(terms)
     }
 
+    /// The terms for `system` with slabs `width` wide along `axis`, if
+    /// they are wide enough to share.
+    fn at_width(system: &System, axis: usize, width: f64) -> Option<Self> {
+        Self::of(system, axis).filter(|terms| width >= terms.least_width)
+    }
+
     /// Whether `system`'s cells and lists have the room.
     fn roomy(&self, system: &System) -> bool {
         let Neighbours::Cells(cells) = &system.cells else {
@@ -535,9 +541,8 @@ impl Slabs {
     /// Whether members can share `system`'s memory on these slabs (at
     /// least as wide as [`SharingTerms`] asks, the room made).
     fn shareable(&self, system: &System) -> bool {
-        SharingTerms::of(system, self.axis).is_some_and(|terms| {
-            self.length / self.count as f64 >= terms.least_width && terms.roomy(system)
-        })
+        SharingTerms::at_width(system, self.axis, self.length / self.count as f64)
+            .is_some_and(|terms| terms.roomy(system))
     }
 }
 
@@ -801,8 +806,8 @@ impl ParallelSweeps {
         !self.replicas_only
             && threads > 1
             && Slabs::count_in(system, threads).is_some_and(|count| {
-                SharingTerms::of(system, lengths.imax())
-                    .is_some_and(|terms| lengths.max() / count as f64 >= terms.least_width)
+                SharingTerms::at_width(system, lengths.imax(), lengths.max() / count as f64)
+                    .is_some()
             })
     }
 
