@@ -1042,9 +1042,10 @@ impl System {
         let old_lengths = self.box_.lengths();
         let factor = lengths.component_div(&old_lengths);
         let shrinks = factor.iter().any(|&f| f < 1.0);
-        // Most shrinks that fail make a listed pair overlap: that is found
-        // on the scaled centres alone, before any cell is rebuilt (the
-        // same arithmetic as the full check below, so the same answer).
+        // Most shrinks that fail make a listed pair overlap: the listed
+        // pairs are measured on the scaled centres alone, before any cell
+        // is rebuilt (the arithmetic of the centres scaled in place below,
+        // so the same answer); below, only the strays are left to check.
         if shrinks
             && !self.ideal
             && !self.box_.has_walls()
@@ -1056,7 +1057,7 @@ impl System {
                     .iter()
                     .map(|r| new_box.wrap(&r.component_mul(&factor))),
             );
-            if lists.overlap_after_rescale(&new_box, &factor, &self.scaled, |_| false) {
+            if lists.listed_overlap_after_rescale(&new_box, &factor, &self.scaled) {
                 return false;
             }
         }
@@ -1081,17 +1082,14 @@ impl System {
         // axis needs checking.
         let overlaps =
             |i: usize| self.overlaps_at(i, &self.particles[i].position, &self.rotations[i]);
-        // Sphere lists answer for all but the centres that strayed far from
-        // their references (walls aside).
+        // Sphere lists answered above for all but the centres that strayed
+        // far from their references (walls aside).
         if shrinks
             && !self.ideal
             && match &lists {
-                Some(lists) if !self.box_.has_walls() => lists.overlap_after_rescale(
-                    &self.box_,
-                    &factor,
-                    self.positions.as_slice(),
-                    overlaps,
-                ),
+                Some(lists) if !self.box_.has_walls() => (lists)
+                    .strays_after_rescale(&self.box_, &factor, self.positions.as_slice())
+                    .any(overlaps),
                 _ => (0..self.len()).any(overlaps),
             }
         {

@@ -225,26 +225,67 @@ impl SphereLists {
         box_: &PeriodicBox,
         factor: &V3,
         positions: &[V3],
-        mut overlaps: impl FnMut(usize) -> bool,
+        overlaps: impl FnMut(usize) -> bool,
     ) -> bool {
+        self.listed_overlap_after_rescale(box_, factor, positions)
+            || self
+                .strays_after_rescale(box_, factor, positions)
+                .any(overlaps)
+    }
+
+    /// The first half of [`SphereLists::overlap_after_rescale`]: whether
+    /// a sphere within half the gap left of its scaled reference touches a
+    /// listed one (none when no gap would be left).
+    pub fn listed_overlap_after_rescale(
+        &self,
+        box_: &PeriodicBox,
+        factor: &V3,
+        positions: &[V3],
+    ) -> bool {
+        let Some(half) = self.half_gap_after(factor) else {
+            return false;
+        };
+        (positions.iter().enumerate()).any(|(i, centre)| {
+            !self.strayed_after_rescale(i, centre, box_, factor, half)
+                && self.touches_listed(i, centre, positions, box_, |_| true)
+        })
+    }
+
+    /// The second half: the spheres farther than half the gap left from
+    /// their scaled references (all of them when no gap would be left),
+    /// for which the lists do not answer.
+    pub fn strays_after_rescale<'a>(
+        &'a self,
+        box_: &'a PeriodicBox,
+        factor: &'a V3,
+        positions: &'a [V3],
+    ) -> impl Iterator<Item = usize> + 'a {
+        let half = self.half_gap_after(factor);
+        (0..positions.len()).filter(move |&i| {
+            half.is_none_or(|half| self.strayed_after_rescale(i, &positions[i], box_, factor, half))
+        })
+    }
+
+    /// Half the gap the lists would keep after a box change by `factor`;
+    /// `None` when none would be left.
+    fn half_gap_after(&self, factor: &V3) -> Option<f64> {
         let gap = self.gap_after(factor);
-        if gap <= 0.0 {
-            return (0..positions.len()).any(overlaps);
-        }
-        let half = 0.5 * gap;
-        for (i, centre) in positions.iter().enumerate() {
-            let reference = box_.wrap(&self.reference[i].component_mul(factor));
-            let drift = box_.minimum_image_near(&(centre - reference));
-            let touches = if drift.norm_squared() > half * half {
-                overlaps(i)
-            } else {
-                self.touches_listed(i, centre, positions, box_, |_| true)
-            };
-            if touches {
-                return true;
-            }
-        }
-        false
+        (gap > 0.0).then_some(0.5 * gap)
+    }
+
+    /// Whether sphere `i` at `centre` lies farther than `half` from its
+    /// reference scaled by `factor` into `box_`.
+    fn strayed_after_rescale(
+        &self,
+        i: usize,
+        centre: &V3,
+        box_: &PeriodicBox,
+        factor: &V3,
+        half: f64,
+    ) -> bool {
+        let reference = box_.wrap(&self.reference[i].component_mul(factor));
+        let drift = box_.minimum_image_near(&(centre - reference));
+        drift.norm_squared() > half * half
     }
 }
 
