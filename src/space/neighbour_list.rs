@@ -146,8 +146,12 @@ impl FlatLists {
     /// Room for at least `capacity` entries per list (doubled until it
     /// fits).
     pub fn reserve(&mut self, capacity: usize) {
-        while self.capacity < capacity {
-            self.grow();
+        let mut room = self.capacity;
+        while room < capacity {
+            room *= 2;
+        }
+        if room > self.capacity {
+            self.grow_to(room);
         }
     }
 
@@ -162,11 +166,16 @@ impl FlatLists {
 
     /// Twice the room per list.
     fn grow(&mut self) {
+        self.grow_to(2 * self.capacity);
+    }
+
+    /// Room for `capacity` entries per list (more than now), every list
+    /// moved once.
+    fn grow_to(&mut self, capacity: usize) {
         assert!(
             !self.fixed,
             "a list outgrew the room reserved for a parallel sweep"
         );
-        let capacity = 2 * self.capacity;
         let mut slots = vec![0; self.counts.len() * capacity];
         for (i, &count) in self.counts.iter().enumerate() {
             let n = count as usize;
