@@ -10,8 +10,9 @@ use clap::{Parser, Subcommand};
 use hardbody::analysis::virial::excluded_volume;
 use hardbody::bench::ocsi::{OcsiBenchConfig, run as run_ocsi, table as ocsi_table};
 use hardbody::geometry::Shape;
+use hardbody::log::file::check_output;
 use hardbody::log::read::read_log;
-use hardbody::run::{Progress, RunError, RunSummary, resume_run, run_scene};
+use hardbody::run::{Progress, RunError, RunSummary, check_start, resume_run, run_scene};
 use hardbody::scene::Scene;
 use hardbody::scene::plan::{Plan, Report};
 
@@ -266,8 +267,18 @@ fn run(
     if let Some(log) = &resume {
         scene.start = hardbody::scene::Start::Resume(log.display().to_string());
     }
+    if let Some(p) = &scene_path
+        && let Err(e) = preflight(p, &text, &scene, out.is_some())
+    {
+        return bad_input(e);
+    }
     let log_path = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));
-    if let Err(e) = check_writable(&log_path) {
+    let inputs: Vec<&std::path::Path> = scene_path
+        .iter()
+        .chain(&resume)
+        .map(|p| p.as_path())
+        .collect();
+    if let Err(e) = check_output(&log_path, true, &inputs) {
         return bad_input(e);
     }
     handle_ctrl_c();
@@ -321,7 +332,9 @@ fn resume_log(log: &std::path::Path, out: Option<PathBuf>, seed: Option<u64>) ->
         let text = log.display().to_string();
         PathBuf::from(text.strip_suffix(".partial").unwrap_or(&text))
     });
-    if let Err(e) = check_writable(&out) {
+    // The log resumed from may be the output's partial log: it is
+    // replaced only once the new log holds as much.
+    if let Err(e) = check_output(&out, true, &[]) {
         return bad_input(e);
     }
     handle_ctrl_c();
@@ -338,6 +351,9 @@ fn resume_log(log: &std::path::Path, out: Option<PathBuf>, seed: Option<u64>) ->
 fn finish_run(result: Result<RunSummary, RunError>) -> ExitCode {
     match result {
         Ok(summary) => {
+            for note in &summary.notes {
+                esay(&format!("hardbody: {note}"));
+            }
             for line in &summary.stages {
                 say(line);
             }
@@ -363,45 +379,48 @@ fn say(line: &str) {
     let _ = writeln!(std::io::stdout(), "{line}");
 }
 
-/// The log's directory must exist and accept a new file.
-fn check_writable(path: &std::path::Path) -> Result<(), String> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(format!(
-            "log path {}: the directory {} does not exist",
-            path.display(),
-            dir.display()
-        ));
+/// A refusal of the scene file `path` (text `text`) at `field`, with the
+/// line the field is on.
+fn scene_refusal(
+    path: &std::path::Path,
+    text: &str,
+    field: &str,
+    e: impl std::fmt::Display,
+) -> String {
+    let line = hardbody::scene::outline::Outline::of(text)
+        .line_of(field)
+        .map(|l| format!("line {l}: "))
+        .unwrap_or_default();
+    format!("{}: {line}{field}: {e}", path.display())
+}
+
+/// What a scene file needs besides parsing to run: a start that can be
+/// made (a `Resume` log that holds a state of these species) and, unless
+/// `--out` replaces it, a log path that may be written. `run` and `check`
+/// refuse the same scenes.
+fn preflight(
+    path: &std::path::Path,
+    text: &str,
+    scene: &Scene,
+    out_given: bool,
+) -> Result<(), String> {
+    if let Err(e) = check_start(scene) {
+        return Err(scene_refusal(path, text, "start", e));
     }
-    if path.is_dir() {
-        return Err(format!("log path {} is a directory", path.display()));
-    }
-    let md = std::fs::metadata(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    if md.permissions().readonly() {
-        return Err(format!(
-            "log path {}: the directory {} is read-only",
-            path.display(),
-            dir.display()
-        ));
+    if !out_given && let Err(e) = check_output(std::path::Path::new(&scene.log.path), true, &[path])
+    {
+        return Err(scene_refusal(path, text, "log.path", e));
     }
     Ok(())
 }
 
 fn check(path: &std::path::Path) -> ExitCode {
-    let (scene, _) = match load_scene(path) {
+    let (scene, text) = match load_scene(path) {
         Ok(s) => s,
         Err(e) => return bad_input(e),
     };
-    if let Err(e) = check_writable(std::path::Path::new(&scene.log.path)) {
-        let text = std::fs::read_to_string(path).unwrap_or_default();
-        let line = hardbody::scene::outline::Outline::of(&text)
-            .line_of("log.path")
-            .map(|l| format!("line {l}: "))
-            .unwrap_or_default();
-        return bad_input(format!("{}: {line}log.path: {e}", path.display()));
+    if let Err(e) = preflight(path, &text, &scene, false) {
+        return bad_input(e);
     }
     let plan = Plan::of(&scene);
     say(&format!("{}: valid", path.display()));
@@ -473,7 +492,13 @@ fn inspect(path: &std::path::Path) -> ExitCode {
             }
         ));
     }
-    ExitCode::SUCCESS
+    match &contents.damage {
+        Some(d) => bad_input(format!(
+            "{}: {d}; shown above is what precedes it (`hardbody run --resume` continues from its last intact frame)",
+            path.display()
+        )),
+        None => ExitCode::SUCCESS,
+    }
 }
 
 fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> ExitCode {
@@ -712,14 +737,28 @@ fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
         Ok(c) => c,
         Err(e) => return bad_input(e),
     };
-    if let Err(e) = check_writable(out) {
+    if let Err(e) = check_output(out, true, &[log]) {
         return bad_input(e);
     }
+    if let (Some(d), true) = (&contents.damage, contents.states.is_empty()) {
+        return bad_input(format!(
+            "{}: {d}; no intact frame before it to export",
+            log.display()
+        ));
+    }
     match hardbody::log::gsd::export(&contents.states, out) {
-        Ok(frames) => {
-            say(&format!("{frames} frames written to {}", out.display()));
-            ExitCode::SUCCESS
-        }
+        Ok(frames) => match &contents.damage {
+            // The intact frames are exported; the damage is an error.
+            Some(d) => bad_input(format!(
+                "{}: {d}; the {frames} frames before it were written to {}",
+                log.display(),
+                out.display()
+            )),
+            None => {
+                say(&format!("{frames} frames written to {}", out.display()));
+                ExitCode::SUCCESS
+            }
+        },
         Err(e) => bad_input(e),
     }
 }

@@ -302,18 +302,23 @@ impl Kind {
     }
 }
 
-/// Counters and sums over the interval since the last sample.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct Interval {
-    start: f64,
-    collisions: u64,
+/// Counters and sums over the interval since the last sample (times on
+/// the dynamics' own clock): what a frame records so that a resumed run's
+/// first sample covers the same interval as the uninterrupted run's.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Interval {
+    /// When the interval began.
+    pub start: f64,
+    /// Collisions in it.
+    pub collisions: u64,
     /// Σ (r_B − r_A)·J n̂ over collisions.
-    virial: f64,
+    pub virial: f64,
     /// ∫ (translational kinetic energy) dt, up to `ke_since`.
-    ke_integral: f64,
-    ke_since: f64,
+    pub ke_integral: f64,
+    /// See `ke_integral`.
+    pub ke_since: f64,
     /// Impulse taken by the two walls of each axis.
-    wall_impulse: [f64; 3],
+    pub wall_impulse: [f64; 3],
 }
 
 /// Observables over the interval since the previous sample.
@@ -1088,6 +1093,17 @@ impl Dynamics {
     /// The collisions recorded since the last call.
     pub fn take_collisions(&mut self) -> Vec<(f64, u32, u32)> {
         self.trace.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
+    /// The sums since the last sample.
+    pub fn interval(&self) -> Interval {
+        self.interval
+    }
+
+    /// Continues the sums of an interval recorded by [`Dynamics::interval`]
+    /// at the same state (a resumed run).
+    pub fn continue_interval(&mut self, interval: Interval) {
+        self.interval = interval;
     }
 
     /// Observables over the interval since the previous sample (or the

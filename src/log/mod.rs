@@ -15,6 +15,7 @@
 //! file; each frame closes an MCAP chunk, so a killed run leaves a partial
 //! log readable up to its last frame.
 
+pub mod file;
 pub mod gsd;
 pub mod read;
 pub mod view;
@@ -48,7 +49,7 @@ pub const FRAME_ID: &str = "hardbody";
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
     /// The file system refused.
-    #[error("{path}: {source}")]
+    #[error("{}: {}", path.display(), io_reason(source))]
     Io {
         /// The file.
         path: PathBuf,
@@ -56,7 +57,7 @@ pub enum LogError {
         source: std::io::Error,
     },
     /// The MCAP layer refused.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", path.display())]
     Mcap {
         /// The file.
         path: PathBuf,
@@ -64,13 +65,76 @@ pub enum LogError {
         source: mcap::McapError,
     },
     /// The file is not a hardbody log, or lacks what was asked for.
-    #[error("{path}: {message}")]
+    #[error("{}: {message}", path.display())]
     Content {
         /// The file.
         path: PathBuf,
         /// What is missing or wrong.
         message: String,
     },
+    /// Another process is writing this log.
+    #[error(
+        "{}: another hardbody run is writing this log (it holds the file's lock); wait for it, or give this run another --out",
+        path.display()
+    )]
+    Busy {
+        /// The file that is locked.
+        path: PathBuf,
+    },
+}
+
+/// An I/O error in words a user acts on: a full disk is named as such.
+fn io_reason(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::StorageFull => "no space left on device".into(),
+        std::io::ErrorKind::QuotaExceeded => "disk quota exceeded".into(),
+        _ => e.to_string(),
+    }
+}
+
+impl LogError {
+    /// An MCAP writer's error on `path`, with the I/O cause kept where
+    /// there is one.
+    fn from_mcap(path: &Path, source: mcap::McapError) -> Self {
+        match source {
+            mcap::McapError::Io(source) => LogError::Io {
+                path: path.to_path_buf(),
+                source,
+            },
+            source => LogError::Mcap {
+                path: path.to_path_buf(),
+                source,
+            },
+        }
+    }
+
+    /// Whether the file system ran out of room (or of quota).
+    pub fn is_disk_full(&self) -> bool {
+        matches!(self, LogError::Io { source, .. } if matches!(
+            source.kind(),
+            std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
+        ))
+    }
+
+    /// The same error again (a writer that failed once reports its first
+    /// error to every later call).
+    fn again(&self) -> Self {
+        match self {
+            LogError::Io { path, source } => LogError::Io {
+                path: path.clone(),
+                source: std::io::Error::new(source.kind(), io_reason(source)),
+            },
+            LogError::Mcap { path, source } => LogError::Content {
+                path: path.clone(),
+                message: source.to_string(),
+            },
+            LogError::Content { path, message } => LogError::Content {
+                path: path.clone(),
+                message: message.clone(),
+            },
+            LogError::Busy { path } => LogError::Busy { path: path.clone() },
+        }
+    }
 }
 
 /// One `/stats` message. Fields that a stage does not measure are null.
@@ -199,6 +263,11 @@ pub struct DynamicsProgress {
     pub next_frame: u64,
     /// kT of the stage.
     pub temperature: f64,
+    /// The sums of the `/stats` interval the frame falls in (absent in
+    /// logs of earlier versions: the first interval after a resume then
+    /// starts at the frame).
+    #[serde(default)]
+    pub interval: Option<crate::edmd::dynamics::Interval>,
 }
 
 impl StateRecord {
@@ -232,6 +301,43 @@ impl StateRecord {
             angular_velocities: None,
             resume: None,
         }
+    }
+
+    /// Whether the record's parts agree: one species index, position and
+    /// orientation per particle (and velocities, where present), species
+    /// indices that name a species, a box of finite positive edges.
+    pub fn check_consistent(&self) -> Result<(), String> {
+        let n = self.species_of.len();
+        let lengths = [
+            ("positions", Some(self.positions.len())),
+            ("orientations", Some(self.orientations.len())),
+            ("velocities", self.velocities.as_ref().map(Vec::len)),
+            (
+                "angular_velocities",
+                self.angular_velocities.as_ref().map(Vec::len),
+            ),
+        ];
+        for (name, len) in lengths {
+            if let Some(len) = len
+                && len != n
+            {
+                return Err(format!("{len} {name} for {n} particles"));
+            }
+        }
+        if let Some(k) = self
+            .species_of
+            .iter()
+            .find(|&&k| k as usize >= self.species.len())
+        {
+            return Err(format!(
+                "species index {k} of {} species",
+                self.species.len()
+            ));
+        }
+        if !self.box_lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
+            return Err(format!("box edges {:?}", self.box_lengths));
+        }
+        Ok(())
     }
 
     /// With velocities and lab-frame angular velocities.
@@ -307,11 +413,23 @@ const STATE_SCHEMA: &str = r#"{
   }
 }"#;
 
-/// Writes a log to `<path>.partial`; [`LogWriter::finish`] renames it.
+/// Writes a log to `<path>.partial` under an exclusive lock;
+/// [`LogWriter::finish`] renames it to `<path>`.
 pub struct LogWriter {
-    writer: mcap::Writer<BufWriter<File>>,
+    /// None once closed.
+    writer: Option<mcap::Writer<BufWriter<File>>>,
     path: PathBuf,
+    /// The file written to.
     partial: PathBuf,
+    /// A log this one replaces once it holds as much (a resume in place:
+    /// the partial log it resumes from): renamed over it at the first new
+    /// frame, or when the log ends.
+    replaces: Option<PathBuf>,
+    /// The first error of a write: every later call reports it again
+    /// (the MCAP writer cannot go on after a failed write).
+    failed: Option<LogError>,
+    /// Frames written (new or copied).
+    frames: u64,
     stats: u16,
     scene: u16,
     state: u16,
@@ -326,27 +444,88 @@ pub fn partial_path(path: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
+/// Where a log that replaces the partial log it resumes from is written
+/// until it holds as much.
+pub fn resuming_path(path: &Path) -> PathBuf {
+    let mut name = partial_path(path).into_os_string();
+    name.push(".resuming");
+    PathBuf::from(name)
+}
+
 impl LogWriter {
     /// Starts a log for `path` (written to `<path>.partial`), recording in
     /// the metadata the scene text as given (`scene`), the scene as run,
     /// with command-line overrides and defaults filled in
-    /// (`scene_resolved`), and the program version.
+    /// (`scene_resolved`), and the program version. Refused with
+    /// [`LogError::Busy`] while another process writes the same log.
     pub fn create(
         path: &Path,
         scene_text: &str,
         scene_resolved: &str,
         species: &[Species],
     ) -> Result<Self, LogError> {
-        let partial = partial_path(path);
-        let io = |source| LogError::Io {
-            path: partial.clone(),
-            source,
+        Self::open(path, None, scene_text, scene_resolved, species)
+    }
+
+    /// Like [`LogWriter::create`] for a run resumed from `<path>.partial`
+    /// itself: the new log is written beside it and takes its place only
+    /// once it holds at least as much (its first new frame), so that a
+    /// resume killed early leaves the partial log as it was.
+    pub fn create_replacing_partial(
+        path: &Path,
+        scene_text: &str,
+        scene_resolved: &str,
+        species: &[Species],
+    ) -> Result<Self, LogError> {
+        let replaced = partial_path(path);
+        Self::open(path, Some(replaced), scene_text, scene_resolved, species)
+    }
+
+    fn open(
+        path: &Path,
+        replaces: Option<PathBuf>,
+        scene_text: &str,
+        scene_resolved: &str,
+        species: &[Species],
+    ) -> Result<Self, LogError> {
+        let partial = match replaces {
+            Some(_) => resuming_path(path),
+            None => partial_path(path),
         };
-        let file = File::create(&partial).map_err(io)?;
-        let mcap_err = |source| LogError::Mcap {
-            path: partial.clone(),
-            source,
+        let file = file::create_locked(&partial)?;
+        let result = Self::start(file, &partial, scene_text, scene_resolved);
+        let (writer, [stats, state, scene]) = match result {
+            Ok(w) => w,
+            Err(e) => {
+                // Nothing of the log is in the file yet.
+                let _ = std::fs::remove_file(&partial);
+                return Err(e);
+            }
         };
+        Ok(Self {
+            writer: Some(writer),
+            path: path.to_path_buf(),
+            partial,
+            replaces,
+            failed: None,
+            frames: 0,
+            stats,
+            scene,
+            state,
+            sequence: 0,
+            view: view::SceneView::new(species),
+        })
+    }
+
+    /// The MCAP header, schemas, channels (`/stats`, `/state`, `/scene`)
+    /// and metadata.
+    fn start(
+        file: File,
+        partial: &Path,
+        scene_text: &str,
+        scene_resolved: &str,
+    ) -> Result<(mcap::Writer<BufWriter<File>>, [u16; 3]), LogError> {
+        let mcap_err = |source| LogError::from_mcap(partial, source);
         let options = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             // Level 1: frames compress about as well, at a fraction of the
@@ -399,15 +578,30 @@ impl LogWriter {
                 metadata,
             })
             .map_err(mcap_err)?;
-        Ok(Self {
-            writer,
-            path: path.to_path_buf(),
-            partial,
-            stats,
-            scene,
-            state,
-            sequence: 0,
-            view: view::SceneView::new(species),
+        // On disk at once: a run that cannot write its log's start fails
+        // before its first sweep.
+        writer.flush().map_err(mcap_err)?;
+        Ok((writer, [stats, state, scene]))
+    }
+
+    /// Runs one write on the MCAP writer, remembering its first failure.
+    fn attempt(
+        &mut self,
+        op: impl FnOnce(&mut mcap::Writer<BufWriter<File>>) -> mcap::McapResult<()>,
+    ) -> Result<(), LogError> {
+        if let Some(e) = &self.failed {
+            return Err(e.again());
+        }
+        let Some(writer) = self.writer.as_mut() else {
+            return Err(LogError::Content {
+                path: self.partial.clone(),
+                message: "the log is closed".into(),
+            });
+        };
+        op(writer).map_err(|source| {
+            let e = LogError::from_mcap(&self.partial, source);
+            self.failed = Some(e.again());
+            e
         })
     }
 
@@ -419,12 +613,7 @@ impl LogWriter {
             log_time,
             publish_time: log_time,
         };
-        self.writer
-            .write_to_known_channel(&header, data)
-            .map_err(|source| LogError::Mcap {
-                path: self.partial.clone(),
-                source,
-            })
+        self.attempt(|w| w.write_to_known_channel(&header, data))
     }
 
     /// A message copied from another log (the part of an interrupted run
@@ -433,7 +622,10 @@ impl LogWriter {
         let channel = match topic {
             "/stats" => self.stats,
             "/scene" => self.scene,
-            "/state" => self.state,
+            "/state" => {
+                self.frames += 1;
+                self.state
+            }
             other => {
                 return Err(LogError::Content {
                     path: self.partial.clone(),
@@ -461,63 +653,130 @@ impl LogWriter {
         self.write(self.scene, log_time, &buf)?;
         let data = serde_json::to_vec(state).expect("states serialise");
         self.write(self.state, log_time, &data)?;
-        self.writer.flush().map_err(|source| LogError::Mcap {
-            path: self.partial.clone(),
-            source,
-        })
+        self.attempt(|w| w.flush())?;
+        self.frames += 1;
+        // Now more than the log it replaces holds.
+        self.take_place()
+    }
+
+    /// Renames the file written over the partial log it replaces (if it
+    /// replaces one and has not yet).
+    fn take_place(&mut self) -> Result<(), LogError> {
+        if let Some(replaced) = self.replaces.take() {
+            std::fs::rename(&self.partial, &replaced).map_err(|source| LogError::Io {
+                path: replaced.clone(),
+                source,
+            })?;
+            self.partial = replaced;
+        }
+        Ok(())
     }
 
     /// The `/failure` message at `log_time` (its channel is added here:
     /// logs of runs that succeed have none).
     pub fn failure(&mut self, log_time: u64, failure: &FailureRecord) -> Result<(), LogError> {
-        let partial = self.partial.clone();
-        let mcap_err = |source| LogError::Mcap {
-            path: partial.clone(),
-            source,
-        };
-        let schema = self
-            .writer
-            .add_schema("hardbody.Failure", "jsonschema", FAILURE_SCHEMA.as_bytes())
-            .map_err(mcap_err)?;
-        let channel = self
-            .writer
-            .add_channel(schema, "/failure", "json", &BTreeMap::new())
-            .map_err(mcap_err)?;
         let data = serde_json::to_vec(failure).expect("failures serialise");
-        self.write(channel, log_time, &data)?;
-        self.writer.flush().map_err(mcap_err)
+        let sequence = self.sequence + 1;
+        self.attempt(|w| {
+            let schema =
+                w.add_schema("hardbody.Failure", "jsonschema", FAILURE_SCHEMA.as_bytes())?;
+            let channel = w.add_channel(schema, "/failure", "json", &BTreeMap::new())?;
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence,
+                log_time,
+                publish_time: log_time,
+            };
+            w.write_to_known_channel(&header, &data)?;
+            w.flush()
+        })?;
+        self.sequence = sequence;
+        Ok(())
+    }
+
+    /// Whether a write to the log has failed (it then takes no more).
+    pub fn has_failed(&self) -> bool {
+        self.failed.is_some()
+    }
+
+    /// The first failed write's error, if one failed.
+    pub fn error(&self) -> Option<LogError> {
+        self.failed.as_ref().map(LogError::again)
     }
 
     /// Completes the log and renames it to its path.
-    pub fn finish(self) -> Result<PathBuf, LogError> {
-        let (partial, path) = self.close()?;
-        std::fs::rename(&partial, &path).map_err(|source| LogError::Io {
-            path: path.clone(),
+    pub fn finish(mut self) -> Result<PathBuf, LogError> {
+        self.close()?;
+        std::fs::rename(&self.partial, &self.path).map_err(|source| LogError::Io {
+            path: self.path.clone(),
             source,
         })?;
-        Ok(path)
+        // A resume in place that ends before a new frame: the complete log
+        // supersedes the partial one.
+        if let Some(replaced) = self.replaces.take() {
+            let _ = std::fs::remove_file(replaced);
+        }
+        Ok(self.path.clone())
     }
 
     /// Completes the log but leaves it at `<path>.partial` (a run that
-    /// failed: the file at `path`, if any, is left untouched).
-    pub fn abandon(self) -> Result<PathBuf, LogError> {
-        Ok(self.close()?.0)
+    /// failed: the file at `path`, if any, is left untouched), and returns
+    /// where the partial log is. A log whose writing failed (a full disk)
+    /// and that holds no frame is removed, having nothing to resume from;
+    /// one that would replace the log it resumed from is removed if its
+    /// writing failed, that log holding at least as much.
+    pub fn abandon(mut self) -> Result<Option<PathBuf>, LogError> {
+        let closed = self.close();
+        if self.has_failed() {
+            if self.frames == 0 || self.replaces.is_some() {
+                let _ = std::fs::remove_file(&self.partial);
+                return Ok(self.replaces.take());
+            }
+            // Readable, and resumable, up to its last complete frame.
+            return Ok(Some(self.partial.clone()));
+        }
+        closed?;
+        self.take_place()?;
+        Ok(Some(self.partial.clone()))
     }
 
-    /// Writes the summary and flushes the file; (partial path, path).
-    fn close(mut self) -> Result<(PathBuf, PathBuf), LogError> {
+    /// Writes the summary and flushes the file to disk.
+    fn close(&mut self) -> Result<(), LogError> {
         use std::io::Write;
-        self.writer.finish().map_err(|source| LogError::Mcap {
-            path: self.partial.clone(),
-            source,
-        })?;
-        let mut file = self.writer.into_inner();
+        self.attempt(|w| w.finish().map(|_| ()))?;
+        let mut file = self.writer.take().expect("open until closed").into_inner();
         file.flush()
             .and_then(|_| file.get_ref().sync_all())
-            .map_err(|source| LogError::Io {
-                path: self.partial.clone(),
-                source,
-            })?;
-        Ok((self.partial, self.path))
+            .map_err(|source| {
+                let e = LogError::Io {
+                    path: self.partial.clone(),
+                    source,
+                };
+                self.failed = Some(e.again());
+                e
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_disk_is_named_with_the_path() {
+        // /dev/full refuses every write with ENOSPC.
+        let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+            return;
+        };
+        let path = Path::new("/dev/full");
+        let error = match LogWriter::start(full, path, "scene", "scene") {
+            Err(e) => e,
+            Ok(_) => panic!("a write to /dev/full succeeded"),
+        };
+        assert!(error.is_disk_full(), "{error:?}");
+        let message = error.to_string();
+        assert_eq!(message, "/dev/full: no space left on device");
+        // Every later report of a failed writer says the same.
+        assert_eq!(error.again().to_string(), message);
     }
 }

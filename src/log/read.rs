@@ -1,10 +1,36 @@
-//! Reading logs back (`hardbody inspect`, resuming, tests): complete logs
-//! and logs cut off mid-write, up to their last complete record.
+//! Reading logs back (`hardbody inspect`, resuming, exporting, tests):
+//! complete logs, logs cut off mid-write, and damaged logs, each up to its
+//! last intact record.
+//!
+//! Nothing read from the file is trusted: every record length is bounded by
+//! the bytes that remain, a chunk's stated uncompressed size by a multiple
+//! of its compressed size (and allocated fallibly), and every chunk's CRC
+//! is checked before any of its messages is read. The first damaged record
+//! ends the reading: what came before it is returned, with a [`Damage`]
+//! that says where the damage is.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use mcap::records::{Record, op};
+
 use super::{FailureRecord, LogError, StateRecord, Stats};
+
+/// Where a log is damaged and how.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Damage {
+    /// Byte offset of the damaged record in the file (for a record inside
+    /// a chunk, the chunk's offset).
+    pub offset: u64,
+    /// What is wrong there.
+    pub what: String,
+}
+
+impl std::fmt::Display for Damage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "damaged at byte {}: {}", self.offset, self.what)
+    }
+}
 
 /// What a log holds.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +50,10 @@ pub struct LogContents {
     /// Whether the file ended before the MCAP footer (a killed run); it is
     /// read up to its last complete record.
     pub truncated: bool,
+    /// The first damaged record, if any; nothing after it was read.
+    pub damage: Option<Damage>,
+    /// Every intact message in file order (only when asked for).
+    pub messages: Vec<RawMessage>,
 }
 
 impl LogContents {
@@ -33,12 +63,45 @@ impl LogContents {
     }
 }
 
+/// What to keep of a log besides its metadata, counts, `/stats`, last
+/// `/state` and `/failure`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ReadOptions {
+    /// Every `/state`, decoded.
+    pub all_states: bool,
+    /// Every message as stored.
+    pub messages: bool,
+}
+
+/// One message as stored: topic, log time, bytes.
+pub type RawMessage = (String, u64, Vec<u8>);
+
 /// Reads `path`; with `all_states`, keeps every `/state` (else the last).
 pub fn read_log(path: &Path, all_states: bool) -> Result<LogContents, LogError> {
+    read_log_with(
+        path,
+        ReadOptions {
+            all_states,
+            messages: false,
+        },
+    )
+}
+
+/// Reads `path`, keeping what `options` asks for.
+pub fn read_log_with(path: &Path, options: ReadOptions) -> Result<LogContents, LogError> {
     let buf = std::fs::read(path).map_err(|source| LogError::Io {
         path: path.to_path_buf(),
         source,
     })?;
+    read_log_bytes(&buf, path, options)
+}
+
+/// Reads a log held in memory (`path` names it in errors).
+pub fn read_log_bytes(
+    buf: &[u8],
+    path: &Path,
+    options: ReadOptions,
+) -> Result<LogContents, LogError> {
     let content = |message: String| LogError::Content {
         path: PathBuf::from(path),
         message,
@@ -56,84 +119,354 @@ pub fn read_log(path: &Path, all_states: bool) -> Result<LogContents, LogError> 
         states: Vec::new(),
         failure: None,
         truncated: false,
+        damage: None,
+        messages: Vec::new(),
     };
-    // Metadata and the end of the data, record by record.
-    for record in
-        mcap::read::LinearReader::new_with_options(&buf, mcap::read::Options::IgnoreEndMagic.into())
-            .map_err(|e| content(e.to_string()))?
-    {
-        match record {
-            Ok(mcap::records::Record::Metadata(m)) if m.name == "hardbody" => {
-                contents.metadata = m.metadata;
+    let mut metadata = None;
+    let end = scan(buf, |item| match item {
+        Item::Metadata(m) => {
+            if m.name == "hardbody" {
+                metadata = Some(m.metadata);
             }
-            Ok(_) => {}
-            Err(_) => {
-                contents.truncated = true;
-                break;
-            }
+            Ok(())
         }
-    }
-    let stream =
-        mcap::MessageStream::new_with_options(&buf, mcap::read::Options::IgnoreEndMagic.into())
-            .map_err(|e| content(e.to_string()))?;
-    for message in stream {
-        let Ok(m) = message else {
-            contents.truncated = true;
-            break;
-        };
-        let topic = m.channel.topic.clone();
-        *contents.counts.entry(topic.clone()).or_default() += 1;
-        match topic.as_str() {
-            "/stats" => {
-                let s: Stats = serde_json::from_slice(&m.data)
-                    .map_err(|e| content(format!("/stats message {}: {e}", m.sequence)))?;
-                contents.stats.push((m.log_time, s));
-            }
-            "/state" => {
-                let s: StateRecord = serde_json::from_slice(&m.data)
-                    .map_err(|e| content(format!("/state message {}: {e}", m.sequence)))?;
-                if all_states {
-                    contents.states.push((m.log_time, s.clone()));
+        Item::Message {
+            topic,
+            log_time,
+            data,
+        } => {
+            let decode_error = |e: serde_json::Error| format!("{topic} message: {e}");
+            match topic {
+                "/stats" => {
+                    let s: Stats = serde_json::from_slice(data).map_err(decode_error)?;
+                    contents.stats.push((log_time, s));
                 }
-                contents.last_state = Some((m.log_time, s));
+                "/state" => {
+                    let s: StateRecord = serde_json::from_slice(data).map_err(decode_error)?;
+                    s.check_consistent()
+                        .map_err(|why| format!("{topic} message: {why}"))?;
+                    if options.all_states {
+                        contents.states.push((log_time, s.clone()));
+                    }
+                    contents.last_state = Some((log_time, s));
+                }
+                "/failure" => {
+                    let f: FailureRecord = serde_json::from_slice(data).map_err(decode_error)?;
+                    contents.failure = Some((log_time, f));
+                }
+                _ => {}
             }
-            "/failure" => {
-                let f: FailureRecord = serde_json::from_slice(&m.data)
-                    .map_err(|e| content(format!("/failure message {}: {e}", m.sequence)))?;
-                contents.failure = Some((m.log_time, f));
+            *contents.counts.entry(topic.to_string()).or_default() += 1;
+            if options.messages {
+                contents
+                    .messages
+                    .push((topic.to_string(), log_time, data.to_vec()));
             }
-            _ => {}
+            Ok(())
         }
-    }
-    if !buf.ends_with(mcap::MAGIC) {
-        contents.truncated = true;
-    }
-    if contents.metadata.is_empty() {
-        return Err(content(
-            "not a hardbody log (no hardbody metadata record)".into(),
-        ));
+    });
+    contents.truncated = end.truncated;
+    contents.damage = end.damage;
+    match metadata {
+        Some(m) => contents.metadata = m,
+        None => {
+            let why = match &contents.damage {
+                Some(d) => format!("no hardbody metadata record before the damage ({d})"),
+                None => "not a hardbody log (no hardbody metadata record)".into(),
+            };
+            return Err(content(why));
+        }
     }
     Ok(contents)
 }
 
-/// One message as stored: topic, log time, bytes.
-pub type RawMessage = (String, u64, Vec<u8>);
+/// What [`scan`] hands its visitor, in file order.
+enum Item<'a> {
+    Metadata(mcap::records::Metadata),
+    Message {
+        topic: &'a str,
+        log_time: u64,
+        data: &'a [u8],
+    },
+}
 
-/// Every complete message of `path`, in file order (what a resumed run
-/// copies from the interrupted one).
-pub fn read_messages(path: &Path) -> Result<Vec<RawMessage>, LogError> {
-    let buf = std::fs::read(path).map_err(|source| LogError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let stream =
-        mcap::MessageStream::new_with_options(&buf, mcap::read::Options::IgnoreEndMagic.into())
-            .map_err(|e| LogError::Content {
-                path: path.to_path_buf(),
-                message: e.to_string(),
+/// How a scan ended.
+struct ScanEnd {
+    truncated: bool,
+    damage: Option<Damage>,
+}
+
+/// Largest ratio of a chunk's stated uncompressed size to its compressed
+/// size that is believed (JSON frames compress about 3:1, zstd reaches a
+/// few hundred to one on uniform data), and the size believed regardless.
+const MAX_CHUNK_RATIO: u64 = 1024;
+const MIN_CHUNK_BOUND: u64 = 64 << 20;
+
+/// Walks the records of an MCAP file, opening chunks after checking their
+/// sizes and CRCs, and hands each metadata record and message to `visit`.
+/// Stops at the footer, at the end of the bytes (a cut-off file), or at
+/// the first damaged record, or where `visit` refuses a message (its
+/// reason becomes the damage).
+fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), String>) -> ScanEnd {
+    let mut channels: BTreeMap<u16, String> = BTreeMap::new();
+    let complete_file = buf.len() >= 2 * mcap::MAGIC.len() && buf.ends_with(mcap::MAGIC);
+    let damaged = |offset: usize, what: String| ScanEnd {
+        truncated: !complete_file,
+        damage: Some(Damage {
+            offset: offset as u64,
+            what,
+        }),
+    };
+    let mut at = mcap::MAGIC.len();
+    loop {
+        let record = match next_record(buf, at) {
+            Next::Record(r) => r,
+            Next::End => {
+                return ScanEnd {
+                    truncated: true,
+                    damage: None,
+                };
+            }
+            Next::CutOff(what) => {
+                // A complete file cannot end mid-record: that is damage.
+                return if complete_file {
+                    damaged(at, what)
+                } else {
+                    ScanEnd {
+                        truncated: true,
+                        damage: None,
+                    }
+                };
+            }
+        };
+        let offset = at;
+        at = record.next;
+        match record.opcode {
+            op::DATA_END => {
+                // The CRC of every byte before this record (zero: none).
+                let stored = record
+                    .body
+                    .get(..4)
+                    .map(|b| u32::from_le_bytes(b.try_into().expect("four bytes")));
+                let computed = crc32fast::hash(&buf[..offset]);
+                return match stored {
+                    Some(crc) if crc == 0 || crc == computed => ScanEnd {
+                        truncated: !complete_file,
+                        damage: None,
+                    },
+                    Some(crc) => damaged(
+                        offset,
+                        format!(
+                            "the data section's CRC does not match (stored {crc:08x}, computed {computed:08x}): every chunk is intact, a record outside them (header, schema, channel, metadata, index) is damaged"
+                        ),
+                    ),
+                    None => damaged(offset, "a data end record without its CRC".into()),
+                };
+            }
+            op::FOOTER => {
+                return ScanEnd {
+                    truncated: !complete_file,
+                    damage: None,
+                };
+            }
+            op::CHUNK => {
+                let (chunk, stated_times) = match open_chunk(record.body) {
+                    Ok(c) => c,
+                    Err(what) => return damaged(offset, format!("chunk: {what}")),
+                };
+                // Its messages' times must be those its header states
+                // (the header is outside the CRC) before any is read.
+                if let Some(times) = message_times(&chunk)
+                    && times != stated_times
+                {
+                    return damaged(
+                        offset,
+                        format!(
+                            "chunk: its header states message times {stated_times:?}, its messages have {times:?}"
+                        ),
+                    );
+                }
+                let mut inner = 0;
+                loop {
+                    let r = match next_record(&chunk, inner) {
+                        Next::Record(r) => r,
+                        Next::End => break,
+                        Next::CutOff(what) => {
+                            return damaged(offset, format!("inside the chunk: {what}"));
+                        }
+                    };
+                    inner = r.next;
+                    if let Err(what) = visit_record(r, &mut channels, &mut visit) {
+                        return damaged(offset, format!("inside the chunk: {what}"));
+                    }
+                }
+            }
+            _ => {
+                if let Err(what) = visit_record(record, &mut channels, &mut visit) {
+                    return damaged(offset, what);
+                }
+            }
+        }
+    }
+}
+
+/// The least and greatest log time of the messages among `records`, if
+/// any (a message body starts with channel id u16, sequence u32, log time
+/// u64).
+fn message_times(records: &[u8]) -> Option<(u64, u64)> {
+    let mut at = 0;
+    let mut times: Option<(u64, u64)> = None;
+    while let Next::Record(r) = next_record(records, at) {
+        at = r.next;
+        if r.opcode == op::MESSAGE
+            && let Some(t) = r.body.get(6..14)
+        {
+            let t = u64::from_le_bytes(t.try_into().expect("eight bytes"));
+            times = Some(times.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
+        }
+    }
+    times
+}
+
+/// One record's place in a buffer.
+struct RawRecord<'a> {
+    opcode: u8,
+    body: &'a [u8],
+    /// Offset of the record after it.
+    next: usize,
+}
+
+enum Next<'a> {
+    Record(RawRecord<'a>),
+    /// The buffer ends exactly here.
+    End,
+    /// The buffer ends inside the record that starts here.
+    CutOff(String),
+}
+
+/// The record at `at` of `buf`: an opcode, a little-endian u64 length, a
+/// body of that length (bounded by what remains).
+fn next_record(buf: &[u8], at: usize) -> Next<'_> {
+    let rest = &buf[at.min(buf.len())..];
+    if rest.is_empty() {
+        return Next::End;
+    }
+    if rest.len() < 9 {
+        return Next::CutOff(format!(
+            "a record header of 9 bytes, {} bytes left",
+            rest.len()
+        ));
+    }
+    let length = u64::from_le_bytes(rest[1..9].try_into().expect("eight bytes"));
+    let room = (rest.len() - 9) as u64;
+    if length > room {
+        return Next::CutOff(format!(
+            "a record of {length} bytes, {room} bytes left in the file"
+        ));
+    }
+    let body_end = 9 + length as usize;
+    Next::Record(RawRecord {
+        opcode: rest[0],
+        body: &rest[9..body_end],
+        next: at + body_end,
+    })
+}
+
+/// A chunk's records, decompressed, after checking the stated sizes and
+/// the CRC of the uncompressed records.
+/// Also returns the message times the header states.
+fn open_chunk(body: &[u8]) -> Result<(Vec<u8>, (u64, u64)), String> {
+    let Record::Chunk { header, data } =
+        mcap::read::parse_record(op::CHUNK, body).map_err(|e| e.to_string())?
+    else {
+        return Err("not a chunk".into());
+    };
+    let bound = (data.len() as u64)
+        .saturating_mul(MAX_CHUNK_RATIO)
+        .max(MIN_CHUNK_BOUND);
+    if header.uncompressed_size > bound {
+        return Err(format!(
+            "states {} uncompressed bytes for {} compressed",
+            header.uncompressed_size,
+            data.len()
+        ));
+    }
+    let size = header.uncompressed_size as usize;
+    let records = match header.compression.as_str() {
+        "" => data.to_vec(),
+        "zstd" => {
+            let mut out = Vec::new();
+            out.try_reserve_exact(size)
+                .map_err(|_| format!("cannot hold its {size} uncompressed bytes"))?;
+            zstd::bulk::Decompressor::new()
+                .and_then(|mut d| d.decompress_to_buffer(&data[..], &mut out))
+                .map_err(|e| format!("does not decompress: {e}"))?;
+            out
+        }
+        other => return Err(format!("unknown compression {other:?}")),
+    };
+    if records.len() != size {
+        return Err(format!(
+            "holds {} uncompressed bytes, its header says {size}",
+            records.len()
+        ));
+    }
+    let crc = crc32fast::hash(&records);
+    if header.uncompressed_crc != 0 && crc != header.uncompressed_crc {
+        return Err(format!(
+            "CRC mismatch (stored {:08x}, computed {crc:08x})",
+            header.uncompressed_crc
+        ));
+    }
+    Ok((
+        records,
+        (header.message_start_time, header.message_end_time),
+    ))
+}
+
+/// Parses one record outside the chunk framing and hands what matters to
+/// `visit`.
+fn visit_record(
+    record: RawRecord<'_>,
+    channels: &mut BTreeMap<u16, String>,
+    visit: &mut impl FnMut(Item<'_>) -> Result<(), String>,
+) -> Result<(), String> {
+    let name = |op: u8| format!("record (opcode {op:#04x})");
+    match record.opcode {
+        op::CHANNEL | op::MESSAGE | op::METADATA => {}
+        op::HEADER
+        | op::SCHEMA
+        | op::MESSAGE_INDEX
+        | op::CHUNK_INDEX
+        | op::ATTACHMENT
+        | op::ATTACHMENT_INDEX
+        | op::STATISTICS
+        | op::METADATA_INDEX
+        | op::SUMMARY_OFFSET => return Ok(()),
+        // Not written by hardbody, nor by MCAP's current writers.
+        other => return Err(format!("unknown {}", name(other))),
+    }
+    let parsed = mcap::read::parse_record(record.opcode, record.body)
+        .map_err(|e| format!("{}: {e}", name(record.opcode)))?;
+    match parsed {
+        Record::Channel(c) => {
+            channels.insert(c.id, c.topic);
+            Ok(())
+        }
+        Record::Metadata(m) => visit(Item::Metadata(m)),
+        Record::Message { header, data } => {
+            let topic = channels.get(&header.channel_id).ok_or_else(|| {
+                format!(
+                    "message {} on channel {}, which was never declared",
+                    header.sequence, header.channel_id
+                )
             })?;
-    Ok(stream
-        .map_while(Result::ok)
-        .map(|m| (m.channel.topic.clone(), m.log_time, m.data.into_owned()))
-        .collect())
+            visit(Item::Message {
+                topic,
+                log_time: header.log_time,
+                data: &data,
+            })
+        }
+        _ => Ok(()),
+    }
 }

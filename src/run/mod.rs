@@ -18,10 +18,11 @@ use rand_pcg::Pcg64;
 use crate::analysis::order::nematic_order;
 use crate::edmd::dynamics::{Dynamics, DynamicsDump, DynamicsOptions, EdmdError};
 use crate::edmd::predict::PredictorOptions;
-use crate::log::read::{RawMessage, read_log, read_messages};
+use crate::log::file::{lock_for_reading, same_file};
+use crate::log::read::{RawMessage, ReadOptions, read_log, read_log_with};
 use crate::log::{
     DynamicsProgress, FailureRecord, LogError, LogWriter, NS_PER_SWEEP, NS_PER_TIME_UNIT,
-    ResumeInfo, StateRecord, Stats,
+    ResumeInfo, StateRecord, Stats, partial_path,
 };
 use crate::mc::compress::{CompressOptions, Compressor, CompressorState};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
@@ -70,6 +71,18 @@ pub enum RunError {
     /// The log could not be written.
     #[error("log: {0}")]
     Log(#[from] LogError),
+    /// Writing the log failed (a full disk); what was written up to then
+    /// is kept at `kept` if it holds a frame to resume from.
+    #[error("log: {source}; {}", match kept {
+        Some(p) => format!("the log up to the failure is in {}", p.display()),
+        None => "no partial log was kept (it held no frame to resume from)".into(),
+    })]
+    LogWrite {
+        /// The first write that failed.
+        source: LogError,
+        /// The partial log kept, if any.
+        kept: Option<PathBuf>,
+    },
     /// A stage failed; the log up to the failure is kept at `partial`.
     #[error("stage {index} ({kind}): {message}; the log up to the failure is in {}", partial.display())]
     Stage {
@@ -89,7 +102,10 @@ impl RunError {
     /// than the simulation.
     pub fn is_bad_input(&self) -> bool {
         matches!(self, RunError::Start(_) | RunError::Resume(_))
-            || matches!(self, RunError::Log(LogError::Io { .. }))
+            || matches!(
+                self,
+                RunError::Log(LogError::Io { .. } | LogError::Busy { .. })
+            )
     }
 }
 
@@ -102,6 +118,9 @@ pub struct RunSummary {
     pub stages: Vec<String>,
     /// Whether the run was stopped early (the log is complete up to there).
     pub interrupted: bool,
+    /// What the user should know of how the run went (a damaged log
+    /// resumed from before its damage).
+    pub notes: Vec<String>,
 }
 
 /// The state handed from stage to stage.
@@ -137,6 +156,9 @@ struct ResumePoint {
     info: ResumeInfo,
     log_time: u64,
     prefix: Vec<RawMessage>,
+    /// Whether the new log is written to the partial log resumed from
+    /// (it then replaces it only once it holds as much).
+    in_place: bool,
 }
 
 /// Continues the run logged in `log` (complete, stopped, or cut off by a
@@ -151,7 +173,17 @@ pub fn resume_run(
     stop: &AtomicBool,
 ) -> Result<RunSummary, RunError> {
     let bad = |m: String| RunError::Resume(format!("{}: {m}", log.display()));
-    let contents = read_log(log, false).map_err(|e| RunError::Resume(e.to_string()))?;
+    // Held to the end: a log still being written is not resumed from, and
+    // two resumes of one log do not run at once.
+    let _reading = lock_for_reading(log).map_err(|e| RunError::Resume(e.to_string()))?;
+    let contents = read_log_with(
+        log,
+        ReadOptions {
+            all_states: false,
+            messages: true,
+        },
+    )
+    .map_err(|e| RunError::Resume(e.to_string()))?;
     let text = contents
         .metadata
         .get("scene")
@@ -162,15 +194,31 @@ pub fn resume_run(
         .get("scene_resolved")
         .ok_or_else(|| bad("no resolved scene in the log's metadata".into()))?;
     let scene = Scene::parse(resolved).map_err(|e| bad(format!("its scene: {e}")))?;
-    let (log_time, record) = contents
-        .last_state
-        .ok_or_else(|| bad("no complete frame to resume from".into()))?;
+    let (log_time, record) = contents.last_state.ok_or_else(|| {
+        bad(match &contents.damage {
+            Some(d) => format!("no complete frame before the damage ({d})"),
+            None => "no complete frame to resume from".into(),
+        })
+    })?;
     let info = record
         .resume
         .clone()
         .ok_or_else(|| bad("its last frame carries no resume information".into()))?;
-    let prefix: Vec<RawMessage> = read_messages(log)
-        .map_err(|e| RunError::Resume(e.to_string()))?
+    let mut notes = Vec::new();
+    if let Some(d) = &contents.damage {
+        notes.push(format!(
+            "{}: {d}; resumed from the last intact frame before it (stage {}, {})",
+            log.display(),
+            record.stage_index,
+            match (record.sweep, record.time) {
+                (Some(s), _) => format!("sweep {s}"),
+                (_, Some(t)) => format!("t = {t}"),
+                _ => "its start".into(),
+            }
+        ));
+    }
+    let prefix: Vec<RawMessage> = contents
+        .messages
         .into_iter()
         // (A failed run's `/failure` is not part of the state resumed.)
         .filter(|(topic, t, _)| *t <= log_time && topic != "/failure")
@@ -180,8 +228,11 @@ pub fn resume_run(
         info,
         log_time,
         prefix,
+        in_place: same_file(&partial_path(out), log),
     };
-    run_with(&scene, &text, out, progress, stop, Some(point))
+    let mut summary = run_with(&scene, &text, out, progress, stop, Some(point))?;
+    summary.notes.splice(0..0, notes);
+    Ok(summary)
 }
 
 fn run_with(
@@ -227,15 +278,27 @@ fn run_with(
             }
         }
     };
-    let mut log = LogWriter::create(
-        log_path,
-        scene_text,
-        &scene.to_ron(),
-        &runner.plan.mc_species(),
-    )?;
+    let species = runner.plan.mc_species();
+    let created = match &from {
+        Some(point) if point.in_place => {
+            LogWriter::create_replacing_partial(log_path, scene_text, &scene.to_ron(), &species)
+        }
+        _ => LogWriter::create(log_path, scene_text, &scene.to_ron(), &species),
+    };
+    let mut log = match created {
+        Ok(log) => log,
+        // A disk too full for the log's start: nothing is kept.
+        Err(source) if source.is_disk_full() => {
+            return Err(RunError::LogWrite { source, kept: None });
+        }
+        Err(e) => return Err(e.into()),
+    };
     if let Some(point) = &from {
         for (topic, time, data) in &point.prefix {
-            log.copy(topic, *time, data)?;
+            if let Err(source) = log.copy(topic, *time, data) {
+                let kept = log.abandon().unwrap_or(None);
+                return Err(RunError::LogWrite { source, kept });
+            }
         }
     }
     let mut lines = Vec::new();
@@ -276,8 +339,21 @@ fn run_with(
                     message: message.clone(),
                     dump,
                 };
-                log.failure(at, &failure)?;
-                let partial = log.abandon()?;
+                // A log that cannot be written (a full disk) takes no
+                // failure record: the write is the failure.
+                let written = log.failure(at, &failure);
+                let first_error = log.error();
+                let kept = log.abandon();
+                if let Some(source) = first_error {
+                    return Err(RunError::LogWrite {
+                        source,
+                        kept: kept.unwrap_or(None),
+                    });
+                }
+                written?;
+                let Some(partial) = kept? else {
+                    unreachable!("a log written without error is kept");
+                };
                 return Err(RunError::Stage {
                     index,
                     kind: stage.kind(),
@@ -293,6 +369,7 @@ fn run_with(
         log: path,
         stages: lines,
         interrupted,
+        notes: Vec::new(),
     })
 }
 
@@ -369,14 +446,7 @@ fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result<System, Ru
                 rng,
             )?)
         }
-        Start::Resume(path) => {
-            let contents =
-                read_log(Path::new(path), false).map_err(|e| RunError::Resume(e.to_string()))?;
-            let (_, record) = contents
-                .last_state
-                .ok_or_else(|| RunError::Resume(format!("{path} holds no complete state")))?;
-            system_from_record(&record, plan).map_err(RunError::Resume)
-        }
+        Start::Resume(path) => resumed_start(path, plan),
     }
 }
 
@@ -394,6 +464,29 @@ fn layered(system: System, axis: usize) -> Result<System, McError> {
         p.species = k;
     }
     System::new(*system.periodic_box(), system.species().to_vec(), sites)
+}
+
+/// Whether the scene's start can be made before anything runs: a
+/// `Resume` start's log is read and its last state checked against the
+/// scene (what `run` would refuse, `check` refuses too).
+pub fn check_start(scene: &Scene) -> Result<(), RunError> {
+    if let Start::Resume(path) = &scene.start {
+        let plan = Plan::of(scene);
+        resumed_start(path, &plan)?;
+    }
+    Ok(())
+}
+
+/// The system of the last intact state of the log at `path`.
+fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError> {
+    let contents = read_log(Path::new(path), false).map_err(|e| RunError::Resume(e.to_string()))?;
+    let (_, record) = contents.last_state.ok_or_else(|| {
+        RunError::Resume(match &contents.damage {
+            Some(d) => format!("{path} holds no complete state before its damage ({d})"),
+            None => format!("{path} holds no complete state"),
+        })
+    })?;
+    system_from_record(&record, plan).map_err(|e| RunError::Resume(format!("{path}: {e}")))
 }
 
 /// A system from a logged state, checked against the scene's species.
@@ -421,16 +514,28 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, S
                 .join(", ")
         ));
     }
-    let counts_match = plan.species.iter().enumerate().all(|(k, s)| {
-        record
-            .species_of
-            .iter()
-            .filter(|&&x| x as usize == k)
-            .count()
-            == s.count
-    });
-    if !counts_match || record.positions.len() != record.species_of.len() {
-        return Err("the logged particle counts differ from the scene's".into());
+    let logged: Vec<usize> = (0..plan.species.len())
+        .map(|k| {
+            record
+                .species_of
+                .iter()
+                .filter(|&&x| x as usize == k)
+                .count()
+        })
+        .collect();
+    let wanted: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
+    if logged != wanted {
+        return Err(format!(
+            "the logged particle counts per species {logged:?} differ from the scene's {wanted:?}"
+        ));
+    }
+    let n = record.species_of.len();
+    if record.positions.len() != n || record.orientations.len() != n {
+        return Err(format!(
+            "the logged state has {} positions and {} orientations for {n} particles",
+            record.positions.len(),
+            record.orientations.len()
+        ));
     }
     let box_ = PeriodicBox::new(Vector3::from(record.box_lengths))
         .map_err(|e| format!("logged box: {e}"))?
@@ -1041,6 +1146,7 @@ impl Runner<'_> {
                     next_stats: 1,
                     next_frame: 1,
                     temperature,
+                    interval: None,
                 };
                 if !fresh {
                     dynamics.resynchronize().map_err(fail)?;
@@ -1051,7 +1157,13 @@ impl Runner<'_> {
         };
         let (t0, c0) = (progress_at.start_time, progress_at.start_collisions);
         let (mut k_stats, mut k_frames) = (progress_at.next_stats, progress_at.next_frame);
-        dynamics.sample();
+        match progress_at.interval {
+            // Resumed: the interval goes on from the frame's sums.
+            Some(interval) => dynamics.continue_interval(interval),
+            None => {
+                dynamics.sample();
+            }
+        }
         if msd || c2 {
             // After a resume the references restart at the resumed frame.
             dynamics.set_reference();
@@ -1128,6 +1240,7 @@ impl Runner<'_> {
                     collisions: dynamics.collisions(),
                     next_stats: k_stats,
                     next_frame: k_frames,
+                    interval: Some(dynamics.interval()),
                     ..progress_at
                 };
                 log.frame(time, &self.record_dynamics(&dynamics, index, p, end))

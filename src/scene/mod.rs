@@ -42,6 +42,25 @@ pub struct Scene {
 /// Sweeps a compression may take when the scene does not say.
 pub const DEFAULT_COMPRESS_SWEEPS: u64 = 1_000_000;
 
+/// The most particles a scene may hold: about 1 kB each in the drivers,
+/// the log and its frames, so 10 GB at this bound.
+pub const MAX_PARTICLES: usize = 10_000_000;
+
+/// The range of masses, temperatures (kT) and pressures (βP) a scene may give: within it,
+/// sums over every particle such as N kT, and speeds sqrt(kT/m), stay far
+/// inside double precision.
+pub const VALUE_RANGE: (f64, f64) = (1e-100, 1e100);
+
+/// The most `/stats` messages, and frames, one stage may write.
+pub const MAX_STATS_PER_STAGE: f64 = 1e7;
+/// See [`MAX_STATS_PER_STAGE`].
+pub const MAX_FRAMES_PER_STAGE: f64 = 1e6;
+
+/// The most times the smallest body size (cube root of its volume) a body may travel, at the
+/// thermal speed, in one dynamics stage (about as many collisions per
+/// body): beyond it a stage would not end in any real time.
+pub const MAX_SIZES_TRAVELLED: f64 = 1e12;
+
 fn default_seed() -> u64 {
     1
 }
@@ -402,6 +421,31 @@ impl Scene {
     }
 
     /// Checks every field; on failure the field path and what is wrong.
+    /// Whether `sweeps` sweeps of Monte Carlo stage `i` write at most
+    /// [`MAX_STATS_PER_STAGE`] `/stats` messages and
+    /// [`MAX_FRAMES_PER_STAGE`] frames.
+    fn check_messages(&self, i: usize, sweeps: u64) -> Result<(), (String, String)> {
+        for (name, every, most) in [
+            ("log.stats_every", self.log.stats_every, MAX_STATS_PER_STAGE),
+            (
+                "log.frames_every",
+                self.log.frames_every,
+                MAX_FRAMES_PER_STAGE,
+            ),
+        ] {
+            let messages = sweeps as f64 / every.max(1) as f64;
+            if messages > most {
+                return Err((
+                    name.to_string(),
+                    format!(
+                        "every {every} sweeps would write {messages:.3e} messages in the {sweeps} sweeps of stages[{i}]: at most {most:e} per stage"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     fn validate(&self) -> Result<(), (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
         let (x, y, z) = self.box_lengths;
@@ -430,10 +474,21 @@ impl Scene {
             if s.count == 0 {
                 return bad(&f("count"), "must be at least 1".into());
             }
-            if !(s.mass.is_finite() && s.mass > 0.0) {
+            let so_far: usize = self.species[..i].iter().map(|t| t.count).sum();
+            if s.count > MAX_PARTICLES - so_far {
+                return bad(
+                    &f("count"),
+                    format!(
+                        "{} particles with those before: at most {MAX_PARTICLES} in all (about 1 kB of memory each)",
+                        (so_far as u128) + s.count as u128
+                    ),
+                );
+            }
+            let (low, high) = VALUE_RANGE;
+            if !(s.mass >= low && s.mass <= high) {
                 return bad(
                     &f("mass"),
-                    format!("must be finite and > 0, got {}", s.mass),
+                    format!("must lie in [{low:e}, {high:e}], got {:e}", s.mass),
                 );
             }
         }
@@ -556,6 +611,7 @@ impl Scene {
                     if *max_sweeps == Some(0) {
                         return bad(&f("max_sweeps"), "must be at least 1".into());
                     }
+                    self.check_messages(i, max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS))?;
                     known_phi = Some(*target);
                 }
                 Stage::MonteCarlo {
@@ -566,6 +622,7 @@ impl Scene {
                     if *sweeps == 0 {
                         return bad(&f("sweeps"), "must be at least 1".into());
                     }
+                    self.check_messages(i, *sweeps)?;
                     if let Some(t) = tune_sweeps
                         && t > sweeps
                     {
@@ -575,10 +632,11 @@ impl Scene {
                         );
                     }
                     if let Ensemble::Npt { pressure, .. } = ensemble {
-                        if !(pressure.is_finite() && *pressure > 0.0) {
+                        let (low, high) = VALUE_RANGE;
+                        if !(*pressure >= low && *pressure <= high) {
                             return bad(
                                 &f("ensemble.pressure"),
-                                format!("must be finite and > 0, got {pressure}"),
+                                format!("must lie in [{low:e}, {high:e}], got {pressure:e}"),
                             );
                         }
                         known_phi = None;
@@ -598,19 +656,47 @@ impl Scene {
                             format!("must be finite and > 0, got {duration}"),
                         );
                     }
-                    if !(temperature.is_finite() && *temperature > 0.0) {
+                    let (low, high) = VALUE_RANGE;
+                    if !(*temperature >= low && *temperature <= high) {
                         return bad(
                             &f("temperature"),
-                            format!("must be finite and > 0, got {temperature}"),
+                            format!("must lie in [{low:e}, {high:e}], got {temperature:e}"),
                         );
                     }
-                    for (name, v) in [("stats_every", stats_every), ("frames_every", frames_every)]
-                    {
-                        if let Some(v) = v
-                            && !(v.is_finite() && *v > 0.0)
-                        {
-                            return bad(&f(name), format!("must be finite and > 0, got {v}"));
+                    for (name, v, most) in [
+                        ("stats_every", stats_every, MAX_STATS_PER_STAGE),
+                        ("frames_every", frames_every, MAX_FRAMES_PER_STAGE),
+                    ] {
+                        if let Some(v) = v {
+                            if !(v.is_finite() && *v > 0.0) {
+                                return bad(&f(name), format!("must be finite and > 0, got {v}"));
+                            }
+                            if duration / v > most {
+                                return bad(
+                                    &f(name),
+                                    format!(
+                                        "{v:e} would write {:.3e} messages over the duration {duration}: at most {most:e} per stage",
+                                        duration / v
+                                    ),
+                                );
+                            }
                         }
+                    }
+                    // The fastest thermal speed against the smallest body.
+                    let lightest = self.species.iter().map(|s| s.mass).fold(f64::MAX, f64::min);
+                    let smallest = self
+                        .species
+                        .iter()
+                        .map(|s| s.shape.volume().cbrt())
+                        .fold(f64::MAX, f64::min);
+                    let travelled = duration * (temperature / lightest).sqrt() / smallest;
+                    if travelled.is_nan() || travelled > MAX_SIZES_TRAVELLED {
+                        return bad(
+                            &f("duration"),
+                            format!(
+                                "at kT = {temperature:e} the lightest body (mass {lightest:e}) would travel {travelled:.3e} times the smallest body size {smallest:e} (cube root of its volume): at most {MAX_SIZES_TRAVELLED:e} in one stage"
+                            ),
+                        );
                     }
                     if *true_inertia
                         && let Some(s) = self
@@ -631,6 +717,15 @@ impl Scene {
         }
         if self.log.path.trim().is_empty() {
             return bad("log.path", "must not be empty".into());
+        }
+        if self.log.path.ends_with('/') || self.log.path.ends_with(std::path::MAIN_SEPARATOR) {
+            return bad(
+                "log.path",
+                format!(
+                    "\"{}\" ends in a separator: a log path names a file",
+                    self.log.path
+                ),
+            );
         }
         if self.log.stats_every == 0 {
             return bad("log.stats_every", "must be at least 1 sweep".into());
