@@ -68,6 +68,20 @@ enum Command {
         #[arg(long, value_name = "OUT.gsd")]
         gsd: PathBuf,
     },
+    /// Equilibrium averages of a log, stage by stage: for every /stats
+    /// observable where it equilibrated, its mean and standard error from
+    /// there (correlation included), and whether the stage equilibrated.
+    Analyze {
+        /// MCAP log written by `hardbody run` (complete or partial).
+        log: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Write one plot (SVG) per stage and observable into this
+        /// directory: the series, its mean and where it equilibrated.
+        #[arg(long, value_name = "DIR")]
+        plot: Option<PathBuf>,
+    },
     /// Print a log's channels, message counts, stages and last stats.
     Inspect {
         /// MCAP log written by `hardbody run`.
@@ -142,6 +156,7 @@ fn main() -> ExitCode {
         } => run(scene, out, seed, resume),
         Command::Check { scene } => check(&scene),
         Command::Inspect { log } => inspect(&log),
+        Command::Analyze { log, json, plot } => analyze(&log, json, plot.as_deref()),
         Command::Export { log, gsd } => export(&log, &gsd),
         Command::Virial {
             shape_a,
@@ -430,6 +445,165 @@ fn check(path: &std::path::Path) -> ExitCode {
     }
     .to_string());
     ExitCode::SUCCESS
+}
+
+fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
+    use hardbody::analysis::averages::stage_averages;
+    use hardbody::analysis::series::FEW_EFFECTIVE_SAMPLES;
+    let contents = match read_log(path, false) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    if let Some(d) = &contents.damage {
+        esay(&format!(
+            "hardbody: {}: {d}; analysing the /stats before it",
+            path.display()
+        ));
+    }
+    let stats: Vec<_> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
+    let stages = stage_averages(&stats);
+    if let Some(dir) = plot {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            return bad_input(format!("--plot {}: {e}", dir.display()));
+        }
+        for stage in &stages {
+            if let Err(e) = plot_stage(dir, &stats, stage) {
+                return bad_input(e);
+            }
+        }
+    }
+    if json {
+        print_json(&serde_json::json!({
+            "log": path.display().to_string(),
+            "stages": stages,
+        }));
+    } else {
+        say(&format!("{}:", path.display()));
+        for stage in &stages {
+            let unit = if stage.stage == "dynamics" {
+                "t"
+            } else {
+                "sweep"
+            };
+            let verdict = if stage.stage == "compress" {
+                "compression (not an equilibrium stage: no averages)".to_string()
+            } else if stage.equilibrated {
+                "equilibrated".to_string()
+            } else {
+                format!(
+                    "NOT EQUILIBRATED ({}): run it longer",
+                    stage.not_equilibrated.join(", ")
+                )
+            };
+            say(&format!(
+                "stage {} ({}), {} stats messages, {unit} {}-{}: {verdict}",
+                stage.stage_index, stage.stage, stage.samples, stage.span[0], stage.span[1]
+            ));
+            if stage.observables.is_empty() {
+                continue;
+            }
+            say(&format!(
+                "  {:<22} {:>26} {:>16} {:>8} {:>8}",
+                "observable",
+                "mean +- error",
+                format!("from {unit}"),
+                "g",
+                "N_eff"
+            ));
+            for (name, o) in &stage.observables {
+                let e = &o.estimate;
+                let value = if o.constant {
+                    format!("{} (constant)", e.mean)
+                } else {
+                    format!("{:.6} +- {:.6}", e.mean, e.error)
+                };
+                say(&format!(
+                    "  {:<22} {:>26} {:>16} {:>8.2} {:>8.1}{}",
+                    name,
+                    value,
+                    o.equilibrated_from,
+                    e.statistical_inefficiency,
+                    e.effective_samples,
+                    if !e.equilibrated {
+                        "  not equilibrated"
+                    } else if e.effective_samples < FEW_EFFECTIVE_SAMPLES && !o.constant {
+                        "  few effective samples: the error is uncertain"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+        }
+    }
+    let never: Vec<String> = stages
+        .iter()
+        .filter(|s| s.stage != "compress" && !s.equilibrated)
+        .map(|s| s.stage_index.to_string())
+        .collect();
+    if !never.is_empty() {
+        esay(&format!(
+            "hardbody: warning: stage {} never equilibrated: its averages are not equilibrium values",
+            never.join(", ")
+        ));
+    }
+    ExitCode::SUCCESS
+}
+
+/// One SVG per observable of `stage`: the series, the mean of its
+/// equilibrated part, and where that part begins.
+fn plot_stage(
+    dir: &std::path::Path,
+    stats: &[hardbody::log::Stats],
+    stage: &hardbody::analysis::averages::StageAverages,
+) -> Result<(), String> {
+    use hardbody::bench::plot::{Figure, Series, line_plot};
+    let dynamics = stage.stage == "dynamics";
+    for (name, o) in &stage.observables {
+        if o.constant {
+            continue;
+        }
+        let points: Vec<(f64, f64)> = stats
+            .iter()
+            .filter(|s| s.stage_index == stage.stage_index)
+            .filter_map(|s| {
+                let x = s.sweep.map(|w| w as f64).or(s.time)?;
+                let v = serde_json::to_value(s).ok()?.get(name)?.as_f64()?;
+                Some((x, v))
+            })
+            .collect();
+        let (lo, hi) = points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.1), b.max(p.1))
+            });
+        let from = o.equilibrated_from;
+        let end = points.last().map_or(from, |p| p.0);
+        let series = [
+            Series {
+                name: name.clone(),
+                points,
+            },
+            Series {
+                name: format!("mean {:.5} +- {:.5}", o.estimate.mean, o.estimate.error),
+                points: vec![(from, o.estimate.mean), (end, o.estimate.mean)],
+            },
+            Series {
+                name: "equilibrated from here".into(),
+                points: vec![(from, lo), (from, hi)],
+            },
+        ];
+        let title = format!("stage {} ({}): {name}", stage.stage_index, stage.stage);
+        let figure = Figure {
+            title: &title,
+            x_label: if dynamics { "time" } else { "sweeps" },
+            y_label: name,
+            log_x: false,
+            log_y: false,
+        };
+        let path = dir.join(format!("stage{}-{name}.svg", stage.stage_index));
+        line_plot(&path, &figure, &series)?;
+    }
+    Ok(())
 }
 
 fn inspect(path: &std::path::Path) -> ExitCode {

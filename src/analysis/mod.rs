@@ -1,4 +1,7 @@
-//! Observables computed from the geometry layer.
+//! Observables computed from the geometry layer, and the statistics of
+//! the series a run logs.
 
+pub mod averages;
 pub mod order;
+pub mod series;
 pub mod virial;

@@ -1,0 +1,141 @@
+//! Equilibrium averages of a log's `/stats`, stage by stage: for every
+//! observable of every Monte Carlo and dynamics stage, where it
+//! equilibrated, its mean from there on with an error that accounts for
+//! correlation, and whether the stage equilibrated at all
+//! (`hardbody analyze`).
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::series::{Estimate, detect_equilibration};
+use crate::log::Stats;
+
+/// Candidate equilibration starts tried per series.
+const CANDIDATE_STARTS: usize = 200;
+
+/// One observable of one stage.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Observable {
+    /// The estimate from the equilibrated part.
+    #[serde(flatten)]
+    pub estimate: Estimate,
+    /// The sweep (Monte Carlo) or time (dynamics) of the first sample
+    /// counted.
+    pub equilibrated_from: f64,
+    /// Whether every sample has the same value to within 1e-9 of it (an
+    /// imposed pressure, the temperature of dynamics): then it is
+    /// reported, not estimated.
+    pub constant: bool,
+}
+
+/// One stage of a log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StageAverages {
+    /// Index of the stage in the scene.
+    pub stage_index: usize,
+    /// `monte_carlo` or `dynamics` (compression stages are not at
+    /// equilibrium and are listed without averages).
+    pub stage: String,
+    /// `/stats` messages of the stage.
+    pub samples: usize,
+    /// Sweeps (Monte Carlo) or simulated time (dynamics) the samples span.
+    pub span: [f64; 2],
+    /// Per observable (the `/stats` field names).
+    pub observables: BTreeMap<String, Observable>,
+    /// Whether every observable that is not an acceptance rate
+    /// equilibrated (the acceptances follow the move sizes, not the
+    /// physics).
+    pub equilibrated: bool,
+    /// The observables that did not equilibrate.
+    pub not_equilibrated: Vec<String>,
+}
+
+/// The observables of a `/stats` message that averages are taken of
+/// (not the box, which follows φ, nor MSD and C₂, which are functions of
+/// time, not stationary values).
+fn observables(s: &Stats) -> [(&'static str, Option<f64>); 7] {
+    [
+        ("packing_fraction", Some(s.packing_fraction)),
+        ("pressure", s.pressure),
+        ("temperature", s.temperature),
+        ("nematic_order", s.nematic_order),
+        ("acceptance_translate", s.acceptance_translate),
+        ("acceptance_rotate", s.acceptance_rotate),
+        ("acceptance_volume", s.acceptance_volume),
+    ]
+}
+
+/// Averages of every stage in `stats` (a log's `/stats`, in order).
+pub fn stage_averages(stats: &[Stats]) -> Vec<StageAverages> {
+    let mut stages: Vec<Vec<&Stats>> = Vec::new();
+    for s in stats {
+        match stages.last_mut() {
+            Some(run) if run[0].stage_index == s.stage_index => run.push(s),
+            _ => stages.push(vec![s]),
+        }
+    }
+    stages.iter().map(|run| one_stage(run)).collect()
+}
+
+fn progress(s: &Stats) -> f64 {
+    s.sweep.map(|w| w as f64).or(s.time).unwrap_or(f64::NAN)
+}
+
+fn one_stage(run: &[&Stats]) -> StageAverages {
+    let first = run[0];
+    let span = [progress(first), progress(run[run.len() - 1])];
+    let mut observables_of = BTreeMap::new();
+    let mut not_equilibrated = Vec::new();
+    if first.stage != "compress" {
+        for (k, (name, _)) in observables(first).iter().enumerate() {
+            // The samples where the stage measures it (all or none).
+            let (at, x): (Vec<f64>, Vec<f64>) = run
+                .iter()
+                .filter_map(|s| observables(s)[k].1.map(|v| (progress(s), v)))
+                .unzip();
+            if x.is_empty() || !x.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            // Constant to rounding (an imposed pressure; the temperature of
+            // dynamics, which conserves energy).
+            let (lo, hi) = x
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(*v), b.max(*v))
+                });
+            let constant = hi - lo <= 1e-9 * hi.abs().max(lo.abs());
+            let estimate = if constant {
+                Estimate {
+                    error: 0.0,
+                    statistical_inefficiency: 1.0,
+                    effective_samples: x.len() as f64,
+                    equilibrated: true,
+                    ..super::series::estimate_from(&x, 0)
+                }
+            } else {
+                detect_equilibration(&x, CANDIDATE_STARTS)
+            };
+            if !estimate.equilibrated && !name.starts_with("acceptance") {
+                not_equilibrated.push(name.to_string());
+            }
+            observables_of.insert(
+                name.to_string(),
+                Observable {
+                    equilibrated_from: at[estimate.start.min(at.len() - 1)],
+                    estimate,
+                    constant,
+                },
+            );
+        }
+    }
+    StageAverages {
+        stage_index: first.stage_index,
+        stage: first.stage.clone(),
+        samples: run.len(),
+        span,
+        equilibrated: first.stage != "compress" && not_equilibrated.is_empty(),
+        observables: observables_of,
+        not_equilibrated,
+    }
+}
