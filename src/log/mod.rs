@@ -243,6 +243,10 @@ pub struct ResumeInfo {
     pub compress: Option<CompressorState>,
     /// The dynamics' progress (Dynamics stages).
     pub dynamics: Option<DynamicsProgress>,
+    /// Whether an NPT stage's density has settled, and the samples it is
+    /// judged from (absent in logs of earlier versions).
+    #[serde(default)]
+    pub drift: Option<crate::mc::tuning::DriftWatch>,
 }
 
 /// See [`ResumeInfo`].

@@ -29,7 +29,7 @@ use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::Sdf;
 use crate::mc::start::{StartError, lattice, random_insertion};
-use crate::mc::tuning::Tuner;
+use crate::mc::tuning::{DriftWatch, Tuner, TuningSpan};
 use crate::mc::{McError, Particle, Species, System};
 use crate::scene::plan::Plan;
 use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
@@ -251,6 +251,7 @@ fn run_with(
         sizes: initial_sizes(scene),
         stop,
         failure: None,
+        drift: DriftWatch::default(),
     };
     let (mut phase, first_stage, mut resume) = match &from {
         None => {
@@ -567,6 +568,9 @@ struct Runner<'a> {
     /// Set by a dynamics stage that fails: the log time and the dynamics'
     /// stored state at the failure.
     failure: Option<(u64, DynamicsDump)>,
+    /// Whether the density of the current NPT stage has settled (its move
+    /// sizes are then frozen).
+    drift: DriftWatch,
 }
 
 /// What a stage returns: the next phase, a summary line, and whether the
@@ -653,9 +657,16 @@ impl Runner<'_> {
                 tune_sweeps,
             } => {
                 let system = self.to_system(phase)?;
-                let tune = tune_sweeps.unwrap_or(sweeps / 5);
+                let span = match (tune_sweeps, ensemble) {
+                    (Some(t), _) => TuningSpan::Fixed(*t),
+                    (None, Ensemble::Npt { .. }) => TuningSpan::UntilSettled {
+                        at_least: sweeps / 5,
+                        at_most: *sweeps,
+                    },
+                    (None, Ensemble::Nvt) => TuningSpan::Fixed(sweeps / 5),
+                };
                 self.monte_carlo(
-                    index, system, ensemble, *sweeps, tune, resume, log, progress, rng,
+                    index, system, ensemble, *sweeps, span, resume, log, progress, rng,
                 )
             }
             Stage::Dynamics { .. } => {
@@ -725,6 +736,7 @@ impl Runner<'_> {
         max_translate: f64,
         complete: bool,
     ) -> ResumeInfo {
+        let drift = compress.is_none().then(|| self.drift.clone());
         ResumeInfo {
             stage_clock: self.clock,
             stage_complete: complete,
@@ -736,6 +748,7 @@ impl Runner<'_> {
             tune_window,
             compress,
             dynamics: None,
+            drift,
         }
     }
 
@@ -920,7 +933,7 @@ impl Runner<'_> {
         mut system: System,
         ensemble: &Ensemble,
         sweeps: u64,
-        tune: u64,
+        span: TuningSpan,
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
@@ -938,6 +951,10 @@ impl Runner<'_> {
         };
         let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
         let write_error = |e: LogError| format!("writing the log: {e}");
+        self.drift = resume
+            .as_ref()
+            .and_then(|r| r.drift.clone())
+            .unwrap_or_default();
         let (first, mut window, mut tune_window, max_translate) = match &resume {
             Some(r) => (r.sweep, r.window, r.tune_window, r.max_translate),
             None => {
@@ -976,14 +993,21 @@ impl Runner<'_> {
         let mut slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
         // What happens after sweep s (the loop below does it), and so
         // where the slabs' run of sweeps handed to their team at once ends.
-        let tunes_at = |s: u64| s <= tune && s.is_multiple_of(TUNE_WINDOW);
-        let samples_at = |s: u64| s > tune && s.is_multiple_of(sdf_every);
+        // (Given whether the density has settled, which only a tuning
+        // window's end changes.)
+        let tunes_at =
+            |s: u64, settled: bool| s.is_multiple_of(TUNE_WINDOW) && span.tunes_at(s, settled);
+        let sampled_after = match span {
+            TuningSpan::Fixed(t) => t,
+            TuningSpan::UntilSettled { at_least, .. } => at_least,
+        };
+        let samples_at = |s: u64| s > sampled_after && s.is_multiple_of(sdf_every);
         let sampling = sdf.is_some();
-        let eventful = |s: u64| {
+        let eventful = |s: u64, settled: bool| {
             s == sweeps
                 || s.is_multiple_of(stats_every)
                 || s.is_multiple_of(frames_every)
-                || tunes_at(s)
+                || tunes_at(s, settled)
                 || (sampling && samples_at(s))
         };
         let mut seeds = Vec::with_capacity(MAX_CHUNK);
@@ -995,7 +1019,7 @@ impl Runner<'_> {
                     loop {
                         s += 1;
                         seeds.push(rng.next_u64());
-                        if eventful(s) || seeds.len() == MAX_CHUNK {
+                        if eventful(s, self.drift.settled) || seeds.len() == MAX_CHUNK {
                             break;
                         }
                     }
@@ -1009,9 +1033,12 @@ impl Runner<'_> {
             };
             window += c;
             tune_window += c;
-            if tunes_at(s) {
+            if tunes_at(s, self.drift.settled) {
                 tuner.update(&mut self.sizes, &tune_window);
                 tune_window = Counts::default();
+                if matches!(span, TuningSpan::UntilSettled { .. }) {
+                    self.drift.observe(system.packing_fraction());
+                }
             }
             if let Some(sdf) = sdf.as_mut()
                 && samples_at(s)
@@ -1323,6 +1350,7 @@ impl Runner<'_> {
                 tune_window: Counts::default(),
                 compress: None,
                 dynamics: Some(progress),
+                drift: None,
             }),
             ..StateRecord::of_particles(
                 dynamics.periodic_box(),

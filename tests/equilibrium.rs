@@ -1,0 +1,214 @@
+//! Equilibrium averages a researcher can quote: NPT stages whose move
+//! sizes follow the density until it settles, and `hardbody analyze`
+//! reporting the hard-sphere equation of state within its errors and
+//! flagging a stage that never equilibrated.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use hardbody::analysis::averages::{StageAverages, stage_averages};
+use hardbody::log::Stats;
+use hardbody::log::read::read_log;
+use hardbody::run::{Silent, run_scene};
+use hardbody::scene::Scene;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hardbody-eq-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `text` and returns its `/stats`.
+fn stats_of(text: &str, log: &Path) -> Vec<Stats> {
+    let scene = Scene::parse(text).unwrap();
+    run_scene(&scene, text, log, &mut Silent, &AtomicBool::new(false)).unwrap();
+    read_log(log, false)
+        .unwrap()
+        .stats
+        .into_iter()
+        .map(|(_, s)| s)
+        .collect()
+}
+
+/// βP σ³ of Carnahan–Starling at packing fraction φ, and the φ at βP.
+fn carnahan_starling(phi: f64) -> f64 {
+    6.0 * phi / std::f64::consts::PI * (1.0 + phi + phi * phi - phi.powi(3)) / (1.0 - phi).powi(3)
+}
+
+fn carnahan_starling_density(pressure: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, 0.6);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if carnahan_starling(mid) < pressure {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    lo
+}
+
+/// 216 hard spheres from a dilute lattice (φ = 0.06) at βP = 6, 6000
+/// sweeps, with `tune` the stage's tuning option.
+fn dilute_npt(tune: &str) -> String {
+    format!(
+        r#"Scene(
+    seed: 3,
+    box: (13.0, 13.0, 13.0),
+    species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 216)],
+    stages: [MonteCarlo(ensemble: Npt(pressure: 6.0), sweeps: 6000{tune})],
+    log: Log(path: "unused.mcap", stats_every: 50, frames_every: 3000),
+)"#
+    )
+}
+
+/// Mean translation acceptance and packing fraction over the last 1000
+/// sweeps.
+fn last_stretch(stats: &[Stats]) -> (f64, f64) {
+    let tail = &stats[stats.len() - 20..];
+    let mean = |f: &dyn Fn(&Stats) -> f64| tail.iter().map(f).sum::<f64>() / tail.len() as f64;
+    (
+        mean(&|s| s.acceptance_translate.unwrap()),
+        mean(&|s| s.packing_fraction),
+    )
+}
+
+#[test]
+fn npt_move_sizes_follow_the_density_until_it_settles() {
+    let dir = scratch("npt");
+    // Sizes frozen after a fifth of the stage (the former default) were
+    // tuned for a dilute gas: as the box shrinks, translations and box
+    // moves are almost all refused and the compression crawls.
+    let frozen = stats_of(&dilute_npt(", tune_sweeps: 1200"), &dir.join("frozen.mcap"));
+    let (frozen_acceptance, frozen_phi) = last_stretch(&frozen);
+    assert!(frozen_acceptance < 0.15, "{frozen_acceptance}");
+    // By default an NPT stage tunes on until its density stops drifting.
+    let followed = stats_of(&dilute_npt(""), &dir.join("followed.mcap"));
+    let (acceptance, phi) = last_stretch(&followed);
+    assert!((acceptance - 0.3).abs() < 0.05, "{acceptance}");
+    assert!(
+        phi > frozen_phi + 0.02,
+        "{phi} (frozen sizes: {frozen_phi})"
+    );
+}
+
+/// The averages of the stage with index `index`.
+fn stage(averages: &[StageAverages], index: usize) -> &StageAverages {
+    averages.iter().find(|s| s.stage_index == index).unwrap()
+}
+
+#[test]
+fn analyze_flags_a_stage_that_never_equilibrated() {
+    let dir = scratch("short");
+    // 400 sweeps of the dilute start: the density rises throughout.
+    let text = dilute_npt("").replace("sweeps: 6000", "sweeps: 400");
+    let text = text.replace("stats_every: 50", "stats_every: 10");
+    let averages = stage_averages(&stats_of(&text, &dir.join("short.mcap")));
+    let s = stage(&averages, 0);
+    assert!(!s.equilibrated, "{s:?}");
+    assert!(s.not_equilibrated.contains(&"packing_fraction".to_string()));
+    // The command says so.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .args(["analyze", dir.join("short.mcap").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(stdout.contains("NOT EQUILIBRATED"), "{stdout}");
+    assert!(stderr.contains("stage 0 never equilibrated"), "{stderr}");
+}
+
+/// NVT Monte Carlo (scale-distribution pressure) and dynamics (collision
+/// virial) of 256 hard spheres at the Carnahan–Starling density of βP = 4,
+/// each averaged by `analyze`: two independent routes to the pressure
+/// agree with each other within their combined errors (three of them) and
+/// with the equation of state within 1 %.
+#[test]
+fn analyze_gives_two_pressure_routes_that_agree_within_their_errors() {
+    let dir = scratch("routes");
+    let phi = carnahan_starling_density(4.0);
+    let text = format!(
+        r#"Scene(
+    seed: 11,
+    box: (12.0, 12.0, 12.0),
+    species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 256)],
+    stages: [
+        Compress(packing_fraction: {phi:.6}),
+        MonteCarlo(ensemble: Nvt, sweeps: 40000),
+        Dynamics(duration: 200.0, stats_every: 1.0),
+    ],
+    log: Log(path: "unused.mcap", stats_every: 100, frames_every: 20000),
+)"#
+    );
+    let averages = stage_averages(&stats_of(&text, &dir.join("routes.mcap")));
+    let pressure = |index: usize| {
+        let s = stage(&averages, index);
+        assert!(s.equilibrated, "stage {index}: {s:?}");
+        s.observables["pressure"].estimate
+    };
+    let (sdf, virial) = (pressure(1), pressure(2));
+    let combined = (sdf.error.powi(2) + virial.error.powi(2)).sqrt();
+    let line = format!(
+        "SDF {:.4} +- {:.4}, virial {:.4} +- {:.4}, Carnahan-Starling 4",
+        sdf.mean, sdf.error, virial.mean, virial.error
+    );
+    assert!(combined > 0.0 && combined < 0.05, "{line}");
+    assert!((sdf.mean - virial.mean).abs() < 3.0 * combined, "{line}");
+    for route in [sdf, virial] {
+        assert!((route.mean / 4.0 - 1.0).abs() < 0.01, "{line}");
+    }
+    // The dynamics conserves the temperature: reported as constant.
+    assert!(stage(&averages, 2).observables["temperature"].constant);
+}
+
+/// The hard-sphere equation of state scene, averaged by `analyze`, against
+/// Carnahan–Starling: every stage equilibrated, every density within 1 %
+/// and within four of its errors. (A long run: `HARDBODY_LONG=1`.)
+#[test]
+fn analyze_reports_the_hard_sphere_equation_of_state() {
+    if std::env::var_os("HARDBODY_LONG").is_none() {
+        eprintln!(
+            "skipped: set HARDBODY_LONG=1 to run the equation-of-state scene (about a minute)"
+        );
+        return;
+    }
+    let dir = scratch("eos");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/hard_sphere_eos.ron");
+    let text = std::fs::read_to_string(path).unwrap();
+    let scene = Scene::parse(&text).unwrap();
+    let averages = stage_averages(&stats_of(&text, &dir.join("eos.mcap")));
+    let mut table = Vec::new();
+    let mut wrong = Vec::new();
+    for (index, st) in scene.stages.iter().enumerate() {
+        let hardbody::scene::Stage::MonteCarlo {
+            ensemble: hardbody::scene::Ensemble::Npt { pressure, .. },
+            ..
+        } = st
+        else {
+            continue;
+        };
+        let s = stage(&averages, index);
+        let phi = &s.observables["packing_fraction"].estimate;
+        let expected = carnahan_starling_density(*pressure);
+        let line = format!(
+            "betaP {pressure}: phi {:.5} +- {:.5} (Carnahan-Starling {expected:.5}, {:+.2} %), from sweep {}, g {:.1}",
+            phi.mean,
+            phi.error,
+            100.0 * (phi.mean / expected - 1.0),
+            s.observables["packing_fraction"].equilibrated_from,
+            phi.statistical_inefficiency
+        );
+        eprintln!("{line}");
+        let off = (phi.mean - expected).abs();
+        if !s.equilibrated || off > 0.01 * expected || off > 4.0 * phi.error {
+            wrong.push(line.clone());
+        }
+        table.push(line);
+    }
+    assert_eq!(table.len(), 5);
+    assert!(wrong.is_empty(), "{}", table.join("\n"));
+}
