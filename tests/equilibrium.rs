@@ -212,3 +212,54 @@ fn analyze_reports_the_hard_sphere_equation_of_state() {
     assert_eq!(table.len(), 5);
     assert!(wrong.is_empty(), "{}", table.join("\n"));
 }
+
+/// 64 rods compressed to 0.35, then dynamics for t = 1 with the Newton
+/// tolerance `tolerance`: its summary and its dynamics `/stats`.
+fn rods_with_newton_tolerance(tolerance: &str, log: &Path) -> (Vec<String>, Vec<Stats>) {
+    let text = format!(
+        r#"Scene(
+    seed: 5,
+    box: (9.0, 9.0, 9.0),
+    species: [Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 64)],
+    stages: [Compress(packing_fraction: 0.35), Dynamics(duration: 1.0, stats_every: 0.1)],
+    accuracy: Accuracy(newton_tolerance: {tolerance}),
+)"#
+    );
+    let scene = Scene::parse(&text).unwrap();
+    let summary = run_scene(&scene, &text, log, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let stats = read_log(log, false)
+        .unwrap()
+        .stats
+        .into_iter()
+        .map(|(_, s)| s)
+        .filter(|s| s.stage == "dynamics")
+        .collect();
+    (summary.notes, stats)
+}
+
+#[test]
+fn solver_strains_are_counted_in_stats_and_reported_at_the_end() {
+    let dir = scratch("strains");
+    // The default tolerance: Newton converges every time.
+    let (notes, stats) = rods_with_newton_tolerance("1e-12", &dir.join("easy.mcap"));
+    assert!(notes.is_empty(), "{notes:?}");
+    let work = stats.last().unwrap().solver.unwrap();
+    assert!(work.distances > 1000 && work.iterations >= work.distances);
+    assert_eq!(work.strains(), vec![]);
+    // A tolerance no iterate meets: Newton gives up, GJK answers.
+    let (notes, stats) = rods_with_newton_tolerance("1e-300", &dir.join("strained.mcap"));
+    let counts: Vec<_> = stats.iter().map(|s| s.solver.unwrap()).collect();
+    let last = counts.last().unwrap();
+    assert!(last.fallbacks > 100, "{last:?}");
+    // Counted since the stage began: never decreasing.
+    assert!(
+        counts
+            .windows(2)
+            .all(|w| w[1].fallbacks >= w[0].fallbacks && w[1].distances >= w[0].distances)
+    );
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].contains(&format!("{} solver fallbacks", last.fallbacks)),
+        "{notes:?}"
+    );
+}

@@ -750,6 +750,7 @@ impl Dynamics {
         for ((image, r), b) in next.images.iter_mut().zip(&unwrapped).zip(&next.bodies) {
             *image = r - b.position;
         }
+        next.predictor.continue_work(self.predictor.work());
         next.reference = std::mem::take(&mut self.reference);
         next.trace = self.trace.take();
         *self = next;
@@ -912,9 +913,16 @@ impl Dynamics {
     }
 
     /// What the collision searches have cost so far (distance
-    /// evaluations and solver iterations).
+    /// evaluations and solver iterations), and what did not go the first
+    /// way; counted on through frames ([`Dynamics::resynchronize`]).
     pub fn solver_work(&self) -> super::SolverWork {
         self.predictor.work()
+    }
+
+    /// Counts the solver's work on from `work` (zero at a stage's start,
+    /// a frame's counts when resumed from it).
+    pub fn continue_solver_work(&mut self, work: super::SolverWork) {
+        self.predictor.continue_work(work);
     }
 
     /// Number of bodies.

@@ -20,7 +20,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 use super::motion::Spin;
 use crate::geometry::pair::{distance_lower_bound_near, support_points_start};
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
-use crate::geometry::{Contact, DistanceOptions, Relative, Shape, Status, WarmStart, distance};
+use crate::geometry::{
+    Contact, DistanceOptions, Method, Relative, Shape, Status, WarmStart, distance,
+};
 
 type V3 = Vector3<f64>;
 
@@ -108,13 +110,75 @@ pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
 
 /// The work the searches have done: exact distances evaluated and the
 /// solver iterations they took (Newton steps, or GJK/EPA and feature
-/// iterations for pairs with a cuboid), cumulative.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+/// iterations for pairs with a cuboid), and the evaluations that did not
+/// go the first way, cumulative. A run reports the last four: none is an
+/// error (each answer is certified or the run fails), but a count that
+/// grows says where the numerics are strained.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct SolverWork {
     /// Exact distance evaluations.
     pub distances: u64,
     /// Iterations over all of them.
     pub iterations: u64,
+    /// Distances taken from a fallback method: GJK (or EPA) where Newton
+    /// is the first method (pairs of smooth bodies), closest features by
+    /// enumeration where GJK stalled (two cuboids).
+    #[serde(default)]
+    pub fallbacks: u64,
+    /// Distances that stopped at the iteration cap (the last iterate used).
+    #[serde(default)]
+    pub iteration_caps: u64,
+    /// Grazing approaches refined by a minimisation of the distance in
+    /// time, the parabola through three distances being inconclusive.
+    #[serde(default)]
+    pub grazing_refinements: u64,
+    /// Pairs found overlapping to round-off at the start of a step and
+    /// taken as touching there.
+    #[serde(default)]
+    pub roundoff_contacts: u64,
+}
+
+impl SolverWork {
+    /// The counts of what did not go the first way, named, where not zero.
+    pub fn strains(&self) -> Vec<(&'static str, u64)> {
+        [
+            ("solver fallbacks", self.fallbacks),
+            ("iteration caps", self.iteration_caps),
+            ("grazing refinements", self.grazing_refinements),
+            ("round-off contacts", self.roundoff_contacts),
+        ]
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .collect()
+    }
+}
+
+impl std::ops::Sub for SolverWork {
+    type Output = SolverWork;
+
+    fn sub(self, o: SolverWork) -> SolverWork {
+        SolverWork {
+            distances: self.distances - o.distances,
+            iterations: self.iterations - o.iterations,
+            fallbacks: self.fallbacks - o.fallbacks,
+            iteration_caps: self.iteration_caps - o.iteration_caps,
+            grazing_refinements: self.grazing_refinements - o.grazing_refinements,
+            roundoff_contacts: self.roundoff_contacts - o.roundoff_contacts,
+        }
+    }
+}
+
+/// Whether `method` is a fallback for the pair (`a`, `b`): GJK or EPA
+/// where Newton comes first (two smooth bodies, not both spheres), closest
+/// features where GJK stalled (two cuboids).
+fn is_fallback(a: &Shape, b: &Shape, method: Method) -> bool {
+    match method {
+        Method::Gjk | Method::Epa => {
+            !matches!(a, Shape::Cuboid(_)) && !matches!(b, Shape::Cuboid(_))
+        }
+        Method::Features => true,
+        _ => false,
+    }
 }
 
 /// Predicts contacts of general pairs.
@@ -137,6 +201,19 @@ impl Predictor {
             found: Cell::new(None),
             work: Cell::new(SolverWork::default()),
         }
+    }
+
+    /// Counts on from `work` (a dynamics rebuilt at a frame, or resumed
+    /// from one, continues its stage's counts).
+    pub fn continue_work(&self, work: SolverWork) {
+        self.work.set(work);
+    }
+
+    /// Adds to the work counted.
+    fn count(&self, add: impl FnOnce(&mut SolverWork)) {
+        let mut work = self.work.get();
+        add(&mut work);
+        self.work.set(work);
     }
 
     /// The work of every search so far.
@@ -359,15 +436,18 @@ impl Predictor {
             if contact.warm_start.is_some() {
                 warm.set(contact.warm_start);
             }
-            let mut work = self.work.get();
-            work.distances += 1;
-            work.iterations += match contact.status {
-                Status::Converged { iterations }
-                | Status::IterationCap { iterations }
-                | Status::Failed { iterations, .. } => u64::from(iterations),
-                Status::DeepOverlap => 0,
-            };
-            self.work.set(work);
+            self.count(|work| {
+                work.distances += 1;
+                work.iterations += match contact.status {
+                    Status::Converged { iterations }
+                    | Status::IterationCap { iterations }
+                    | Status::Failed { iterations, .. } => u64::from(iterations),
+                    Status::DeepOverlap => 0,
+                };
+                work.iteration_caps +=
+                    u64::from(matches!(contact.status, Status::IterationCap { .. }));
+                work.fallbacks += u64::from(is_fallback(shape_a, shape_b, contact.method));
+            });
             earlier.set(last.get());
             last.set(Some((t, contact)));
             if !contact.distance.is_finite() {
@@ -652,6 +732,7 @@ impl Predictor {
                     }
                 }
                 // Overlapping from the start to round-off: touching now.
+                self.count(|work| work.roundoff_contacts += 1);
                 self.found.set(None);
                 return Ok(Found::Contact(hi));
             }
@@ -694,6 +775,7 @@ impl Predictor {
                             return narrow((t, d_t), (t_min, d_min));
                         }
                         // Inconclusive: the true minimum, as well as can be.
+                        self.count(|work| work.grazing_refinements += 1);
                         let (tb, db, _) =
                             brent_minimize(dist, t, t_next, 1e-14 * (1.0 + t_next.abs()), 60);
                         failed(db)?;

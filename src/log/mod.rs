@@ -172,6 +172,12 @@ pub struct Stats {
     pub msd: Option<f64>,
     /// C₂(t) since the stage began (on request).
     pub c2: Option<f64>,
+    /// The collision searches' work since the stage began (dynamics):
+    /// distances, iterations, and the evaluations that did not go the
+    /// first way (fallbacks, iteration caps, grazing refinements,
+    /// round-off contacts). Absent in logs of earlier versions.
+    #[serde(default)]
+    pub solver: Option<crate::edmd::SolverWork>,
 }
 
 /// A species as `/state` records it.
@@ -267,6 +273,10 @@ pub struct DynamicsProgress {
     pub next_frame: u64,
     /// kT of the stage.
     pub temperature: f64,
+    /// The solver's counts since the stage began (absent in logs of
+    /// earlier versions).
+    #[serde(default)]
+    pub solver_work: Option<crate::edmd::SolverWork>,
     /// The sums of the `/stats` interval the frame falls in (absent in
     /// logs of earlier versions: the first interval after a resume then
     /// starts at the frame).
@@ -395,7 +405,8 @@ const STATS_SCHEMA: &str = r#"{
     "temperature": {"type": ["number", "null"]},
     "nematic_order": {"type": ["number", "null"]},
     "msd": {"type": ["number", "null"]},
-    "c2": {"type": ["number", "null"]}
+    "c2": {"type": ["number", "null"]},
+    "solver": {"type": ["object", "null"], "description": "dynamics: distances, iterations, fallbacks, iteration_caps, grazing_refinements, roundoff_contacts since the stage began"}
   }
 }"#;
 

@@ -252,6 +252,7 @@ fn run_with(
         stop,
         failure: None,
         drift: DriftWatch::default(),
+        notes: Vec::new(),
     };
     let (mut phase, first_stage, mut resume) = match &from {
         None => {
@@ -370,7 +371,7 @@ fn run_with(
         log: path,
         stages: lines,
         interrupted,
-        notes: Vec::new(),
+        notes: runner.notes,
     })
 }
 
@@ -571,6 +572,8 @@ struct Runner<'a> {
     /// Whether the density of the current NPT stage has settled (its move
     /// sizes are then frozen).
     drift: DriftWatch,
+    /// What the user should hear of at the end (solver counts not zero).
+    notes: Vec<String>,
 }
 
 /// What a stage returns: the next phase, a summary line, and whether the
@@ -777,6 +780,7 @@ impl Runner<'_> {
             nematic_order: self.system_nematic_order(system),
             msd: None,
             c2: None,
+            solver: None,
         }
     }
 
@@ -1174,6 +1178,7 @@ impl Runner<'_> {
                     next_frame: 1,
                     temperature,
                     interval: None,
+                    solver_work: None,
                 };
                 if !fresh {
                     dynamics.resynchronize().map_err(fail)?;
@@ -1191,6 +1196,8 @@ impl Runner<'_> {
                 dynamics.sample();
             }
         }
+        // The stage's solver counts, from zero or from the frame resumed.
+        dynamics.continue_solver_work(progress_at.solver_work.unwrap_or_default());
         if msd || c2 {
             // After a resume the references restart at the resumed frame.
             dynamics.set_reference();
@@ -1239,6 +1246,7 @@ impl Runner<'_> {
                     } else {
                         None
                     },
+                    solver: Some(dynamics.solver_work()),
                 };
                 log.stats(time, &stats).map_err(write_error)?;
                 progress.tick(
@@ -1268,6 +1276,7 @@ impl Runner<'_> {
                     next_stats: k_stats,
                     next_frame: k_frames,
                     interval: Some(dynamics.interval()),
+                    solver_work: Some(dynamics.solver_work()),
                     ..progress_at
                 };
                 log.frame(time, &self.record_dynamics(&dynamics, index, p, end))
@@ -1281,6 +1290,17 @@ impl Runner<'_> {
                 };
                 break;
             }
+        }
+        let strains = dynamics.solver_work().strains();
+        if !strains.is_empty() {
+            self.notes.push(format!(
+                "stage {index} (dynamics): {} (counted in /stats.solver; each answer was certified, but the numerics were strained)",
+                strains
+                    .iter()
+                    .map(|(name, n)| format!("{n} {name}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
         }
         let collisions = dynamics.collisions() - c0;
         let line = format!(
