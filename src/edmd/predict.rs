@@ -153,21 +153,6 @@ impl SolverWork {
     }
 }
 
-impl std::ops::Sub for SolverWork {
-    type Output = SolverWork;
-
-    fn sub(self, o: SolverWork) -> SolverWork {
-        SolverWork {
-            distances: self.distances - o.distances,
-            iterations: self.iterations - o.iterations,
-            fallbacks: self.fallbacks - o.fallbacks,
-            iteration_caps: self.iteration_caps - o.iteration_caps,
-            grazing_refinements: self.grazing_refinements - o.grazing_refinements,
-            roundoff_contacts: self.roundoff_contacts - o.roundoff_contacts,
-        }
-    }
-}
-
 /// Whether `method` is a fallback for the pair (`a`, `b`): GJK or EPA
 /// where Newton comes first (two smooth bodies, not both spheres), closest
 /// features where GJK stalled (two cuboids).
