@@ -655,19 +655,10 @@ impl Runner<'_> {
                 )
             }
             Stage::MonteCarlo {
-                ensemble,
-                sweeps,
-                tune_sweeps,
+                ensemble, sweeps, ..
             } => {
                 let system = self.to_system(phase)?;
-                let span = match (tune_sweeps, ensemble) {
-                    (Some(t), _) => TuningSpan::Fixed(*t),
-                    (None, Ensemble::Npt { .. }) => TuningSpan::UntilSettled {
-                        at_least: sweeps / 5,
-                        at_most: *sweeps,
-                    },
-                    (None, Ensemble::Nvt) => TuningSpan::Fixed(sweeps / 5),
-                };
+                let span = stage.tuning_span().expect("a Monte Carlo stage tunes");
                 self.monte_carlo(
                     index, system, ensemble, *sweeps, span, resume, log, progress, rng,
                 )

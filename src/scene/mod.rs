@@ -167,6 +167,29 @@ pub enum Stage {
 }
 
 impl Stage {
+    /// How long a Monte Carlo stage tunes its move sizes: `tune_sweeps`
+    /// if given; else an NVT stage its first fifth, an NPT stage its first
+    /// fifth and on until its density settles. None for other stages.
+    pub fn tuning_span(&self) -> Option<crate::mc::tuning::TuningSpan> {
+        use crate::mc::tuning::TuningSpan;
+        let Stage::MonteCarlo {
+            ensemble,
+            sweeps,
+            tune_sweeps,
+        } = self
+        else {
+            return None;
+        };
+        Some(match (tune_sweeps, ensemble) {
+            (Some(t), _) => TuningSpan::Fixed(*t),
+            (None, Ensemble::Npt { .. }) => TuningSpan::UntilSettled {
+                at_least: sweeps / 5,
+                at_most: *sweeps,
+            },
+            (None, Ensemble::Nvt) => TuningSpan::Fixed(sweeps / 5),
+        })
+    }
+
     /// The `/stats` name of the stage.
     pub fn kind(&self) -> &'static str {
         match self {

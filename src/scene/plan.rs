@@ -9,6 +9,7 @@ use std::fmt;
 use super::{Ensemble, Neighbours, Scene, Stage, Start};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
+use crate::mc::tuning::TuningSpan;
 use crate::mc::{NeighbourPlan, Species};
 
 /// One species as simulated.
@@ -360,10 +361,16 @@ impl fmt::Display for Report<'_> {
                             }
                         ),
                     };
-                    format!(
-                        "Monte Carlo, {e}, {sweeps} sweeps (move sizes tuned over the first {}, then frozen)",
-                        tune_sweeps.unwrap_or(sweeps / 5)
-                    )
+                    let tuned = match s.tuning_span() {
+                        Some(TuningSpan::UntilSettled { at_least, .. }) => format!(
+                            "move sizes tuned over the first {at_least} and on until the density settles, then frozen"
+                        ),
+                        _ => format!(
+                            "move sizes tuned over the first {}, then frozen",
+                            tune_sweeps.unwrap_or(sweeps / 5)
+                        ),
+                    };
+                    format!("Monte Carlo, {e}, {sweeps} sweeps ({tuned})")
                 }
                 Stage::Dynamics {
                     duration,
