@@ -499,6 +499,19 @@ fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -
                 "stage {} ({}), {} stats messages, {unit} {}-{}: {verdict}",
                 stage.stage_index, stage.stage, stage.samples, stage.span[0], stage.span[1]
             ));
+            if let Some(work) = &stage.solver {
+                let strains = work.strains();
+                if !strains.is_empty() {
+                    say(&format!(
+                        "  solver strains: {}",
+                        strains
+                            .iter()
+                            .map(|(name, n)| format!("{n} {name}"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ));
+                }
+            }
             if stage.observables.is_empty() {
                 continue;
             }

@@ -257,6 +257,9 @@ fn solver_strains_are_counted_in_stats_and_reported_at_the_end() {
             .windows(2)
             .all(|w| w[1].fallbacks >= w[0].fallbacks && w[1].distances >= w[0].distances)
     );
+    // analyze reports the stage's counts.
+    let averages = stage_averages(&stats);
+    assert_eq!(averages[0].solver.as_ref(), Some(last));
     assert_eq!(notes.len(), 1, "{notes:?}");
     assert!(
         notes[0].contains(&format!("{} solver fallbacks", last.fallbacks)),

@@ -49,6 +49,8 @@ pub struct StageAverages {
     pub equilibrated: bool,
     /// The observables that did not equilibrate.
     pub not_equilibrated: Vec<String>,
+    /// The collision searches' counts over the stage (dynamics).
+    pub solver: Option<crate::edmd::SolverWork>,
 }
 
 /// The observables of a `/stats` message that averages are taken of
@@ -137,5 +139,6 @@ fn one_stage(run: &[&Stats]) -> StageAverages {
         equilibrated: first.stage != "compress" && not_equilibrated.is_empty(),
         observables: observables_of,
         not_equilibrated,
+        solver: run[run.len() - 1].solver,
     }
 }
