@@ -72,8 +72,10 @@ enum Command {
     /// observable where it equilibrated, its mean and standard error from
     /// there (correlation included), and whether the stage equilibrated.
     Analyze {
-        /// MCAP log written by `hardbody run` (complete or partial).
-        log: PathBuf,
+        /// MCAP log written by `hardbody run` (complete or partial); several
+        /// logs of one scene run with other seeds are averaged as replicas.
+        #[arg(required = true, num_args = 1..)]
+        log: Vec<PathBuf>,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
@@ -156,7 +158,10 @@ fn main() -> ExitCode {
         } => run(scene, out, seed, resume),
         Command::Check { scene } => check(&scene),
         Command::Inspect { log } => inspect(&log),
-        Command::Analyze { log, json, plot } => analyze(&log, json, plot.as_deref()),
+        Command::Analyze { log, json, plot } => match log.as_slice() {
+            [one] => analyze(one, json, plot.as_deref()),
+            many => analyze_replicas(many, json, plot.as_deref()),
+        },
         Command::Export { log, gsd } => export(&log, &gsd),
         Command::Virial {
             shape_a,
@@ -558,6 +563,116 @@ fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -
             "hardbody: warning: stage {} never equilibrated: its averages are not equilibrium values",
             never.join(", ")
         ));
+    }
+    ExitCode::SUCCESS
+}
+
+/// Averages over replicas: each log analysed as `analyze` does, then
+/// every stage's observables averaged over the logs, with an error that
+/// is the larger of the runs' errors combined and their spread.
+fn analyze_replicas(paths: &[PathBuf], json: bool, plot: Option<&std::path::Path>) -> ExitCode {
+    use hardbody::analysis::averages::{stage_averages, stages_over_replicas};
+    let mut runs = Vec::new();
+    let mut first_scene: Option<Scene> = None;
+    for (k, path) in paths.iter().enumerate() {
+        let contents = match read_log(path, false) {
+            Ok(c) => c,
+            Err(e) => return bad_input(e),
+        };
+        if let Some(d) = &contents.damage {
+            esay(&format!(
+                "hardbody: {}: {d}; analysing the /stats before it",
+                path.display()
+            ));
+        }
+        // Replicas: the same scene but for the seed and the log's path.
+        let scene = contents
+            .metadata
+            .get("scene_resolved")
+            .and_then(|t| Scene::parse(t).ok())
+            .map(|s| Scene {
+                seed: 0,
+                log: Default::default(),
+                ..s
+            });
+        match (&first_scene, scene) {
+            (_, None) => {
+                return bad_input(format!(
+                    "{}: no readable scene in its metadata",
+                    path.display()
+                ));
+            }
+            (None, Some(s)) => first_scene = Some(s),
+            (Some(f), Some(s)) if *f != s => {
+                return bad_input(format!(
+                    "{}: its scene differs from that of {} other than in the seed: not a replica",
+                    path.display(),
+                    paths[0].display()
+                ));
+            }
+            _ => {}
+        }
+        let stats: Vec<_> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
+        let stages = stage_averages(&stats);
+        if let Some(dir) = plot {
+            let dir = dir.join(format!("replica{}", k + 1));
+            if let Err(e) = std::fs::create_dir_all(&dir) {
+                return bad_input(format!("--plot {}: {e}", dir.display()));
+            }
+            for stage in &stages {
+                if let Err(e) = plot_stage(&dir, &stats, stage) {
+                    return bad_input(e);
+                }
+            }
+        }
+        runs.push(stages);
+    }
+    let combined = match stages_over_replicas(&runs) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    if json {
+        print_json(&serde_json::json!({
+            "logs": paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "stages": combined,
+        }));
+    } else {
+        say(&format!("{} replicas:", paths.len()));
+        for stage in &combined {
+            if stage.stage == "compress" {
+                continue;
+            }
+            say(&format!(
+                "stage {} ({}): {}",
+                stage.stage_index,
+                stage.stage,
+                if stage.equilibrated {
+                    "equilibrated in every replica"
+                } else {
+                    "NOT EQUILIBRATED in some replica: run it longer"
+                }
+            ));
+            say(&format!(
+                "  {:<22} {:>26} {:>12}",
+                "observable", "mean +- error", "spread"
+            ));
+            for (name, a) in &stage.observables {
+                say(&format!(
+                    "  {:<22} {:>26} {:>12.6}",
+                    name,
+                    format!("{:.6} +- {:.6}", a.mean, a.error),
+                    a.spread
+                ));
+            }
+        }
+    }
+    if combined
+        .iter()
+        .any(|s| s.stage != "compress" && !s.equilibrated)
+    {
+        esay(
+            "hardbody: warning: a stage never equilibrated in some replica: its averages are not equilibrium values",
+        );
     }
     ExitCode::SUCCESS
 }

@@ -266,3 +266,67 @@ fn solver_strains_are_counted_in_stats_and_reported_at_the_end() {
         "{notes:?}"
     );
 }
+
+/// `hardbody analyze` with these arguments: (exit code, stdout as JSON if
+/// it is JSON, stderr).
+fn analyze_cli(args: &[&str]) -> (i32, Option<serde_json::Value>, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .arg("analyze")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap(),
+        serde_json::from_slice(&out.stdout).ok(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn analyze_averages_replicas_and_refuses_runs_of_other_scenes() {
+    let dir = scratch("replicas");
+    let scene = |seed: u64, sweeps: u64| {
+        format!(
+            r#"Scene(
+    seed: {seed},
+    box: (6.0, 6.0, 6.0),
+    species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+    stages: [Compress(packing_fraction: 0.3), MonteCarlo(ensemble: Nvt, sweeps: {sweeps})],
+    log: Log(path: "unused.mcap", stats_every: 20, frames_every: 1000),
+)"#
+        )
+    };
+    let logs: Vec<PathBuf> = (1..=3)
+        .map(|seed| {
+            let log = dir.join(format!("seed{seed}.mcap"));
+            stats_of(&scene(seed, 2000), &log);
+            log
+        })
+        .collect();
+    let names: Vec<&str> = logs.iter().map(|p| p.to_str().unwrap()).collect();
+    let (code, json, err) = analyze_cli(&[names[0], names[1], names[2], "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let json = json.unwrap();
+    let combined = &json["stages"][1]["observables"]["pressure"];
+    // The mean of the three runs' means, each as analyze gives it alone.
+    let alone: Vec<f64> = names
+        .iter()
+        .map(|n| {
+            let (_, j, _) = analyze_cli(&[n, "--json"]);
+            j.unwrap()["stages"][1]["observables"]["pressure"]["mean"]
+                .as_f64()
+                .unwrap()
+        })
+        .collect();
+    let mean = alone.iter().sum::<f64>() / 3.0;
+    assert!((combined["mean"].as_f64().unwrap() - mean).abs() < 1e-12);
+    assert_eq!(combined["replicas"].as_u64(), Some(3));
+    let spread = combined["spread"].as_f64().unwrap();
+    assert!(combined["error"].as_f64().unwrap() >= spread / 3f64.sqrt() - 1e-15);
+    // A run of another scene (longer) is no replica.
+    let other = dir.join("other.mcap");
+    stats_of(&scene(4, 2400), &other);
+    let (code, _, err) = analyze_cli(&[names[0], other.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not a replica"), "{err}");
+}

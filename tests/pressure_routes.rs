@@ -89,27 +89,11 @@ fn route(
     stage.observables[name].estimate
 }
 
-/// Mean over replicas, its error (the larger of the combined errors of
-/// the replicas and their spread over √R), and whether every replica
+/// Mean over replicas, its error, and whether every replica
 /// equilibrated.
 fn over_replicas(estimates: &[Estimate]) -> (f64, f64, bool) {
-    let r = estimates.len() as f64;
-    let equilibrated = estimates.iter().all(|e| e.equilibrated);
-    let mean = estimates.iter().map(|e| e.mean).sum::<f64>() / r;
-    let combined = estimates
-        .iter()
-        .map(|e| e.error * e.error)
-        .sum::<f64>()
-        .sqrt()
-        / r;
-    let spread = (estimates
-        .iter()
-        .map(|e| (e.mean - mean).powi(2))
-        .sum::<f64>()
-        / (r - 1.0))
-        .sqrt()
-        / r.sqrt();
-    (mean, combined.max(spread), equilibrated)
+    let a = hardbody::analysis::averages::over_replicas(estimates);
+    (a.mean, a.error, a.equilibrated)
 }
 
 struct Row {

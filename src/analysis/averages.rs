@@ -142,3 +142,131 @@ fn one_stage(run: &[&Stats]) -> StageAverages {
         solver: run[run.len() - 1].solver,
     }
 }
+
+/// One observable averaged over independent replicas (runs of one scene
+/// with other seeds).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ReplicaAverage {
+    /// Mean of the replicas' means.
+    pub mean: f64,
+    /// Its error: the larger of the replicas' errors combined,
+    /// √(Σ eᵢ²)/R, and their spread over √R (which does not trust any
+    /// one run's error).
+    pub error: f64,
+    /// Standard deviation of the replicas' means.
+    pub spread: f64,
+    /// Replicas averaged.
+    pub replicas: usize,
+    /// Whether it equilibrated in every replica.
+    pub equilibrated: bool,
+}
+
+/// The average over replicas of one observable's estimates (at least two).
+pub fn over_replicas(estimates: &[Estimate]) -> ReplicaAverage {
+    let r = estimates.len() as f64;
+    let mean = estimates.iter().map(|e| e.mean).sum::<f64>() / r;
+    let combined = estimates
+        .iter()
+        .map(|e| e.error * e.error)
+        .sum::<f64>()
+        .sqrt()
+        / r;
+    let spread = (estimates
+        .iter()
+        .map(|e| (e.mean - mean).powi(2))
+        .sum::<f64>()
+        / (r - 1.0).max(1.0))
+    .sqrt();
+    ReplicaAverage {
+        mean,
+        error: combined.max(spread / r.sqrt()),
+        spread,
+        replicas: estimates.len(),
+        equilibrated: estimates.iter().all(|e| e.equilibrated),
+    }
+}
+
+/// One stage over replicas.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReplicaStage {
+    /// Index of the stage in the scene.
+    pub stage_index: usize,
+    /// Its kind.
+    pub stage: String,
+    /// Per observable measured in every replica (constants included, their
+    /// spread telling whether they agree).
+    pub observables: BTreeMap<String, ReplicaAverage>,
+    /// Whether every replica's stage equilibrated.
+    pub equilibrated: bool,
+}
+
+/// The stages of several runs of one scene averaged stage by stage; the
+/// runs must have the same stages (index and kind) in the same order.
+pub fn stages_over_replicas(runs: &[Vec<StageAverages>]) -> Result<Vec<ReplicaStage>, String> {
+    let first = runs.first().ok_or("no runs to average")?;
+    for (k, run) in runs.iter().enumerate().skip(1) {
+        let kinds = |r: &[StageAverages]| {
+            r.iter()
+                .map(|s| (s.stage_index, s.stage.clone()))
+                .collect::<Vec<_>>()
+        };
+        if kinds(run) != kinds(first) {
+            return Err(format!(
+                "run {} has stages {:?}, run 1 {:?}: not replicas of one scene",
+                k + 1,
+                kinds(run),
+                kinds(first)
+            ));
+        }
+    }
+    Ok(first
+        .iter()
+        .enumerate()
+        .map(|(i, stage)| {
+            let observables = stage
+                .observables
+                .keys()
+                .filter_map(|name| {
+                    let estimates: Vec<Estimate> = runs
+                        .iter()
+                        .map(|run| run[i].observables.get(name).map(|o| o.estimate))
+                        .collect::<Option<_>>()?;
+                    Some((name.clone(), over_replicas(&estimates)))
+                })
+                .collect();
+            ReplicaStage {
+                stage_index: stage.stage_index,
+                stage: stage.stage.clone(),
+                observables,
+                equilibrated: runs.iter().all(|run| run[i].equilibrated),
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::series::estimate_from;
+
+    fn estimate(mean: f64, error: f64) -> Estimate {
+        Estimate {
+            mean,
+            error,
+            ..estimate_from(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0], 0)
+        }
+    }
+
+    #[test]
+    fn replicas_that_scatter_more_than_their_errors_get_the_scatter() {
+        // Agreeing replicas: the combined error.
+        let a = over_replicas(&[estimate(1.0, 0.1), estimate(1.0, 0.1)]);
+        assert_eq!(a.mean, 1.0);
+        assert!((a.error - 0.1 / 2f64.sqrt()).abs() < 1e-12);
+        // Replicas 1 apart with errors of 0.1: the spread decides.
+        let b = over_replicas(&[estimate(0.0, 0.1), estimate(1.0, 0.1)]);
+        assert_eq!(b.mean, 0.5);
+        assert!((b.spread - 0.5f64.sqrt()).abs() < 1e-12);
+        assert!((b.error - 0.5).abs() < 1e-12);
+    }
+}
