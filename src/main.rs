@@ -452,19 +452,26 @@ fn check(path: &std::path::Path) -> ExitCode {
     ExitCode::SUCCESS
 }
 
-fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
-    use hardbody::analysis::averages::stage_averages;
-    use hardbody::analysis::series::FEW_EFFECTIVE_SAMPLES;
-    let contents = match read_log(path, false) {
-        Ok(c) => c,
-        Err(e) => return bad_input(e),
-    };
+/// A log's contents for `analyze`: refused with exit 2 if unreadable;
+/// damage is said and what precedes it analysed.
+fn log_to_analyze(path: &std::path::Path) -> Result<hardbody::log::read::LogContents, ExitCode> {
+    let contents = read_log(path, false).map_err(bad_input)?;
     if let Some(d) = &contents.damage {
         esay(&format!(
             "hardbody: {}: {d}; analysing the /stats before it",
             path.display()
         ));
     }
+    Ok(contents)
+}
+
+fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
+    use hardbody::analysis::averages::stage_averages;
+    use hardbody::analysis::series::FEW_EFFECTIVE_SAMPLES;
+    let contents = match log_to_analyze(path) {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
     let stats: Vec<_> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
     let stages = stage_averages(&stats);
     if let Some(dir) = plot {
@@ -504,18 +511,8 @@ fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -
                 "stage {} ({}), {} stats messages, {unit} {}-{}: {verdict}",
                 stage.stage_index, stage.stage, stage.samples, stage.span[0], stage.span[1]
             ));
-            if let Some(work) = &stage.solver {
-                let strains = work.strains();
-                if !strains.is_empty() {
-                    say(&format!(
-                        "  solver strains: {}",
-                        strains
-                            .iter()
-                            .map(|(name, n)| format!("{n} {name}"))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ));
-                }
+            if let Some(strains) = stage.solver.and_then(|w| w.strains_in_words()) {
+                say(&format!("  solver strains: {strains}"));
             }
             if stage.observables.is_empty() {
                 continue;
@@ -575,16 +572,10 @@ fn analyze_replicas(paths: &[PathBuf], json: bool, plot: Option<&std::path::Path
     let mut runs = Vec::new();
     let mut first_scene: Option<Scene> = None;
     for (k, path) in paths.iter().enumerate() {
-        let contents = match read_log(path, false) {
+        let contents = match log_to_analyze(path) {
             Ok(c) => c,
-            Err(e) => return bad_input(e),
+            Err(code) => return code,
         };
-        if let Some(d) = &contents.damage {
-            esay(&format!(
-                "hardbody: {}: {d}; analysing the /stats before it",
-                path.display()
-            ));
-        }
         // Replicas: the same scene but for the seed and the log's path.
         let scene = contents
             .metadata

@@ -139,6 +139,19 @@ pub struct SolverWork {
 }
 
 impl SolverWork {
+    /// The strains in words ("3 solver fallbacks, 1 iteration caps"), if
+    /// any.
+    pub fn strains_in_words(&self) -> Option<String> {
+        let strains = self.strains();
+        (!strains.is_empty()).then(|| {
+            strains
+                .iter()
+                .map(|(name, n)| format!("{n} {name}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+    }
+
     /// The counts of what did not go the first way, named, where not zero.
     pub fn strains(&self) -> Vec<(&'static str, u64)> {
         [

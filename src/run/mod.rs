@@ -1282,15 +1282,9 @@ impl Runner<'_> {
                 break;
             }
         }
-        let strains = dynamics.solver_work().strains();
-        if !strains.is_empty() {
+        if let Some(strains) = dynamics.solver_work().strains_in_words() {
             self.notes.push(format!(
-                "stage {index} (dynamics): {} (counted in /stats.solver; each answer was certified, but the numerics were strained)",
-                strains
-                    .iter()
-                    .map(|(name, n)| format!("{n} {name}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                "stage {index} (dynamics): {strains} (counted in /stats.solver; each answer was certified, but the numerics were strained)"
             ));
         }
         let collisions = dynamics.collisions() - c0;
