@@ -77,7 +77,7 @@ fn last_stretch(stats: &[Stats]) -> (f64, f64) {
 #[test]
 fn npt_move_sizes_follow_the_density_until_it_settles() {
     let dir = scratch("npt");
-    // Sizes frozen after a fifth of the stage (the former default) were
+    // Sizes frozen after a fifth of the stage (tune_sweeps: 1200) were
     // tuned for a dilute gas: as the box shrinks, translations and box
     // moves are almost all refused and the compression crawls.
     let frozen = stats_of(&dilute_npt(", tune_sweeps: 1200"), &dir.join("frozen.mcap"));
