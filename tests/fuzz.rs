@@ -6,6 +6,8 @@
 //! line and field or valid within the documented bounds; a mutated log is
 //! either reported damaged or cut off, or read exactly as written.
 
+mod common;
+
 use std::path::Path;
 use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
@@ -27,13 +29,7 @@ fn cases(default: u32) -> u32 {
 fn shipped_scenes() -> &'static Vec<String> {
     static SCENES: OnceLock<Vec<String>> = OnceLock::new();
     SCENES.get_or_init(|| {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes");
-        let mut files: Vec<_> = std::fs::read_dir(root)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
-            .collect();
-        files.sort();
+        let files = common::scene_files("data/scenes");
         files
             .iter()
             .map(|p| std::fs::read_to_string(p).unwrap())

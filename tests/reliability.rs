@@ -7,6 +7,9 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::cut_after_frames;
 use hardbody::log::read::{ReadOptions, read_log, read_log_bytes, read_log_with};
 use hardbody::log::{LogWriter, StateRecord, partial_path};
 use hardbody::run::{Silent, resume_run, run_scene};
@@ -83,32 +86,6 @@ fn bits(s: &StateRecord) -> Vec<u64> {
         .chain(s.velocities.iter().flatten().flatten())
         .map(|x| x.to_bits())
         .collect()
-}
-
-/// The shortest prefix of `bytes` that reads as `k` frames.
-fn cut_after_frames(bytes: &[u8], k: usize) -> usize {
-    let frames_in = |len: usize| {
-        read_log_bytes(
-            &bytes[..len],
-            Path::new("probe"),
-            ReadOptions {
-                all_states: true,
-                messages: false,
-            },
-        )
-        .map(|l| l.states.len())
-        .unwrap_or(0)
-    };
-    let (mut lo, mut hi) = (0, bytes.len());
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if frames_in(mid) >= k {
-            hi = mid
-        } else {
-            lo = mid
-        }
-    }
-    hi
 }
 
 /// Frames of the log at `path`, or 0 if it does not read.

@@ -7,6 +7,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+mod common;
+
+use common::{cut_after_frames, scene_files};
 use hardbody::log::read::read_log;
 use hardbody::log::{StateRecord, partial_path};
 use hardbody::run::{RunError, Silent, resume_run, run_scene, system_from_record};
@@ -20,17 +23,6 @@ fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn scene_files(dir: &str) -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&root)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
-        .collect();
-    files.sort();
-    files
 }
 
 #[test]
@@ -125,27 +117,6 @@ const SMALL: &str = r#"Scene(
     ],
     log: Log(path: "unused.mcap", stats_every: 20, frames_every: 50),
 )"#;
-
-/// The shortest prefix of the log `bytes` that holds `k` frames (a cut just
-/// after frame k, as a crash would leave it), by bisection on the length;
-/// probes are written in `dir`.
-fn cut_after_frames(dir: &Path, bytes: &[u8], k: usize) -> usize {
-    let frames_in = |len: usize| {
-        let probe = dir.join("probe.mcap.partial");
-        std::fs::write(&probe, &bytes[..len]).unwrap();
-        read_log(&probe, true).map(|l| l.states.len()).unwrap_or(0)
-    };
-    let (mut lo, mut hi) = (0, bytes.len());
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if frames_in(mid) >= k {
-            hi = mid
-        } else {
-            lo = mid
-        }
-    }
-    hi
-}
 
 fn bits(s: &StateRecord) -> Vec<u64> {
     s.positions
@@ -430,7 +401,7 @@ fn a_run_resumed_from_any_frame_continues_bit_for_bit() {
     let mut stages_resumed = std::collections::BTreeSet::new();
     // A cut just after each frame (each frame closes a chunk).
     let cuts: Vec<usize> = (1..whole.states.len())
-        .map(|k| cut_after_frames(&dir, &bytes, k))
+        .map(|k| cut_after_frames(&bytes, k))
         .collect();
     for (k, &len) in cuts.iter().enumerate() {
         let fraction = format!("frame {k}");
@@ -646,7 +617,7 @@ fn large_monte_carlo_stages_sweep_on_slabs_the_same_on_any_thread_count() {
     let whole = dir.join("threads-2.mcap");
     let bytes = std::fs::read(&whole).unwrap();
     let cut = dir.join("cut.mcap.partial");
-    std::fs::write(&cut, &bytes[..cut_after_frames(&dir, &bytes, 2)]).unwrap();
+    std::fs::write(&cut, &bytes[..cut_after_frames(&bytes, 2)]).unwrap();
     let out = dir.join("resumed.mcap");
     hardbody::run::resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
     let resumed = read_log(&out, true).unwrap();

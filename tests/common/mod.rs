@@ -1,5 +1,6 @@
-//! Shared helpers for the physics and kernel tests: random shapes and poses,
-//! and independent reference methods ("oracles") to check kernels against.
+//! Shared helpers for the tests: random shapes and poses, independent
+//! reference methods ("oracles") to check kernels against, the shipped
+//! scene files, and logs cut as a crash would leave them.
 #![allow(dead_code)]
 
 use hardbody::geometry::gjk::{GjkOutcome, gjk_distance, gjk_intersect};
@@ -289,4 +290,42 @@ pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardb
     };
     compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
     system
+}
+
+/// The `.ron` files in `dir` (relative to the crate's root), sorted.
+pub fn scene_files(dir: &str) -> Vec<std::path::PathBuf> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// The shortest prefix of the log `bytes` that holds `k` frames (a cut
+/// just after frame k, as a crash would leave it), by bisection on the
+/// length.
+pub fn cut_after_frames(bytes: &[u8], k: usize) -> usize {
+    use hardbody::log::read::{ReadOptions, read_log_bytes};
+    let frames_in = |len: usize| {
+        let options = ReadOptions {
+            all_states: true,
+            messages: false,
+        };
+        read_log_bytes(&bytes[..len], std::path::Path::new("probe"), options)
+            .map(|l| l.states.len())
+            .unwrap_or(0)
+    };
+    let (mut lo, mut hi) = (0, bytes.len());
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if frames_in(mid) >= k {
+            hi = mid
+        } else {
+            lo = mid
+        }
+    }
+    hi
 }
