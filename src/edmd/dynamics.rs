@@ -893,6 +893,11 @@ impl Dynamics {
     /// Predicts every crossing and every pair collision from scratch.
     fn schedule_everything(&mut self) -> Result<(), EdmdError> {
         self.calendar.clear();
+        // The horizons belong to the predictions dropped: a search cut at
+        // one would miss what the new ones find beyond it.
+        for b in &mut self.bodies {
+            b.horizon = f64::INFINITY;
+        }
         for i in 0..self.bodies.len() {
             self.schedule_crossing(i);
         }
@@ -1259,9 +1264,6 @@ impl Dynamics {
         // Every prediction again from the new poses: an event predicted
         // before and shifted can differ in its last bit from the same event
         // predicted after (see `closed_form`).
-        for b in &mut self.bodies {
-            b.horizon = f64::INFINITY;
-        }
         self.schedule_everything()?;
         Ok(())
     }
