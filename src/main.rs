@@ -129,6 +129,8 @@ enum Suite {
     Ocsi,
     /// Monte Carlo trial moves per second by shape at packing fraction 0.5.
     Mc,
+    /// Compression from a dilute fluid: seconds and sweeps by shape, and against N.
+    Compress,
     /// Hard-sphere dynamics through the full scene path against the library directly.
     Scene,
     /// Event-driven dynamics: time per collision for spheres, ellipsoids and cubes.
@@ -188,6 +190,7 @@ fn main() -> ExitCode {
                         | Suite::Superellipsoid
                         | Suite::EdmdTolerance
                         | Suite::Effects
+                        | Suite::Compress
                 ) {
                     return bad_input(
                         "--plot: this suite has no plots (scene and edmd are tables)",
@@ -200,6 +203,7 @@ fn main() -> ExitCode {
             match suite {
                 Suite::Ocsi => bench_ocsi(quick, json, plot.as_deref()),
                 Suite::Mc => bench_mc(quick, json, plot.as_deref()),
+                Suite::Compress => bench_compress(quick, json, plot.as_deref()),
                 Suite::Scene => bench_scene(quick, json),
                 Suite::Edmd => bench_speed("edmd", edmd_speed::speed(quick), json, None, None),
                 Suite::EdmdShell => bench_speed(
@@ -880,10 +884,6 @@ fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode
         Ok(rows) => rows,
         Err(e) => return failed("move-size", &e),
     };
-    let compression = match mc::compression(quick) {
-        Ok(rows) => rows,
-        Err(e) => return failed("compression", &e),
-    };
     if json {
         let mut all: Vec<serde_json::Value> = Vec::new();
         let mut add = |v: serde_json::Value, table: &str| {
@@ -898,7 +898,6 @@ fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode
         add(value(serde_json::to_value(&moves)), "speed");
         add(value(serde_json::to_value(&density)), "density");
         add(value(serde_json::to_value(&sizes)), "move size");
-        add(value(serde_json::to_value(&compression)), "compression");
         print_json(&all);
     } else {
         say(
@@ -934,18 +933,42 @@ fn bench_mc(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode
                 r.trial_moves_per_s
             ));
         }
-        say("");
-        say("| compression from a dilute lattice | N | phi reached | sweeps | seconds |");
-        say("|---|---|---|---|---|");
-        for r in &compression {
+    }
+    match plot {
+        Some(dir) => report_plots("MC", mc::plot(&density, &sizes, dir)),
+        None => ExitCode::SUCCESS,
+    }
+}
+
+fn bench_compress(quick: bool, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
+    use hardbody::bench::compress;
+    let rows = match compress::run(quick) {
+        Ok(rows) => rows,
+        Err(e) => {
+            esay(&format!("hardbody: compression benchmark failed: {e}"));
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    if json {
+        print_json(&rows);
+    } else {
+        say("| table | shape | N | phi reached | sweeps | seconds | microseconds per particle |");
+        say("|---|---|---|---|---|---|---|");
+        for r in &rows {
             say(&format!(
-                "| {} | {} | {:.3} | {} | {:.1} |",
-                r.shape, r.n, r.packing_fraction, r.sweeps, r.seconds
+                "| {} | {} | {} | {:.3} | {} | {:.2} | {:.1} |",
+                r.table,
+                r.shape,
+                r.n,
+                r.packing_fraction,
+                r.sweeps,
+                r.seconds,
+                r.seconds_per_particle * 1e6
             ));
         }
     }
     match plot {
-        Some(dir) => report_plots("MC", mc::plot(&density, &sizes, dir)),
+        Some(dir) => report_plots("compression", compress::plot(&rows, dir)),
         None => ExitCode::SUCCESS,
     }
 }

@@ -111,7 +111,7 @@ fn plots_are_refused_for_suites_without_them() {
 }
 
 #[test]
-fn superellipsoid_mc_and_effects_suites_run_quick() {
+fn superellipsoid_mc_compress_and_effects_suites_run_quick() {
     let dir = std::env::temp_dir().join(format!("hardbody-bench-quick2-{}", std::process::id()));
     let rows = bench("superellipsoid", &dir);
     check_rows("superellipsoid", &rows);
@@ -156,7 +156,6 @@ fn superellipsoid_mc_and_effects_suites_run_quick() {
             );
         }
     }
-    assert!(!table("compression").is_empty());
     check_plot(
         &dir.join("mc-moves-per-second.svg"),
         &["packing fraction", "trial moves per second", "ellipsoid"],
@@ -164,6 +163,26 @@ fn superellipsoid_mc_and_effects_suites_run_quick() {
     check_plot(
         &dir.join("mc-acceptance.svg"),
         &["move size", "fraction of moves accepted", "rotations"],
+    );
+
+    // Compression: every row reached its target, overlap-free (the suite
+    // checks), in finite time; time against N for two shapes, plotted.
+    let rows = bench("compress", &dir);
+    let count = |t: &str| rows.iter().filter(|r| r["table"] == t).count();
+    assert_eq!(
+        (count("reference"), count("suite"), count("scaling")),
+        (3, 5, 4)
+    );
+    for r in &rows {
+        let phi = r["packing_fraction"].as_f64().unwrap();
+        let seconds = r["seconds"].as_f64().unwrap();
+        assert!((0.45 - 1e-9..=0.6 + 1e-9).contains(&phi), "{r}");
+        assert!(seconds > 0.0 && seconds.is_finite(), "{r}");
+        assert!(r["sweeps"].as_u64().unwrap() > 0, "{r}");
+    }
+    check_plot(
+        &dir.join("compress-scaling.svg"),
+        &["particles N", "time per particle", "Sphere"],
     );
 
     let rows = bench("effects", &dir);

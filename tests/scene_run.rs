@@ -668,3 +668,79 @@ fn dense_spheres_sharing_a_system_run_the_same_on_any_thread_count() {
         .collect();
     assert!(ends[0] == ends[1], "one thread and two end apart");
 }
+
+/// Compression stages as a scene writes them: to the jam (ends with
+/// success and says where), and to a pressure (then NPT at it); every
+/// frame of the log is overlap-free by all pairs, and resuming from the
+/// compression's frames continues bit for bit.
+#[test]
+fn compression_to_the_jam_and_to_a_pressure_through_a_scene() {
+    const SCENE: &str = r#"Scene(
+    seed: 5,
+    box: (12.0, 12.0, 12.0),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 216)],
+    stages: [
+        Compress(pressure: 4.0),
+        MonteCarlo(ensemble: Npt(pressure: 4.0), sweeps: 400),
+        Compress(packing_fraction: 0.74, until_jammed: true),
+    ],
+    log: Log(path: "unused.mcap", stats_every: 50, frames_every: 200),
+)"#;
+    let dir = scratch("compress-kinds");
+    let path = dir.join("whole.mcap");
+    let scene = Scene::parse(SCENE).unwrap();
+    let summary = run_scene(&scene, SCENE, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    assert!(
+        summary.stages[0].contains("reached packing fraction"),
+        "{:?}",
+        summary.stages
+    );
+    assert!(
+        summary.stages[2].contains("jammed at packing fraction"),
+        "{:?}",
+        summary.stages
+    );
+    let whole = read_log(&path, true).unwrap();
+    let plan = Plan::of(&scene);
+    for (_, record) in &whole.states {
+        let system = system_from_record(record, &plan).unwrap();
+        assert_eq!(
+            system.first_overlap_all_pairs(),
+            None,
+            "stage {}",
+            record.stage_index
+        );
+    }
+    let (_, last) = whole.states.last().unwrap();
+    assert_eq!(last.stage_index, 2);
+    let phi = system_from_record(last, &plan).unwrap().packing_fraction();
+    assert!(phi > 0.6 && phi < 0.66, "jammed at {phi}");
+    // Resumed from frames of both compressions (two of the first, three
+    // of the second): the same log.
+    let bytes = std::fs::read(&path).unwrap();
+    let of_stage = |i: usize| -> Vec<usize> {
+        (1..whole.states.len())
+            .filter(|&k| whole.states[k - 1].1.stage_index == i)
+            .collect()
+    };
+    let (first, second) = (of_stage(0), of_stage(2));
+    let picked = [
+        first[1.min(first.len() - 1)],
+        first[first.len() / 2],
+        second[0],
+        second[second.len() / 2],
+        second[second.len() - 1],
+    ];
+    for k in picked {
+        let cut = dir.join(format!("cut-{k}.mcap.partial"));
+        std::fs::write(&cut, &bytes[..cut_after_frames(&bytes, k)]).unwrap();
+        let out = dir.join(format!("resumed-{k}.mcap"));
+        resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let resumed = read_log(&out, true).unwrap();
+        assert_eq!(resumed.states.len(), whole.states.len(), "frame {k}");
+        assert!(
+            bits(&resumed.states.last().unwrap().1) == bits(&whole.states.last().unwrap().1),
+            "frame {k}"
+        );
+    }
+}

@@ -1,5 +1,6 @@
 //! Benchmark suites behind `hardbody bench`.
 
+pub mod compress;
 pub mod edmd;
 pub mod edmd_speed;
 pub mod effects;

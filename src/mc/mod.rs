@@ -823,6 +823,21 @@ impl System {
         }
     }
 
+    /// The first overlapping pair found through the neighbour structure
+    /// (O(N): for systems too large for [`System::first_overlap_all_pairs`]);
+    /// a body on a wall is paired with itself.
+    pub fn first_overlap(&self) -> Option<(usize, usize)> {
+        let i = (0..self.len()).find(|&i| self.overlaps_where_it_is(i))?;
+        let (p, r) = (&self.positions[i], &self.rotations[i]);
+        let partner = (0..self.len()).find(|&j| {
+            j != i && self.pair_overlaps(i, p, r, j, &self.positions[j], &self.rotations[j])
+        });
+        Some(match partner {
+            Some(j) => (i.min(j), i.max(j)),
+            None => (i, i),
+        })
+    }
+
     /// The first overlapping pair by testing all N(N−1)/2 pairs, without the
     /// cell list: the independent check that a state is overlap-free.
     pub fn first_overlap_all_pairs(&self) -> Option<(usize, usize)> {
@@ -1027,6 +1042,61 @@ impl System {
             half_length: capsule.half_length,
             radius: capsule.radius,
         }
+    }
+
+    /// Rescales the box to `lengths` and the centres with it, overlaps or
+    /// not (a compression that lets the moves remove them); returns false,
+    /// and changes nothing, where the box would be invalid or shorter than
+    /// twice the interaction range.
+    pub(crate) fn rescale_allowing_overlaps(&mut self, lengths: V3) -> bool {
+        let Ok(new_box) = self.box_.with_lengths(lengths) else {
+            return false;
+        };
+        if Self::check_box(&new_box, self.range).is_err() {
+            return false;
+        }
+        let factor = lengths.component_div(&self.box_.lengths());
+        self.box_ = new_box;
+        for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
+            p.position = new_box.wrap(&p.position.component_mul(&factor));
+            *r = p.position;
+        }
+        self.capsule_lists = None;
+        self.cells = self.neighbours_as_they_are();
+        if let Some(mut lists) = self.sphere_lists.take()
+            && lists.rescaled(&self.box_, &factor, self.positions.as_slice())
+        {
+            self.sphere_lists = Some(lists);
+        }
+        self.list_window = (0, 0.0);
+        self.changed = true;
+        true
+    }
+
+    /// Puts the box and the particles back as `box_` and `particles` hold
+    /// them (a state this system had, of the same species), checked to be
+    /// overlap-free.
+    pub(crate) fn restore(
+        &mut self,
+        box_: PeriodicBox,
+        particles: &[Particle],
+    ) -> Result<(), McError> {
+        let mut restored = System::new(box_, self.species.clone(), particles.to_vec())?;
+        restored.ideal = self.ideal;
+        *self = restored;
+        Ok(())
+    }
+
+    /// Every particle that overlaps another or a wall, in index order,
+    /// written to `out`.
+    pub(crate) fn overlapping_particles(&self, out: &mut Vec<usize>) {
+        out.clear();
+        out.extend((0..self.len()).filter(|&i| self.overlaps_where_it_is(i)));
+    }
+
+    /// Whether particle `i` overlaps another or a wall where it is.
+    pub(crate) fn overlaps_where_it_is(&self, i: usize) -> bool {
+        self.overlaps_at(i, &self.positions[i], &self.rotations[i])
     }
 
     /// Rescales the box to `lengths` and the positions with it, if that

@@ -149,6 +149,18 @@ impl Sdf {
         self.configurations += 1;
     }
 
+    /// The share of the binned shrinks that lie in the first tenth of
+    /// [0, x_max): near one, the window is too wide for the fit (a packing
+    /// near its jam, whose shrinks are all tiny).
+    pub fn front_share(&self) -> f64 {
+        let total: u64 = self.counts.iter().sum();
+        if total == 0 {
+            return 0.0;
+        }
+        let front: u64 = self.counts[..self.counts.len().div_ceil(10)].iter().sum();
+        front as f64 / total as f64
+    }
+
     /// βP from the configurations added so far; `None` before any.
     pub fn pressure(&self) -> Option<f64> {
         if self.configurations == 0 {

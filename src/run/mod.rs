@@ -400,8 +400,12 @@ fn initial_sizes(scene: &Scene) -> MoveSizes {
 fn describe(stage: &Stage) -> String {
     match stage {
         Stage::Compress {
-            packing_fraction, ..
-        } => format!("compress to {packing_fraction}"),
+            packing_fraction: Some(phi),
+            ..
+        } => format!("compress to {phi}"),
+        Stage::Compress { pressure, .. } => {
+            format!("compress to betaP = {}", pressure.unwrap_or(f64::NAN))
+        }
         Stage::MonteCarlo {
             ensemble, sweeps, ..
         } => match ensemble {
@@ -640,19 +644,25 @@ impl Runner<'_> {
         match stage {
             Stage::Compress {
                 packing_fraction,
+                pressure,
                 max_sweeps,
+                until_jammed,
             } => {
                 let system = self.to_system(phase)?;
-                self.compress(
-                    index,
-                    system,
-                    *packing_fraction,
-                    *max_sweeps,
-                    resume,
-                    log,
-                    progress,
-                    rng,
-                )
+                // The scene's checks leave one target given.
+                let defaults = match (packing_fraction, pressure) {
+                    (Some(phi), _) if *until_jammed => CompressOptions::until_jammed(*phi),
+                    (Some(phi), _) => CompressOptions::to(*phi),
+                    (None, Some(p)) => {
+                        CompressOptions::to_pressure(*p, self.scene.densest_packing_fraction())
+                    }
+                    (None, None) => return Err("a compression without a target".into()),
+                };
+                let opts = CompressOptions {
+                    max_sweeps: max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS),
+                    ..defaults
+                };
+                self.compress(index, system, &opts, resume, log, progress, rng)
             }
             Stage::MonteCarlo {
                 ensemble, sweeps, ..
@@ -780,27 +790,22 @@ impl Runner<'_> {
         &mut self,
         index: usize,
         mut system: System,
-        target: f64,
-        max_sweeps: Option<u64>,
+        opts: &CompressOptions,
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
         rng: &mut Pcg64,
     ) -> StageResult {
-        let opts = CompressOptions {
-            max_sweeps: max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS),
-            ..CompressOptions::to(target)
-        };
         let write_error = |e: LogError| format!("writing the log: {e}");
         let (mut compressor, mut window) = match resume {
             Some(ResumeInfo {
                 compress: Some(state),
                 window,
                 ..
-            }) => (Compressor::resume(&opts, state), window),
+            }) => (Compressor::resume(opts, state), window),
             Some(_) => return Err("a compression frame without the compression's state".into()),
             None => {
-                let c = Compressor::new(&system, self.sizes, &opts).map_err(|e| e.to_string())?;
+                let c = Compressor::new(&system, self.sizes, opts).map_err(|e| e.to_string())?;
                 let info = self.mc_resume(
                     rng,
                     0,
@@ -816,6 +821,10 @@ impl Runner<'_> {
         };
         let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
         let mut last_counts = compressor.state().counts;
+        let mut last_sweeps = compressor.state().sweeps;
+        // Frames are written only where no body overlaps: a frame due
+        // waits for the shrink's overlaps to clear.
+        let mut frame_due = false;
         let outcome = loop {
             let step = compressor.sweep(&mut system, rng);
             let state = *compressor.state();
@@ -828,20 +837,25 @@ impl Runner<'_> {
                 Ok(Some(report)) => break Ok(report),
                 Err(e) => break Err(e),
             }
-            if s.is_multiple_of(stats_every) {
-                log.stats(time, &self.mc_stats(index, &system, s, &window, None))
-                    .map_err(write_error)?;
-                progress.tick(s, &format!("phi {:.4}", system.packing_fraction()));
-                window = Counts::default();
+            if s != last_sweeps {
+                last_sweeps = s;
+                if s.is_multiple_of(stats_every) {
+                    log.stats(time, &self.mc_stats(index, &system, s, &window, None))
+                        .map_err(write_error)?;
+                    progress.tick(s, &format!("phi {:.4}", system.packing_fraction()));
+                    window = Counts::default();
+                }
+                frame_due |= s.is_multiple_of(frames_every);
             }
             let stop = self.stopped();
-            if s.is_multiple_of(frames_every) || stop {
+            if (frame_due || stop) && compressor.is_valid() {
+                frame_due = false;
                 let info =
                     self.mc_resume(rng, s, window, Counts::default(), Some(state), 0.0, false);
                 log.frame(time, &self.record_system(&system, index, s, info))
                     .map_err(write_error)?;
             }
-            if stop {
+            if stop && compressor.is_valid() {
                 self.sizes = state.sizes;
                 self.clock = time;
                 let line = format!(
@@ -865,10 +879,21 @@ impl Runner<'_> {
                     true,
                 );
                 self.end_mc_stage(index, &system, report.sweeps, &window, None, info, log)?;
-                let line = format!(
-                    "reached packing fraction {:.4} in {} sweeps",
-                    report.packing_fraction, report.sweeps
-                );
+                let line = if report.jammed {
+                    let pressure = report
+                        .compressibility
+                        .map(|z| format!(", betaP/rho = {z:.3e} from the last state"))
+                        .unwrap_or_default();
+                    format!(
+                        "jammed at packing fraction {:.4} after {} sweeps{pressure}",
+                        report.packing_fraction, report.sweeps
+                    )
+                } else {
+                    format!(
+                        "reached packing fraction {:.4} in {} sweeps",
+                        report.packing_fraction, report.sweeps
+                    )
+                };
                 Ok((Phase::Mc(system), line, false))
             }
             Err(e) => {

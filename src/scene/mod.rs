@@ -123,11 +123,21 @@ pub enum Start {
 pub enum Stage {
     /// Monte Carlo compression to a packing fraction.
     Compress {
-        /// Target φ.
-        packing_fraction: f64,
+        /// Target φ (or give `pressure`).
+        #[serde(default)]
+        packing_fraction: Option<f64>,
+        /// Target βP: compression to the packing fraction at which the
+        /// measured pressure is this, within 5 % (or give
+        /// `packing_fraction`).
+        #[serde(default)]
+        pressure: Option<f64>,
         /// Give up after this many sweeps (default 10⁶).
         #[serde(default)]
         max_sweeps: Option<u64>,
+        /// A jam short of the target ends the stage successfully at the
+        /// packing fraction reached (default: it is an error).
+        #[serde(default)]
+        until_jammed: bool,
     },
     /// Metropolis Monte Carlo.
     MonteCarlo {
@@ -357,8 +367,12 @@ impl Scene {
 
     /// The scene as RON (what the log's metadata records).
     pub fn to_ron(&self) -> String {
-        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default().struct_names(true))
-            .expect("a scene always serialises")
+        // Optional values written bare, as a scene file writes them (and
+        // as `parse` reads them).
+        let config = ron::ser::PrettyConfig::default()
+            .struct_names(true)
+            .extensions(ron::extensions::Extensions::IMPLICIT_SOME);
+        ron::ser::to_string_pretty(self, config).expect("a scene always serialises")
     }
 
     /// Total number of particles.
@@ -599,9 +613,41 @@ impl Scene {
             let f = |name: &str| format!("stages[{i}].{name}");
             match st {
                 Stage::Compress {
-                    packing_fraction: target,
+                    packing_fraction,
+                    pressure,
                     max_sweeps,
+                    until_jammed,
                 } => {
+                    if *max_sweeps == Some(0) {
+                        return bad(&f("max_sweeps"), "must be at least 1".into());
+                    }
+                    self.check_messages(i, max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS))?;
+                    let target = match (packing_fraction, pressure) {
+                        (Some(_), Some(_)) | (None, None) => {
+                            return bad(
+                                &f("packing_fraction"),
+                                "give exactly one of packing_fraction and pressure".into(),
+                            );
+                        }
+                        (None, Some(p)) => {
+                            let (low, high) = VALUE_RANGE;
+                            if !(*p >= low && *p <= high) {
+                                return bad(
+                                    &f("pressure"),
+                                    format!("must lie in [{low:e}, {high:e}]; got {p}"),
+                                );
+                            }
+                            if *until_jammed {
+                                return bad(
+                                    &f("until_jammed"),
+                                    "applies to a packing_fraction target, not a pressure".into(),
+                                );
+                            }
+                            known_phi = None;
+                            continue;
+                        }
+                        (Some(target), None) => target,
+                    };
                     if !(target.is_finite() && *target > 0.0 && *target < densest) {
                         return bad(
                             &f("packing_fraction"),
@@ -631,10 +677,6 @@ impl Scene {
                             ),
                         );
                     }
-                    if *max_sweeps == Some(0) {
-                        return bad(&f("max_sweeps"), "must be at least 1".into());
-                    }
-                    self.check_messages(i, max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS))?;
                     known_phi = Some(*target);
                 }
                 Stage::MonteCarlo {

@@ -335,11 +335,25 @@ impl fmt::Display for Report<'_> {
             let text = match s {
                 Stage::Compress {
                     packing_fraction,
+                    pressure,
                     max_sweeps,
-                } => format!(
-                    "compress to packing fraction {packing_fraction} (at most {} sweeps)",
-                    max_sweeps.unwrap_or(super::DEFAULT_COMPRESS_SWEEPS)
-                ),
+                    until_jammed,
+                } => {
+                    let target = match (packing_fraction, pressure) {
+                        (Some(phi), _) if *until_jammed => {
+                            format!("packing fraction {phi}, or to the jam short of it")
+                        }
+                        (Some(phi), _) => format!("packing fraction {phi}"),
+                        (None, p) => format!(
+                            "the packing fraction of betaP = {} (measured by the scale distribution, within 5 %)",
+                            p.unwrap_or(f64::NAN)
+                        ),
+                    };
+                    format!(
+                        "compress to {target} (at most {} sweeps)",
+                        max_sweeps.unwrap_or(super::DEFAULT_COMPRESS_SWEEPS)
+                    )
+                }
                 Stage::MonteCarlo {
                     ensemble,
                     sweeps,
