@@ -369,3 +369,42 @@ fn a_pressure_target_reaches_its_density() {
         Err(CompressError::BadPressure(_))
     ));
 }
+
+/// 27 cubes of edge 2 among 702 spheres of diameter 0.1 (sizes 20:1).
+/// One translation size for all was tuned by the many small spheres to
+/// half the box, so the cubes never moved and the packing jammed at
+/// φ ≈ 0.36; tuned per species, the cubes' moves stay short, the spheres'
+/// long, and 0.40 is reached.
+#[test]
+fn a_size_asymmetric_mixture_tunes_each_species_its_own_moves() {
+    use hardbody::mc::compress::Compressor;
+    let species = vec![
+        Species {
+            name: "big cubes".into(),
+            shape: "Cuboid(a: 1.0, b: 1.0, c: 1.0)".parse().unwrap(),
+            rotation: true,
+        },
+        Species {
+            name: "small spheres".into(),
+            shape: "Sphere(radius: 0.05)".parse().unwrap(),
+            rotation: false,
+        },
+    ];
+    let mut system = dilute_lattice(9, species, |i| u16::from(i % 27 != 0), 61);
+    let mut rng = Pcg64::seed_from_u64(62);
+    let mut c = Compressor::new(&system, sizes(), &CompressOptions::to(0.40)).unwrap();
+    let report = loop {
+        if let Some(r) = c.sweep(&mut system, &mut rng).unwrap() {
+            break r;
+        }
+    };
+    assert_eq!(system.first_overlap_all_pairs(), None);
+    let per_species = &c.state().species_sizes;
+    eprintln!(
+        "mixture: phi 0.40 in {} sweeps, translations {:.3} (cubes) and {:.3} (spheres)",
+        report.sweeps, per_species[0].translate, per_species[1].translate
+    );
+    assert!(per_species[0].translate < 0.1 * per_species[1].translate);
+    // The spheres' sizes are handed on: they are the many.
+    assert_eq!(report.sizes, per_species[1]);
+}

@@ -19,7 +19,7 @@
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{Counts, Ensemble, MoveSizes, rotate, sweep, translate};
+use super::moves::{Counts, Ensemble, MoveSizes, rotate, sweep, sweep_by_species, translate};
 use super::sdf::Sdf;
 use super::tuning::Tuner;
 use super::{Particle, System};
@@ -45,6 +45,18 @@ const MAX_PHI_RATIO: f64 = 1.25;
 /// configurations, at least 20 sweeps.
 fn measuring_sweeps(n: usize) -> u64 {
     (20_000 / n.max(1) as u64).max(20)
+}
+
+/// The species with the most particles (the first of those tied).
+fn most_numerous(system: &System) -> usize {
+    let mut counts = vec![0usize; system.species().len()];
+    for p in system.particles() {
+        counts[p.species as usize] += 1;
+    }
+    (0..counts.len())
+        .rev()
+        .max_by_key(|&s| counts[s])
+        .unwrap_or(0)
 }
 
 /// Extra moves an overlapping body gets after each sweep.
@@ -239,12 +251,22 @@ pub fn compress<R: Rng>(
 /// Everything a compression carries from one valid state to the next
 /// besides the system and the random stream: with them, enough to resume
 /// it exactly.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CompressorState {
     /// Sweeps done.
     pub sweeps: u64,
-    /// Move sizes now.
+    /// Move sizes now (of a mixture: its most numerous species', handed on
+    /// to the next stage).
     pub sizes: MoveSizes,
+    /// A mixture's move sizes per species, each tuned on its own
+    /// acceptance: one size for all is tuned by the many small bodies, and
+    /// is far too long for the few large ones, which then never move and
+    /// jam the packing early.
+    #[serde(default)]
+    pub species_sizes: Vec<MoveSizes>,
+    /// A mixture's counts per species since the last move-size update.
+    #[serde(default)]
+    pub species_window: Vec<Counts>,
     /// Relative shrink of the box edge tried next.
     pub step: f64,
     /// Sweeps in a row without progress (kept for logs that carry it).
@@ -349,9 +371,17 @@ impl Compressor {
     }
 
     fn fresh(system: &System, sizes: MoveSizes, opts: &CompressOptions) -> CompressorState {
+        let kinds = system.species().len();
+        let (species_sizes, species_window) = if kinds > 1 {
+            (vec![sizes; kinds], vec![Counts::default(); kinds])
+        } else {
+            (Vec::new(), Vec::new())
+        };
         CompressorState {
             sweeps: 0,
             sizes,
+            species_sizes,
+            species_window,
             step: opts.initial_step,
             stalled: 0,
             window: Counts::default(),
@@ -420,15 +450,28 @@ impl Compressor {
         }
     }
 
-    /// One sweep of moves, counted, with the move sizes tuned every 20.
+    /// One sweep of moves, counted, with the move sizes tuned every 20 (a
+    /// mixture's per species).
     fn moves<R: Rng>(&mut self, system: &mut System, rng: &mut R) {
         let st = &mut self.state;
         st.sweeps += 1;
-        let c = sweep(system, &st.sizes, &Ensemble::Nvt, rng);
+        let c = if st.species_sizes.is_empty() {
+            sweep(system, &st.sizes, &Ensemble::Nvt, rng)
+        } else {
+            sweep_by_species(system, &st.species_sizes, &mut st.species_window, rng)
+        };
         st.counts += c;
         st.window += c;
         if st.sweeps.is_multiple_of(20) {
-            self.tuner.update(&mut st.sizes, &st.window);
+            if st.species_sizes.is_empty() {
+                self.tuner.update(&mut st.sizes, &st.window);
+            } else {
+                for (sizes, window) in st.species_sizes.iter_mut().zip(&mut st.species_window) {
+                    self.tuner.update(sizes, window);
+                    *window = Counts::default();
+                }
+                st.sizes = st.species_sizes[most_numerous(system)];
+            }
             st.window = Counts::default();
         }
     }
@@ -508,7 +551,6 @@ impl Compressor {
     /// within a sweep instead of waiting for the sweep's one move of each
     /// body. (Not counted in the acceptances, which tune the move sizes.)
     fn clear_overlaps<R: Rng>(&mut self, system: &mut System, rng: &mut R) {
-        let sizes = self.state.sizes;
         // The last few get many more tries, at sizes down to an eighth: one
         // stubborn pair would otherwise hold up the next shrink of all.
         let last_few = self.overlapping.len() * 100 <= system.len();
@@ -519,7 +561,13 @@ impl Compressor {
         };
         for k in 0..self.overlapping.len() {
             let i = self.overlapping[k];
-            let rotates = system.species()[system.particles()[i].species as usize].rotation;
+            let species = system.particles()[i].species as usize;
+            let rotates = system.species()[species].rotation;
+            let sizes = *self
+                .state
+                .species_sizes
+                .get(species)
+                .unwrap_or(&self.state.sizes);
             for t in 0..tries {
                 if !system.overlaps_where_it_is(i) {
                     break;

@@ -130,7 +130,7 @@ pub fn sweep<R: Rng>(
         sizes,
         rng,
         |_| true,
-        |_| {},
+        |_, _, _, _| {},
     );
     if let Ensemble::Npt {
         pressure,
@@ -144,40 +144,87 @@ pub fn sweep<R: Rng>(
     counts
 }
 
+/// The move sizes of each particle: one set for all, or one per species.
+pub(crate) trait SizesOf {
+    /// The sizes of particle `i`'s moves.
+    fn of(&self, system: &System, i: usize) -> &MoveSizes;
+}
+
+impl SizesOf for MoveSizes {
+    #[inline]
+    fn of(&self, _: &System, _: usize) -> &MoveSizes {
+        self
+    }
+}
+
+impl SizesOf for [MoveSizes] {
+    #[inline]
+    fn of(&self, system: &System, i: usize) -> &MoveSizes {
+        &self[system.particles[i].species as usize]
+    }
+}
+
 /// `count` particle moves, each of the particle `pick` draws: a rotation
 /// with probability ½ for rotating species, else a translation, confined to
 /// where `inside` holds (everywhere for a serial sweep, a slab for a
-/// parallel one); `accepted` hears of each particle moved.
+/// parallel one); `tried` hears of each move: the particle, its species,
+/// whether it was a rotation, and whether it was kept.
 #[inline]
 pub(crate) fn particle_moves<R: Rng>(
     system: &mut System,
     count: usize,
     mut pick: impl FnMut(&mut R) -> usize,
-    sizes: &MoveSizes,
+    sizes: &(impl SizesOf + ?Sized),
     rng: &mut R,
     inside: impl Fn(&Vector3<f64>) -> bool,
-    mut accepted: impl FnMut(usize),
+    mut tried: impl FnMut(usize, usize, bool, bool),
 ) -> Counts {
     let mut counts = Counts::default();
     // Systems where nothing turns skip the species lookup of every move.
     let any_rotates = system.species.iter().any(|s| s.rotation);
     for _ in 0..count {
         let i = pick(rng);
-        let rotates = any_rotates && system.species[system.particles[i].species as usize].rotation;
-        let moved = if rotates && rng.r#gen::<bool>() {
-            let moved = rotate(system, i, sizes.rotate, rng);
+        let species = system.particles[i].species as usize;
+        let rotates = any_rotates && system.species[species].rotation;
+        let size = *sizes.of(system, i);
+        if rotates && rng.r#gen::<bool>() {
+            let moved = rotate(system, i, size.rotate, rng);
             counts.rotate.record(moved);
-            moved
+            tried(i, species, true, moved);
         } else {
-            let moved = translate_within(system, i, sizes.translate, rng, &inside);
+            let moved = translate_within(system, i, size.translate, rng, &inside);
             counts.translate.record(moved);
-            moved
-        };
-        if moved {
-            accepted(i);
+            tried(i, species, false, moved);
         }
     }
     counts
+}
+
+/// One NVT sweep with move sizes per species; `counts[s]` gains the
+/// moves of species s.
+pub(crate) fn sweep_by_species<R: Rng>(
+    system: &mut System,
+    sizes: &[MoveSizes],
+    counts: &mut [Counts],
+    rng: &mut R,
+) -> Counts {
+    let n = system.len();
+    particle_moves(
+        system,
+        n,
+        |rng| rng.gen_range(0..n),
+        sizes,
+        rng,
+        |_| true,
+        |_, species, rotation, moved| {
+            let c = &mut counts[species];
+            if rotation {
+                c.rotate.record(moved);
+            } else {
+                c.translate.record(moved);
+            }
+        },
+    )
 }
 
 /// A point uniform in the cube of side `size` centred on `position`.

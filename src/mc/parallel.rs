@@ -363,7 +363,11 @@ fn colour_moves(
             sizes,
             &mut rng,
             |r| slabs.slab_of(&box_.wrap_near(r)) == k,
-            &mut accepted,
+            |i, _, _, moved| {
+                if moved {
+                    accepted(i)
+                }
+            },
         );
     }
     counts

@@ -746,7 +746,7 @@ impl Runner<'_> {
             stage_complete: complete,
             sweep,
             max_translate,
-            sizes: compress.map(|c| c.sizes).unwrap_or(self.sizes),
+            sizes: compress.as_ref().map(|c| c.sizes).unwrap_or(self.sizes),
             rng: Some(rng.clone()),
             window,
             tune_window,
@@ -811,7 +811,7 @@ impl Runner<'_> {
                     0,
                     Counts::default(),
                     Counts::default(),
-                    Some(*c.state()),
+                    Some(c.state().clone()),
                     0.0,
                     false,
                 );
@@ -827,7 +827,7 @@ impl Runner<'_> {
         let mut frame_due = false;
         let outcome = loop {
             let step = compressor.sweep(&mut system, rng);
-            let state = *compressor.state();
+            let state = compressor.state();
             window += state.counts - last_counts;
             last_counts = state.counts;
             let s = state.sweeps;
@@ -850,13 +850,14 @@ impl Runner<'_> {
             let stop = self.stopped();
             if (frame_due || stop) && compressor.is_valid() {
                 frame_due = false;
+                let state = compressor.state().clone();
                 let info =
                     self.mc_resume(rng, s, window, Counts::default(), Some(state), 0.0, false);
                 log.frame(time, &self.record_system(&system, index, s, info))
                     .map_err(write_error)?;
             }
             if stop && compressor.is_valid() {
-                self.sizes = state.sizes;
+                self.sizes = compressor.state().sizes;
                 self.clock = time;
                 let line = format!(
                     "interrupted at packing fraction {:.4} after {s} sweeps",
@@ -868,7 +869,7 @@ impl Runner<'_> {
         match outcome {
             Ok(report) => {
                 self.sizes = report.sizes;
-                let state = *compressor.state();
+                let state = compressor.state().clone();
                 let info = self.mc_resume(
                     rng,
                     state.sweeps,
@@ -904,7 +905,7 @@ impl Runner<'_> {
                     s,
                     window,
                     Counts::default(),
-                    Some(*compressor.state()),
+                    Some(compressor.state().clone()),
                     0.0,
                     false,
                 );

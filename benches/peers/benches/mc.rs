@@ -235,7 +235,10 @@ where
             Particle {
                 position: Vector3::new(r[0], r[1], r[2]),
                 orientation: UnitQuaternion::new_normalize(nalgebra::Quaternion::new(
-                    q.scalar, q.vector[0], q.vector[1], q.vector[2],
+                    q.scalar,
+                    q.vector[0],
+                    q.vector[1],
+                    q.vector[2],
                 )),
                 species: 0,
             }
@@ -248,7 +251,9 @@ where
 fn main() {
     let quick = std::env::var("QUICK").is_ok();
     let (n, repeats, sweeps) = if quick { (1400, 3, 10) } else { (4096, 5, 100) };
-    println!("| system | N | hardbody moves/s | hoomd-mc 1.4 moves/s | ratio | acceptance (ours / theirs) |");
+    println!(
+        "| system | N | hardbody moves/s | hoomd-mc 1.4 moves/s | ratio | acceptance (ours / theirs) |"
+    );
     println!("|---|---|---|---|---|---|");
     let report = |name: &str, n: usize, a: (f64, f64), b: (f64, f64)| {
         println!(
@@ -274,7 +279,11 @@ fn main() {
 
     let ellipsoid: Shape = "Ellipsoid(a: 2.5, b: 0.5, c: 0.5)".parse().unwrap();
     let mut system = dense_start(&ellipsoid, n, 0.5).unwrap();
-    let g = Convex(Hyperellipsoid::with_semi_axes([pos(2.5), pos(0.5), pos(0.5)]));
+    let g = Convex(Hyperellipsoid::with_semi_axes([
+        pos(2.5),
+        pos(0.5),
+        pos(0.5),
+    ]));
     let (mut a, mut b) = (Vec::new(), Vec::new());
     for _ in 0..rounds {
         a.push(ours(&mut system, repeats, sweeps));
