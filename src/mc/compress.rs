@@ -36,15 +36,15 @@ pub const JAMMING_SHARE: f64 = 0.002;
 const PRESSURE_WINDOW: f64 = 0.02;
 /// A pressure target is reached when βP is measured within this relative
 /// distance of it: close enough for the NPT sampling that follows.
-pub const PRESSURE_TOLERANCE: f64 = 0.05;
+pub const PRESSURE_TOLERANCE: f64 = 0.03;
 /// The largest change of packing fraction, as a ratio, between two
 /// pressure measurements.
 const MAX_PHI_RATIO: f64 = 1.25;
 
-/// Sweeps over which a pressure is measured: some 20 000 particle
-/// configurations, at least 20 sweeps.
+/// Sweeps over which a pressure is measured (after as many that relax the
+/// structure): some 20 000 particle configurations, at least 20 sweeps.
 fn measuring_sweeps(n: usize) -> u64 {
-    (20_000 / n.max(1) as u64).max(20)
+    (50_000 / n.max(1) as u64).max(20)
 }
 
 /// The species with the most particles (the first of those tied).
@@ -212,7 +212,8 @@ pub struct CompressReport {
     /// At a jam, βP/ρ of the final configuration from its scale
     /// distribution (large: the pressure diverges at the jam).
     pub compressibility: Option<f64>,
-    /// For a pressure target, βP measured at the packing fraction reached.
+    /// For a pressure target, the last βP measured (near the packing
+    /// fraction reached, which the last measurement's secant step set).
     pub pressure: Option<f64>,
 }
 
@@ -299,6 +300,10 @@ pub struct CompressorState {
     /// For a pressure target, the last packing fraction and βP measured.
     #[serde(default)]
     pub measured: Option<(f64, f64)>,
+    /// For a pressure target, measured close to it: the packing fraction
+    /// aimed at now is the last.
+    #[serde(default)]
+    pub settling: bool,
 }
 
 /// A compression one sweep at a time (see [`compress`]).
@@ -393,6 +398,7 @@ impl Compressor {
             undone: 0,
             target: None,
             measured: None,
+            settling: false,
         }
     }
 
@@ -495,9 +501,15 @@ impl Compressor {
             });
         }
         self.moves(system, rng);
-        self.sdf.add(system);
         self.measuring += 1;
-        if self.measuring < measuring_sweeps(system.len()) {
+        // The first half relaxes the structure a shrink left: just
+        // compressed, fewer pairs are near contact than in equilibrium,
+        // and the pressure measured at once is low.
+        let half = measuring_sweeps(system.len());
+        if self.measuring > half {
+            self.sdf.add(system);
+        }
+        if self.measuring < 2 * half {
             return Ok(None);
         }
         self.measuring = 0;
@@ -509,18 +521,21 @@ impl Compressor {
         let phi = system.packing_fraction();
         self.state.progress_mark = (self.state.sweeps, phi);
         let previous = self.state.measured.replace((phi, measured));
-        if (measured / pressure - 1.0).abs() < PRESSURE_TOLERANCE {
-            return Ok(Some(self.report(system, false)));
-        }
         // ln βP against ln φ, through the last two measurements (slope at
         // least 1: βP grows at least as the density; ideal gas at first).
         let slope = previous
             .filter(|(phi0, p0)| (phi / phi0).ln().abs() > 1e-9 && *p0 != measured)
-            .map(|(phi0, p0)| ((measured / p0).ln() / (phi / phi0).ln()).clamp(1.0, 50.0))
-            .unwrap_or(1.0);
-        let next = (phi * (pressure / measured).powf(1.0 / slope))
+            .map(|(phi0, p0)| ((measured / p0).ln() / (phi / phi0).ln()).clamp(1.0, 50.0));
+        let close = (measured / pressure - 1.0).abs() < PRESSURE_TOLERANCE;
+        if close && slope.is_none() {
+            return Ok(Some(self.report(system, false)));
+        }
+        let next = (phi * (pressure / measured).powf(1.0 / slope.unwrap_or(1.0)))
             .clamp(phi / MAX_PHI_RATIO, phi * MAX_PHI_RATIO)
             .min(self.opts.target);
+        // Close: the last secant step is taken without measuring again, so
+        // that what is left is the measurement's noise, not the tolerance.
+        self.state.settling = close;
         if next <= phi {
             let lengths = system.periodic_box().lengths() * (phi / next).cbrt();
             if !system.rescale_allowing_overlaps(lengths) {
@@ -529,6 +544,9 @@ impl Compressor {
                 ));
             }
             self.state.target = Some(system.packing_fraction());
+            if close {
+                return Ok(Some(self.report(system, false)));
+            }
         } else {
             let edge = system.periodic_box().lengths().min() * (phi / next).cbrt();
             let range = system.interaction_range();
@@ -625,8 +643,10 @@ impl Compressor {
         if self.overlapping.is_empty() {
             if self.state.at_target {
                 match opts.pressure {
-                    None => return Ok(Some(self.report(system, false))),
-                    Some(pressure) => return self.measure(system, pressure, rng),
+                    Some(pressure) if !self.state.settling => {
+                        return self.measure(system, pressure, rng);
+                    }
+                    _ => return Ok(Some(self.report(system, false))),
                 }
             }
             let phi = system.packing_fraction();

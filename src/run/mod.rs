@@ -377,6 +377,9 @@ fn run_with(
 
 /// A stage's random stream: independent of the other stages', fixed by
 /// the scene seed and the stage index.
+/// Sweeps the approach to an NPT stage's pressure may take.
+const APPROACH_SWEEPS: u64 = 100_000;
+
 fn stage_rng(seed: u64, index: usize) -> Pcg64 {
     Pcg64::new(
         seed as u128 | ((index as u128 + 1) << 64),
@@ -976,9 +979,13 @@ impl Runner<'_> {
             .as_ref()
             .and_then(|r| r.drift.clone())
             .unwrap_or_default();
+        let mut approach = None;
         let (first, mut window, mut tune_window, max_translate) = match &resume {
             Some(r) => (r.sweep, r.window, r.tune_window, r.max_translate),
             None => {
+                if let Ensemble::Npt { pressure, .. } = ensemble {
+                    approach = Some(self.approach_pressure(&mut system, *pressure, rng));
+                }
                 let max_translate = system.periodic_box().lengths().min() / 2.0;
                 let info = self.mc_resume(
                     rng,
@@ -1105,7 +1112,8 @@ impl Runner<'_> {
             self.end_mc_stage(index, &system, done, &window, pressure, info, log)?;
         }
         let line = format!(
-            "{done} sweeps, packing fraction {:.4}{}{}",
+            "{}{done} sweeps, packing fraction {:.4}{}{}",
+            approach.flatten().unwrap_or_default(),
             system.packing_fraction(),
             pressure
                 .map(|p| format!(", last betaP {p:.4}"))
@@ -1113,6 +1121,51 @@ impl Runner<'_> {
             if stopped { ", interrupted" } else { "" }
         );
         Ok((Phase::Mc(system), line, stopped && done < sweeps))
+    }
+
+    /// Before an NPT stage at `pressure` from a fresh start: compression
+    /// (or expansion) to the packing fraction whose measured βP is within
+    /// 3 % of it, so that the box moves start near the equilibrium density
+    /// instead of creeping to it from a dilute start (their shrinks are
+    /// limited by the closest pair, a gap of order 1/N of the box). Not
+    /// with walls (the pressure is measured in a periodic box). Says what
+    /// it did, if anything; where it cannot reach the pressure it leaves
+    /// the last overlap-free state it had and the NPT stage goes on from
+    /// there.
+    fn approach_pressure(
+        &mut self,
+        system: &mut System,
+        pressure: f64,
+        rng: &mut Pcg64,
+    ) -> Option<String> {
+        if system.periodic_box().has_walls() {
+            return None;
+        }
+        let start = system.packing_fraction();
+        let opts = CompressOptions {
+            max_sweeps: APPROACH_SWEEPS,
+            ..CompressOptions::to_pressure(pressure, self.scene.densest_packing_fraction())
+        };
+        let mut compressor = Compressor::new(system, self.sizes, &opts).ok()?;
+        let report = loop {
+            match compressor.sweep(system, rng) {
+                Ok(None) => {}
+                Ok(Some(report)) => break Some(report),
+                Err(_) => break None,
+            }
+        };
+        let sweeps = compressor.state().sweeps;
+        self.sizes = compressor.state().sizes;
+        let end = system.packing_fraction();
+        Some(match report {
+            Some(r) => format!(
+                "approached betaP {pressure} from packing fraction {start:.4} to {end:.4} (measured betaP {:.4}) in {sweeps} sweeps, then ",
+                r.pressure.unwrap_or(f64::NAN)
+            ),
+            None => format!(
+                "approach to betaP {pressure} stopped at packing fraction {end:.4} after {sweeps} sweeps, then "
+            ),
+        })
     }
 
     /// βP over the interval: the imposed value in NPT, the SDF estimate in

@@ -127,8 +127,7 @@ pub enum Stage {
         #[serde(default)]
         packing_fraction: Option<f64>,
         /// Target βP: compression to the packing fraction at which the
-        /// measured pressure is this, within 5 % (or give
-        /// `packing_fraction`).
+        /// measured pressure is this (or give `packing_fraction`).
         #[serde(default)]
         pressure: Option<f64>,
         /// Give up after this many sweeps (default 10⁶).

@@ -345,7 +345,7 @@ impl fmt::Display for Report<'_> {
                         }
                         (Some(phi), _) => format!("packing fraction {phi}"),
                         (None, p) => format!(
-                            "the packing fraction of betaP = {} (measured by the scale distribution, within 5 %)",
+                            "the packing fraction of betaP = {} (measured by the scale distribution, within 3 %)",
                             p.unwrap_or(f64::NAN)
                         ),
                     };
