@@ -181,7 +181,7 @@ fn analyze_gives_two_pressure_routes_that_agree_within_their_errors() {
 /// 4) averaged by `analyze`, against Carnahan–Starling: every stage
 /// equilibrated in every replica, every density within 0.5 % and within
 /// three errors. (A long run: `HARDBODY_LONG=1`, about 80 s on two cores;
-/// one run alone is not enough, its βP = 4 density is 0.94 % low.)
+/// one run alone is not enough: seed 2 alone puts βP = 4 0.84 % low.)
 #[test]
 fn analyze_reports_the_hard_sphere_equation_of_state() {
     use hardbody::analysis::averages::over_replicas;
