@@ -19,7 +19,7 @@
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{Counts, Ensemble, MoveSizes, rotate, sweep, sweep_by_species, translate};
+use super::moves::{Counts, Ensemble, MoveSizes, particle_moves, sweep, sweep_by_species};
 use super::sdf::Sdf;
 use super::tuning::Tuner;
 use super::{Particle, System};
@@ -42,7 +42,7 @@ pub const PRESSURE_TOLERANCE: f64 = 0.03;
 const MAX_PHI_RATIO: f64 = 1.25;
 
 /// Sweeps over which a pressure is measured (after as many that relax the
-/// structure): some 20 000 particle configurations, at least 20 sweeps.
+/// structure): some 50 000 particle configurations, at least 20 sweeps.
 fn measuring_sweeps(n: usize) -> u64 {
     (50_000 / n.max(1) as u64).max(20)
 }
@@ -270,9 +270,6 @@ pub struct CompressorState {
     pub species_window: Vec<Counts>,
     /// Relative shrink of the box edge tried next.
     pub step: f64,
-    /// Sweeps in a row without progress (kept for logs that carry it).
-    #[serde(default)]
-    pub stalled: u64,
     /// Counts since the last move-size update.
     pub window: Counts,
     /// Counts over the whole compression.
@@ -388,7 +385,6 @@ impl Compressor {
             species_sizes,
             species_window,
             step: opts.initial_step,
-            stalled: 0,
             window: Counts::default(),
             counts: Counts::default(),
             max_translate: system.periodic_box().lengths().min() / 2.0,
@@ -580,7 +576,6 @@ impl Compressor {
         for k in 0..self.overlapping.len() {
             let i = self.overlapping[k];
             let species = system.particles()[i].species as usize;
-            let rotates = system.species()[species].rotation;
             let sizes = *self
                 .state
                 .species_sizes
@@ -595,11 +590,12 @@ impl Compressor {
                 } else {
                     1.0
                 };
-                if rotates && rng.r#gen::<bool>() {
-                    rotate(system, i, scale * sizes.rotate, rng);
-                } else {
-                    translate(system, i, scale * sizes.translate, rng);
-                }
+                let scaled = MoveSizes {
+                    translate: scale * sizes.translate,
+                    rotate: scale * sizes.rotate,
+                    ..sizes
+                };
+                particle_moves(system, 1, |_| i, &scaled, rng, |_| true, |_, _, _, _| {});
             }
         }
         self.overlapping.retain(|&i| system.overlaps_where_it_is(i));
