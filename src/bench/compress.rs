@@ -71,8 +71,9 @@ pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, Str
     Ok(system)
 }
 
-/// Compresses `start` (a copy) to `target` and times it.
-fn timed(table: &'static str, start: &System, target: f64) -> Result<CompressRow, String> {
+/// Compresses `start` (a copy) to `target` and times it: the row of
+/// `table`, its end state checked to be overlap-free.
+pub fn timed(table: &'static str, start: &System, target: f64) -> Result<CompressRow, String> {
     let mut system = start.clone();
     let mut rng = Pcg64::seed_from_u64(17);
     let sizes = MoveSizes {

@@ -16,10 +16,8 @@
 
 use std::time::Instant;
 
-use hardbody::bench::compress::dilute_start;
+use hardbody::bench::compress::{dilute_start, timed};
 use hardbody::geometry::Shape;
-use hardbody::mc::compress::{CompressOptions, compress};
-use hardbody::mc::moves::MoveSizes;
 use hardbody::mc::{Particle, System};
 use hoomd_geometry::Convex;
 use hoomd_geometry::shape::{Hypercuboid, Hyperellipsoid};
@@ -34,8 +32,6 @@ use hoomd_simulation::macrostate::Isothermal;
 use hoomd_spatial::VecCell;
 use hoomd_vector::{Cartesian, Quaternion, Versor};
 use nalgebra::{UnitQuaternion, Vector3};
-use rand::SeedableRng;
-use rand_pcg::Pcg64;
 
 const TARGET: f64 = 0.3;
 /// Steps after which a run counts as not finished.
@@ -58,22 +54,6 @@ fn box_shape(system: &System) -> Hypercuboid<3> {
     Hypercuboid {
         edge_lengths: [pos(l.x), pos(l.y), pos(l.z)],
     }
-}
-
-/// hardbody: seconds and sweeps to `target`.
-fn ours(start: &System, target: f64) -> (f64, u64) {
-    let mut system = start.clone();
-    let mut rng = Pcg64::seed_from_u64(17);
-    let sizes = MoveSizes {
-        translate: 0.3,
-        rotate: 0.3,
-        volume: 0.0,
-    };
-    let clock = Instant::now();
-    let report = compress(&mut system, sizes, &CompressOptions::to(target), &mut rng).unwrap();
-    let seconds = clock.elapsed().as_secs_f64();
-    assert!(system.first_overlap_all_pairs().is_none());
-    (seconds, report.sweeps)
 }
 
 /// The volume of the box at `target`.
@@ -278,9 +258,9 @@ fn main() {
         let (mut a, mut b) = (Vec::new(), Vec::new());
         let (mut a_sweeps, mut b_steps, mut b_valid) = (0, None, true);
         for _ in 0..rounds {
-            let (s, sweeps) = ours(&start, target);
-            a.push(s);
-            a_sweeps = sweeps;
+            let row = timed("reference", &start, target).unwrap();
+            a.push(row.seconds);
+            a_sweeps = row.sweeps;
             let (theirs, valid) = match &shape {
                 Shape::Sphere(_) => theirs_spheres(&start, target),
                 Shape::Cuboid(_) => theirs_bodies(
