@@ -447,21 +447,8 @@ impl System {
         // Through the neighbour structure: O(N), where the all-pairs check is
         // O(N²) (that one is for tests).
         for i in 0..system.len() {
-            let p = &system.particles[i];
-            if system.overlaps_at(i, &p.position, &system.rotations[i]) {
-                let partners: Vec<usize> = (0..system.len())
-                    .filter(|&j| {
-                        j != i
-                            && system.pair_overlaps(
-                                i,
-                                &p.position,
-                                &system.rotations[i],
-                                j,
-                                &system.positions[j],
-                                &system.rotations[j],
-                            )
-                    })
-                    .collect();
+            if system.overlaps_where_it_is(i) {
+                let partners: Vec<usize> = system.partners_of(i).collect();
                 match partners.iter().find(|&&j| !touching(i.min(j), i.max(j))) {
                     Some(&j) => return Err(McError::Overlap(i.min(j), i.max(j))),
                     None if partners.is_empty() => return Err(McError::Overlap(i, i)),
@@ -828,13 +815,18 @@ impl System {
     /// a body on a wall is paired with itself.
     pub fn first_overlap(&self) -> Option<(usize, usize)> {
         let i = (0..self.len()).find(|&i| self.overlaps_where_it_is(i))?;
-        let (p, r) = (&self.positions[i], &self.rotations[i]);
-        let partner = (0..self.len()).find(|&j| {
-            j != i && self.pair_overlaps(i, p, r, j, &self.positions[j], &self.rotations[j])
-        });
-        Some(match partner {
+        Some(match self.partners_of(i).next() {
             Some(j) => (i.min(j), i.max(j)),
             None => (i, i),
+        })
+    }
+
+    /// The particles that particle `i` overlaps where it is, by testing
+    /// every other one (for naming an overlap, not for moves).
+    fn partners_of(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        let (p, r) = (&self.positions[i], &self.rotations[i]);
+        (0..self.len()).filter(move |&j| {
+            j != i && self.pair_overlaps(i, p, r, j, &self.positions[j], &self.rotations[j])
         })
     }
 
@@ -1044,23 +1036,34 @@ impl System {
         }
     }
 
+    /// The box of these edges, if valid and at least twice the interaction
+    /// range along each.
+    fn box_with_lengths(&self, lengths: V3) -> Option<PeriodicBox> {
+        let new_box = self.box_.with_lengths(lengths).ok()?;
+        Self::check_box(&new_box, self.range).ok()?;
+        Some(new_box)
+    }
+
+    /// Puts the system in `new_box`, every centre scaled by `factor` (the
+    /// neighbour structures are the caller's to renew).
+    fn scale_into(&mut self, new_box: PeriodicBox, factor: &V3) {
+        self.box_ = new_box;
+        for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
+            p.position = new_box.wrap(&p.position.component_mul(factor));
+            *r = p.position;
+        }
+    }
+
     /// Rescales the box to `lengths` and the centres with it, overlaps or
     /// not (a compression that lets the moves remove them); returns false,
     /// and changes nothing, where the box would be invalid or shorter than
     /// twice the interaction range.
     pub(crate) fn rescale_allowing_overlaps(&mut self, lengths: V3) -> bool {
-        let Ok(new_box) = self.box_.with_lengths(lengths) else {
+        let Some(new_box) = self.box_with_lengths(lengths) else {
             return false;
         };
-        if Self::check_box(&new_box, self.range).is_err() {
-            return false;
-        }
         let factor = lengths.component_div(&self.box_.lengths());
-        self.box_ = new_box;
-        for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
-            p.position = new_box.wrap(&p.position.component_mul(&factor));
-            *r = p.position;
-        }
+        self.scale_into(new_box, &factor);
         self.capsule_lists = None;
         self.cells = self.neighbours_as_they_are();
         if let Some(mut lists) = self.sphere_lists.take()
@@ -1103,12 +1106,9 @@ impl System {
     /// creates no overlap and keeps the box at least twice the interaction
     /// range; returns whether it did.
     pub(crate) fn try_rescale(&mut self, lengths: V3) -> bool {
-        let Ok(new_box) = self.box_.with_lengths(lengths) else {
+        let Some(new_box) = self.box_with_lengths(lengths) else {
             return false;
         };
-        if Self::check_box(&new_box, self.range).is_err() {
-            return false;
-        }
         let old_lengths = self.box_.lengths();
         let factor = lengths.component_div(&old_lengths);
         let shrinks = factor.iter().any(|&f| f < 1.0);
@@ -1140,11 +1140,7 @@ impl System {
         let capsule_lists = self.capsule_lists.take();
         let old_box = self.box_;
         let old_positions = self.positions.clone();
-        self.box_ = new_box;
-        for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
-            p.position = new_box.wrap(&p.position.component_mul(&factor));
-            *r = p.position;
-        }
+        self.scale_into(new_box, &factor);
         let new_cells = self.neighbours_as_they_are();
         let old_cells = std::mem::replace(&mut self.cells, new_cells);
         // Scaling all centres up cannot create an overlap of convex bodies

@@ -984,7 +984,7 @@ impl Runner<'_> {
             Some(r) => (r.sweep, r.window, r.tune_window, r.max_translate),
             None => {
                 if let Ensemble::Npt { pressure, .. } = ensemble {
-                    approach = Some(self.approach_pressure(&mut system, *pressure, rng));
+                    approach = self.approach_pressure(&mut system, *pressure, rng);
                 }
                 let max_translate = system.periodic_box().lengths().min() / 2.0;
                 let info = self.mc_resume(
@@ -1113,7 +1113,7 @@ impl Runner<'_> {
         }
         let line = format!(
             "{}{done} sweeps, packing fraction {:.4}{}{}",
-            approach.flatten().unwrap_or_default(),
+            approach.unwrap_or_default(),
             system.packing_fraction(),
             pressure
                 .map(|p| format!(", last betaP {p:.4}"))
