@@ -1,0 +1,141 @@
+//! Behaviour pinned: every shipped scene, shortened, writes the same
+//! `/state` messages byte for byte as the reference recorded in
+//! `tests/golden/states.txt`. A change that alters any trajectory, start,
+//! compression or hand-off fails here.
+//!
+//! After a deliberate change of behaviour, record the new reference with
+//! `HARDBODY_BLESS=1 cargo test --release --test golden` and say why in the
+//! commit.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use common::scene_files;
+use hardbody::log::read::{ReadOptions, read_log_with};
+use hardbody::run::{Silent, run_scene};
+use hardbody::scene::{Scene, Stage};
+
+const REFERENCE: &str = "tests/golden/states.txt";
+
+/// The scene cut short: Monte Carlo stages of at most 300 sweeps, dynamics
+/// of at most 1 time unit, compressions to at most φ = 0.45 and
+/// frames often enough that every stage writes several.
+fn shortened(mut scene: Scene) -> Scene {
+    scene.log.frames_every = 50;
+    scene.log.stats_every = 50;
+    for stage in &mut scene.stages {
+        match stage {
+            Stage::Compress {
+                packing_fraction: Some(phi),
+                ..
+            } => *phi = phi.min(0.45),
+            Stage::Compress { .. } => {}
+            Stage::MonteCarlo { sweeps, .. } => *sweeps = (*sweeps).min(300),
+            Stage::Dynamics {
+                duration,
+                stats_every,
+                frames_every,
+                ..
+            } => {
+                *duration = duration.min(1.0);
+                *stats_every = Some(*duration / 5.0);
+                *frames_every = Some(*duration / 4.0);
+            }
+        }
+    }
+    scene
+}
+
+/// FNV-1a over the bytes: enough to tell any change (nothing here is
+/// adversarial), and the same on every platform and toolchain.
+fn fnv1a(hash: &mut u64, bytes: &[u8]) {
+    for &b in bytes {
+        *hash ^= u64::from(b);
+        *hash = hash.wrapping_mul(0x0100_0000_01b3);
+    }
+}
+
+/// Number of `/state` messages and the digest of their log times and bytes.
+fn state_digest(path: &Path) -> (usize, u64) {
+    let log = read_log_with(
+        path,
+        ReadOptions {
+            all_states: false,
+            messages: true,
+        },
+    )
+    .unwrap();
+    assert!(
+        log.failure.is_none(),
+        "{}: {:?}",
+        path.display(),
+        log.failure
+    );
+    let mut hash = 0xcbf2_9ce4_8422_2325;
+    let mut count = 0;
+    for (topic, time, data) in &log.messages {
+        if topic == "/state" {
+            fnv1a(&mut hash, &time.to_le_bytes());
+            fnv1a(&mut hash, data);
+            count += 1;
+        }
+    }
+    (count, hash)
+}
+
+fn run_shortened(file: &Path, dir: &Path) -> (usize, u64) {
+    let text = std::fs::read_to_string(file).unwrap();
+    let scene = shortened(Scene::parse(&text).unwrap());
+    let name = file.file_stem().unwrap().to_string_lossy();
+    let out = dir.join(format!("{name}.mcap"));
+    let stop = AtomicBool::new(false);
+    run_scene(&scene, &text, &out, &mut Silent, &stop).unwrap_or_else(|e| panic!("{name}: {e}"));
+    state_digest(&out)
+}
+
+#[test]
+fn every_shipped_scene_writes_the_reference_states() {
+    let dir = std::env::temp_dir().join(format!("hardbody-golden-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let reference_path = Path::new(env!("CARGO_MANIFEST_DIR")).join(REFERENCE);
+
+    let measured: BTreeMap<String, (usize, u64)> = scene_files("data/scenes")
+        .iter()
+        .map(|file| {
+            let name = file.file_stem().unwrap().to_string_lossy().to_string();
+            (name, run_shortened(file, &dir))
+        })
+        .collect();
+    let _ = std::fs::remove_dir_all(&dir);
+
+    let lines: String = measured
+        .iter()
+        .map(|(name, (count, hash))| format!("{name} {count} {hash:016x}\n"))
+        .collect();
+    if std::env::var_os("HARDBODY_BLESS").is_some() {
+        std::fs::write(&reference_path, &lines).unwrap();
+        return;
+    }
+    let reference = std::fs::read_to_string(&reference_path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (record it with HARDBODY_BLESS=1)",
+            reference_path.display()
+        )
+    });
+    for (name, (count, _)) in &measured {
+        assert!(*count >= 2, "{name}: only {count} frames");
+    }
+    let differing: Vec<_> = lines
+        .lines()
+        .zip(reference.lines())
+        .filter(|(now, then)| now != then)
+        .collect();
+    assert!(
+        differing.is_empty() && lines.lines().count() == reference.lines().count(),
+        "states differ from the reference (now, then): {differing:?}"
+    );
+}
