@@ -4,6 +4,7 @@
 //! depends on nothing above it.
 
 pub mod capsule;
+pub mod contact;
 pub mod gjk;
 pub mod implicit;
 pub mod newton;
@@ -13,10 +14,8 @@ pub mod pair;
 pub mod roots;
 pub mod shape;
 
-pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent, WarmStart};
+pub use contact::{Contact, Failure, Method, Relative, Status, WarmStart};
+pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent};
 pub use obb::Obb;
-pub use pair::{
-    Contact, DistanceOptions, Failure, Method, Placed, Relative, Status, distance, overlap,
-    placed_overlap,
-};
+pub use pair::{DistanceOptions, Placed, distance, overlap, placed_overlap};
 pub use shape::{Cuboid, Ellipsoid, Shape, ShapeError, ShapeSpec, Sphere, Superellipsoid};

@@ -12,8 +12,8 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
+use super::contact::{Contact, Failure, Method, Relative, Status, WarmStart};
 use super::implicit::{Implicit, SmoothSurface};
-use super::pair::{Contact, Failure, Method, Relative, Status};
 
 type V3 = Vector3<f64>;
 
@@ -68,18 +68,6 @@ impl Default for NewtonOptions {
             max_descent_steps: 200,
         }
     }
-}
-
-/// A previous solution, kept in each body's own frame so that it remains a
-/// good start after the bodies have moved (EDMD) or been perturbed (MC).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WarmStart {
-    /// Contact point on A, A's body frame.
-    pub point_a: V3,
-    /// Contact point on B, B's body frame.
-    pub point_b: V3,
-    /// Lagrange multiplier α of eq. (9a).
-    pub alpha: f64,
 }
 
 /// f, ∇f, ∇∇f of B at `x` given in A's frame.

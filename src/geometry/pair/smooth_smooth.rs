@@ -5,8 +5,9 @@
 
 use super::{Contact, DistanceOptions, Relative, Status};
 use super::{convex, quadric_quadric};
+use crate::geometry::contact::WarmStart;
 use crate::geometry::implicit::SmoothSurface;
-use crate::geometry::newton::{SteepestDescent, WarmStart, newton_distance};
+use crate::geometry::newton::{SteepestDescent, newton_distance};
 use crate::geometry::shape::Shape;
 use nalgebra::Vector3;
 
