@@ -470,8 +470,8 @@ fn log_to_analyze(path: &std::path::Path) -> Result<hardbody::log::read::LogCont
 }
 
 fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -> ExitCode {
-    use hardbody::analysis::averages::stage_averages;
     use hardbody::analysis::series::FEW_EFFECTIVE_SAMPLES;
+    use hardbody::log::averages::stage_averages;
     let contents = match log_to_analyze(path) {
         Ok(c) => c,
         Err(code) => return code,
@@ -572,7 +572,7 @@ fn analyze(path: &std::path::Path, json: bool, plot: Option<&std::path::Path>) -
 /// every stage's observables averaged over the logs, with an error that
 /// is the larger of the runs' errors combined and their spread.
 fn analyze_replicas(paths: &[PathBuf], json: bool, plot: Option<&std::path::Path>) -> ExitCode {
-    use hardbody::analysis::averages::{stage_averages, stages_over_replicas};
+    use hardbody::log::averages::{stage_averages, stages_over_replicas};
     let mut runs = Vec::new();
     let mut first_scene: Option<Scene> = None;
     for (k, path) in paths.iter().enumerate() {
@@ -677,7 +677,7 @@ fn analyze_replicas(paths: &[PathBuf], json: bool, plot: Option<&std::path::Path
 fn plot_stage(
     dir: &std::path::Path,
     stats: &[hardbody::log::Stats],
-    stage: &hardbody::analysis::averages::StageAverages,
+    stage: &hardbody::log::averages::StageAverages,
 ) -> Result<(), String> {
     use hardbody::bench::plot::{Figure, Series, line_plot};
     let dynamics = stage.stage == "dynamics";

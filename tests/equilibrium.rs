@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use hardbody::analysis::averages::{StageAverages, stage_averages};
 use hardbody::log::Stats;
+use hardbody::log::averages::{StageAverages, stage_averages};
 use hardbody::log::read::read_log;
 use hardbody::run::{Silent, run_scene};
 use hardbody::scene::Scene;
@@ -184,7 +184,7 @@ fn analyze_gives_two_pressure_routes_that_agree_within_their_errors() {
 /// one run alone is not enough: seed 2 alone puts βP = 4 0.84 % low.)
 #[test]
 fn analyze_reports_the_hard_sphere_equation_of_state() {
-    use hardbody::analysis::averages::over_replicas;
+    use hardbody::log::averages::over_replicas;
     use rayon::prelude::*;
     if std::env::var_os("HARDBODY_LONG").is_none() {
         eprintln!(

@@ -14,9 +14,9 @@
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-use hardbody::analysis::averages::stage_averages;
 use hardbody::analysis::series::Estimate;
 use hardbody::geometry::Shape;
+use hardbody::log::averages::stage_averages;
 use hardbody::log::read::read_log;
 use hardbody::run::{Silent, run_scene};
 use hardbody::scene::Scene;
@@ -92,7 +92,7 @@ fn route(
 /// Mean over replicas, its error, and whether every replica
 /// equilibrated.
 fn over_replicas(estimates: &[Estimate]) -> (f64, f64, bool) {
-    let a = hardbody::analysis::averages::over_replicas(estimates);
+    let a = hardbody::log::averages::over_replicas(estimates);
     (a.mean, a.error, a.equilibrated)
 }
 

@@ -1,7 +1,7 @@
-//! Observables computed from the geometry layer, and the statistics of
-//! the series a run logs.
+//! Observables of a configuration (order parameters, the excluded volume
+//! by sampling) and the statistics of the series a run logs. Built on the
+//! geometry layer only, so both drivers can measure with it.
 
-pub mod averages;
 pub mod order;
 pub mod series;
 pub mod virial;

@@ -15,6 +15,7 @@
 //! file; each frame closes an MCAP chunk, so a killed run leaves a partial
 //! log readable up to its last frame.
 
+pub mod averages;
 pub mod file;
 pub mod gsd;
 pub mod read;

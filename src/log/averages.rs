@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::series::{Estimate, detect_equilibration};
-use crate::log::Stats;
+use super::Stats;
+use crate::analysis::series::{Estimate, detect_equilibration};
 
 /// Candidate equilibration starts tried per series.
 const CANDIDATE_STARTS: usize = 200;
@@ -113,7 +113,7 @@ fn one_stage(run: &[&Stats]) -> StageAverages {
                     statistical_inefficiency: 1.0,
                     effective_samples: x.len() as f64,
                     equilibrated: true,
-                    ..super::series::estimate_from(&x, 0)
+                    ..crate::analysis::series::estimate_from(&x, 0)
                 }
             } else {
                 detect_equilibration(&x, CANDIDATE_STARTS)
