@@ -3,11 +3,11 @@
 //!
 //! `cargo run --release --example hard_sphere_eos` (about 30 s)
 
-use hardbody::mc::Species;
 use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
-use hardbody::mc::start::lattice;
 use hardbody::mc::tuning::Tuner;
 use hardbody::space::PeriodicBox;
+use hardbody::state::Species;
+use hardbody::state::start::lattice;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;

@@ -15,6 +15,7 @@ pub mod mc;
 pub mod run;
 pub mod scene;
 pub mod space;
+pub mod state;
 
 /// Deterministic numbers and small systems for unit tests.
 #[cfg(test)]
@@ -28,16 +29,16 @@ pub(crate) mod test_support {
         side: f64,
         counts: [usize; 2],
         seed: u64,
-    ) -> crate::mc::System {
+    ) -> crate::state::System {
         use crate::geometry::{Cuboid, Shape, Sphere};
         use rand::SeedableRng;
         let species = vec![
-            crate::mc::Species {
+            crate::state::Species {
                 name: "cube".into(),
                 shape: Shape::Cuboid(Cuboid::new(half, half, half).unwrap()),
                 rotation: true,
             },
-            crate::mc::Species {
+            crate::state::Species {
                 name: "sphere".into(),
                 shape: Shape::Sphere(Sphere::new(radius).unwrap()),
                 rotation: false,
@@ -45,7 +46,7 @@ pub(crate) mod test_support {
         ];
         let box_ = crate::space::PeriodicBox::new(nalgebra::Vector3::repeat(side)).unwrap();
         let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
-        crate::mc::start::lattice(box_, species, &counts, &mut rng).unwrap()
+        crate::state::start::lattice(box_, species, &counts, &mut rng).unwrap()
     }
 
     /// Uniform numbers in [0, 1) from a 64-bit LCG (Knuth's MMIX constants).

@@ -38,7 +38,7 @@ fn run_with(
 
 /// [`run_with`] from a given state.
 fn run_from(
-    system: &hardbody::mc::System,
+    system: &hardbody::state::System,
     shapes: &[&str],
     phi: f64,
     collisions: u64,

@@ -7,7 +7,7 @@ mod common;
 
 use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::mc::System;
+use hardbody::state::System;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
@@ -205,13 +205,13 @@ fn neighbour_lists_give_the_same_collisions_as_cells() {
             // Dilute: straight on a lattice (MC compression starts denser).
             let shape: hardbody::geometry::Shape = "Sphere(radius: 0.5)".parse().unwrap();
             let side = (512.0 * shape.volume() / phi).cbrt();
-            let species = vec![hardbody::mc::Species {
+            let species = vec![hardbody::state::Species {
                 name: "ball".into(),
                 shape,
                 rotation: false,
             }];
             let box_ = hardbody::space::PeriodicBox::new(nalgebra::Vector3::repeat(side)).unwrap();
-            hardbody::mc::start::lattice(box_, species, &[512], &mut Pcg64::seed_from_u64(4))
+            hardbody::state::start::lattice(box_, species, &[512], &mut Pcg64::seed_from_u64(4))
                 .unwrap()
         };
         let sequence = |shell| collision_sequence(&system, shell, 40, collisions);
@@ -241,16 +241,16 @@ fn neighbour_lists_give_the_same_collisions_as_cells() {
 /// way of searching gives the same collisions.
 #[test]
 fn a_size_asymmetric_mixture_gives_the_same_collisions_with_cells_and_lists() {
-    let species: Vec<hardbody::mc::Species> = [("large", 0.5), ("small", 0.06)]
+    let species: Vec<hardbody::state::Species> = [("large", 0.5), ("small", 0.06)]
         .iter()
-        .map(|&(name, radius)| hardbody::mc::Species {
+        .map(|&(name, radius)| hardbody::state::Species {
             name: name.into(),
             shape: format!("Sphere(radius: {radius})").parse().unwrap(),
             rotation: false,
         })
         .collect();
     let box_ = hardbody::space::PeriodicBox::new(nalgebra::Vector3::repeat(8.0)).unwrap();
-    let system = hardbody::mc::start::random_insertion(
+    let system = hardbody::state::start::random_insertion(
         box_,
         species,
         &[100, 2000],

@@ -6,8 +6,8 @@
 use hardbody::analysis::order::{legendre_p2, molecular_axis};
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::geometry::Shape;
-use hardbody::mc::{Particle, Species, System};
 use hardbody::space::PeriodicBox;
+use hardbody::state::{Particle, Species, System};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;

@@ -9,10 +9,10 @@ mod common;
 
 use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::mc::System;
 use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::sdf::Sdf;
 use hardbody::mc::tuning::Tuner;
+use hardbody::state::System;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use rayon::prelude::*;

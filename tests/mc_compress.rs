@@ -6,7 +6,7 @@
 use hardbody::geometry::Shape;
 use hardbody::mc::compress::{CompressError, CompressOptions, compress};
 use hardbody::mc::moves::MoveSizes;
-use hardbody::mc::{Species, System};
+use hardbody::state::{Species, System};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
@@ -16,7 +16,7 @@ fn dilute_lattice(
     species_of: impl Fn(usize) -> u16,
     seed: u64,
 ) -> System {
-    hardbody::mc::start::dilute_lattice(n, species, species_of, &mut Pcg64::seed_from_u64(seed))
+    hardbody::state::start::dilute_lattice(n, species, species_of, &mut Pcg64::seed_from_u64(seed))
         .unwrap()
 }
 

@@ -9,8 +9,8 @@ use hardbody::geometry::Shape;
 use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
 use hardbody::mc::parallel::{ParallelSweeps, SharedCounts};
 use hardbody::mc::tuning::Tuner;
-use hardbody::mc::{Species, System};
 use hardbody::space::PeriodicBox;
+use hardbody::state::{Species, System};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use statrs::statistics::Statistics;
@@ -136,7 +136,7 @@ fn a_chunk_in_which_the_slabs_thin_out_is_the_sweeps_one_by_one() {
     }];
     let box_ = PeriodicBox::new(Vector3::new(4.1, 3.2, 3.2)).unwrap();
     let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
-    let start = hardbody::mc::start::lattice(box_, species, &[12], &mut rng).unwrap();
+    let start = hardbody::state::start::lattice(box_, species, &[12], &mut rng).unwrap();
     let sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.0,
@@ -269,7 +269,7 @@ fn a_small_sharing_team_makes_the_moves_of_one_thread() {
     // Four slabs 3.6 wide, over the 3.5 the lists ask.
     let box_ = PeriodicBox::new(Vector3::new(14.4, 14.4, 14.4)).unwrap();
     let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
-    let start = hardbody::mc::start::lattice(box_, species, &[200], &mut rng).unwrap();
+    let start = hardbody::state::start::lattice(box_, species, &[200], &mut rng).unwrap();
     assert!(ParallelSweeps::new().would_share(&start, 2));
     let sizes = MoveSizes {
         translate: 0.05,

@@ -9,8 +9,8 @@ mod common;
 
 use common::compressed_state;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::mc::{Particle, Species, System};
 use hardbody::space::PeriodicBox;
+use hardbody::state::{Particle, Species, System};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;

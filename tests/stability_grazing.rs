@@ -201,10 +201,10 @@ fn grazing_spheres_in_closed_form() {
 #[test]
 fn loose_grazing_threshold_neither_stalls_nor_overlaps() {
     use hardbody::edmd::{Dynamics, DynamicsOptions};
-    use hardbody::mc::Species;
     use hardbody::mc::compress::{CompressOptions, compress};
     use hardbody::mc::moves::{Ensemble, MoveSizes};
     use hardbody::mc::tuning::Tuner;
+    use hardbody::state::Species;
     use rand::SeedableRng;
     use rand_pcg::Pcg64;
     let shape: Shape = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)".parse().unwrap();
@@ -215,7 +215,7 @@ fn loose_grazing_threshold_neither_stalls_nor_overlaps() {
     }];
     // The start of `bench edmd-tolerance` (aspect 2, seed 7).
     let mut rng = Pcg64::seed_from_u64(7);
-    let mut system = hardbody::mc::start::dilute_lattice(6, species, |_| 0, &mut rng).unwrap();
+    let mut system = hardbody::state::start::dilute_lattice(6, species, |_| 0, &mut rng).unwrap();
     let sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,

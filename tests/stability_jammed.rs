@@ -11,8 +11,8 @@
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::mc::compress::{CompressError, CompressOptions, compress};
 use hardbody::mc::moves::MoveSizes;
-use hardbody::mc::{Particle, Species, System};
 use hardbody::space::PeriodicBox;
+use hardbody::state::{Particle, Species, System};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
@@ -26,7 +26,8 @@ fn jammed(shape: &str, n_side: usize, seed: u64) -> System {
         rotation: !shape.is_sphere(),
     }];
     let mut rng = Pcg64::seed_from_u64(seed);
-    let mut system = hardbody::mc::start::dilute_lattice(n_side, species, |_| 0, &mut rng).unwrap();
+    let mut system =
+        hardbody::state::start::dilute_lattice(n_side, species, |_| 0, &mut rng).unwrap();
     let sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,

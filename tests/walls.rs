@@ -6,9 +6,9 @@
 
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
-use hardbody::mc::start::lattice;
-use hardbody::mc::{Particle, Species, System};
 use hardbody::space::PeriodicBox;
+use hardbody::state::start::lattice;
+use hardbody::state::{Particle, Species, System};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -65,7 +65,7 @@ fn monte_carlo_keeps_bodies_inside_the_walls() {
     particles[0].position.z = 4.3;
     let err =
         System::new(*system.periodic_box(), system.species().to_vec(), particles).unwrap_err();
-    assert_eq!(err, hardbody::mc::McError::WallOverlap(0));
+    assert_eq!(err, hardbody::state::StateError::WallOverlap(0));
 }
 
 #[test]

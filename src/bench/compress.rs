@@ -21,7 +21,7 @@ use super::plot::{Figure, Series, line_plot};
 use crate::geometry::Shape;
 use crate::mc::compress::{CompressOptions, compress};
 use crate::mc::moves::{Ensemble, MoveSizes, sweep};
-use crate::mc::{Species, System};
+use crate::state::{Species, System};
 
 /// One compression of the benchmark.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -58,8 +58,9 @@ pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, Str
         .collect();
     let kinds = species.len();
     let mut rng = Pcg64::seed_from_u64(seed);
-    let mut system = crate::mc::start::dilute_lattice(n, species, |i| (i % kinds) as u16, &mut rng)
-        .map_err(|e| e.to_string())?;
+    let mut system =
+        crate::state::start::dilute_lattice(n, species, |i| (i % kinds) as u16, &mut rng)
+            .map_err(|e| e.to_string())?;
     let melt = MoveSizes {
         translate: 0.5,
         rotate: 0.5,

@@ -23,7 +23,7 @@ use crate::geometry::Shape;
 use crate::mc::compress::{CompressOptions, compress};
 use crate::mc::moves::{Ensemble, MoveSizes};
 use crate::mc::tuning::Tuner;
-use crate::mc::{Species, System};
+use crate::state::{Species, System};
 
 /// One run of the suite.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -77,7 +77,7 @@ fn start(
         rotation: true,
     }];
     let mut rng = Pcg64::seed_from_u64(seed);
-    let mut system = crate::mc::start::dilute_lattice(n_side, species, |_| 0, &mut rng)
+    let mut system = crate::state::start::dilute_lattice(n_side, species, |_| 0, &mut rng)
         .map_err(|e| e.to_string())?;
     let mut sizes = MoveSizes {
         translate: 0.3,

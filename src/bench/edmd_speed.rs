@@ -18,8 +18,8 @@ use crate::edmd::{Dynamics, DynamicsOptions};
 use crate::geometry::Shape;
 use crate::mc::compress::{CompressOptions, compress};
 use crate::mc::moves::MoveSizes;
-use crate::mc::{Species, System};
 use crate::space::PeriodicBox;
+use crate::state::{Species, System};
 
 /// One system of the suite.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -160,10 +160,12 @@ fn start(setup: &Setup, seed: u64) -> Result<System, String> {
         PeriodicBox::new(Vector3::repeat(side)).map_err(|e| e.to_string())
     };
     match setup.start {
-        Start::Lattice => crate::mc::start::lattice(at(setup.phi)?, species, &[setup.n], &mut rng)
-            .map_err(|e| e.to_string()),
+        Start::Lattice => {
+            crate::state::start::lattice(at(setup.phi)?, species, &[setup.n], &mut rng)
+                .map_err(|e| e.to_string())
+        }
         Start::Compressed => {
-            let mut system = crate::mc::start::lattice(at(0.05)?, species, &[setup.n], &mut rng)
+            let mut system = crate::state::start::lattice(at(0.05)?, species, &[setup.n], &mut rng)
                 .map_err(|e| e.to_string())?;
             let sizes = MoveSizes {
                 translate: 0.3,
@@ -611,7 +613,7 @@ pub fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, Str
     loop {
         match super::mc::tuned(shape, n, phi, if quick { 10 } else { 50 }) {
             Ok((system, _)) => return Ok(system),
-            Err(crate::mc::McError::BoxTooSmall { .. }) if n < 200_000 => n += n / 2,
+            Err(crate::state::StateError::BoxTooSmall { .. }) if n < 200_000 => n += n / 2,
             Err(e) => return Err(e.to_string()),
         }
     }

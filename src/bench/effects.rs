@@ -18,8 +18,8 @@ use rand_pcg::Pcg64;
 use crate::edmd::{Dynamics, DynamicsOptions};
 use crate::geometry::Shape;
 use crate::mc::moves::{Ensemble, MoveSizes, sweep};
-use crate::mc::{Species, System};
 use crate::space::PeriodicBox;
+use crate::state::{Species, System};
 
 /// One effect, off and on.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -57,7 +57,7 @@ fn state(n: usize, walls: bool, rotation: bool) -> Result<System, String> {
         .with_walls([false, false, walls]);
     let mut rng = Pcg64::seed_from_u64(9);
     let mut system =
-        crate::mc::start::lattice(box_, species, &[n], &mut rng).map_err(|e| e.to_string())?;
+        crate::state::start::lattice(box_, species, &[n], &mut rng).map_err(|e| e.to_string())?;
     let sizes = MoveSizes {
         translate: 0.1,
         rotate: 0.1,

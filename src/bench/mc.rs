@@ -18,8 +18,8 @@ use crate::geometry::Shape;
 use crate::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps};
 use crate::mc::tuning::Tuner;
-use crate::mc::{McError, Particle, Species, System};
 use crate::space::PeriodicBox;
+use crate::state::{Particle, Species, StateError, System};
 
 /// One row of the result.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -46,7 +46,7 @@ pub struct McRow {
 }
 
 /// A dense start of `shape` at packing fraction `phi` with about `n` particles.
-pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, McError> {
+pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, StateError> {
     let v = shape.volume();
     let mut particles = Vec::new();
     let lengths;
@@ -110,13 +110,13 @@ pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, McError>
         shape: *shape,
         rotation: true,
     }];
-    let box_ = PeriodicBox::new(lengths).map_err(|_| McError::Empty)?;
+    let box_ = PeriodicBox::new(lengths).map_err(|_| StateError::Empty)?;
     System::new(box_, species, particles)
 }
 
 /// Times NVT sweeps of each shape, serial and (with more than one rayon
 /// thread) parallel on slabs; `quick` uses N ≈ 1400 and fewer sweeps.
-pub fn run(quick: bool) -> Result<Vec<McRow>, McError> {
+pub fn run(quick: bool) -> Result<Vec<McRow>, StateError> {
     let (n, sweeps, repeats) = if quick { (1400, 10, 3) } else { (4096, 100, 5) };
     let mut rows = Vec::new();
     for text in SHAPES {
@@ -275,7 +275,7 @@ fn timed_row(
     sweeps: usize,
     (threads, how): (usize, &'static str),
     mut step: impl FnMut(&mut System, usize) -> Counts,
-) -> Result<McRow, McError> {
+) -> Result<McRow, StateError> {
     let mut rates = Vec::new();
     let mut counts = Counts::default();
     for _ in 0..repeats {
@@ -294,10 +294,10 @@ fn checked_row(
     rates: &mut [f64],
     counts: &Counts,
     (threads, how): (usize, &'static str),
-) -> Result<McRow, McError> {
+) -> Result<McRow, StateError> {
     for system in systems {
         if let Some((i, j)) = system.first_overlap_all_pairs() {
-            return Err(McError::Overlap(i, j));
+            return Err(StateError::Overlap(i, j));
         }
     }
     Ok(McRow {
@@ -326,7 +326,7 @@ pub fn tuned(
     n: usize,
     phi: f64,
     sweeps: usize,
-) -> Result<(System, MoveSizes), McError> {
+) -> Result<(System, MoveSizes), StateError> {
     let mut system = dense_start(shape, n, phi)?;
     let mut rng = Pcg64::seed_from_u64(17);
     let mut sizes = MoveSizes {
@@ -347,7 +347,7 @@ pub fn tuned(
 
 /// Trial moves per second on one thread against the packing fraction, per
 /// shape (moves tuned to 30 % acceptance at each φ).
-pub fn by_density(quick: bool) -> Result<Vec<McRow>, McError> {
+pub fn by_density(quick: bool) -> Result<Vec<McRow>, StateError> {
     let phis: &[f64] = if quick {
         &[0.3, 0.5]
     } else {
@@ -395,7 +395,7 @@ pub struct AcceptanceRow {
 /// Acceptance against move size at φ = 0.5: translations from 1/50 to 1
 /// thickness, rotations of the same number of radians (spheres do not
 /// turn); what the tuner's 30 % target picks from.
-pub fn by_move_size(quick: bool) -> Result<Vec<AcceptanceRow>, McError> {
+pub fn by_move_size(quick: bool) -> Result<Vec<AcceptanceRow>, StateError> {
     let steps: &[f64] = if quick {
         &[0.05, 0.3]
     } else {

@@ -15,8 +15,8 @@ use crate::analysis::order::{legendre_p2, nematic_order};
 use crate::geometry::pair::contact_sum;
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
 use crate::geometry::{Relative, Shape, WarmStart};
-use crate::mc::{McError, Particle, Species, System};
 use crate::space::{CellList, NeighbourLists, PeriodicBox};
+use crate::state::{Particle, Species, StateError, System};
 
 type V3 = Vector3<f64>;
 
@@ -41,7 +41,7 @@ pub enum EdmdError {
     TooFewParticles(usize),
     /// The starting state is not a valid hard-body state.
     #[error("invalid starting state: {0}")]
-    State(#[from] McError),
+    State(#[from] StateError),
     /// A pair predicted to touch does not: the prediction or the motion is
     /// wrong. Reported with the pair, the time and the distance found.
     #[error(
@@ -1067,7 +1067,7 @@ impl Dynamics {
 
     /// The current state as an MC system: building it checks, independently
     /// of the predictions, that no two bodies overlap.
-    pub fn to_system(&self) -> Result<System, McError> {
+    pub fn to_system(&self) -> Result<System, StateError> {
         let tolerance = self.predictor.contact_tolerance();
         system_of(self.box_, &self.species, self.particles(), tolerance)
     }
@@ -2450,7 +2450,7 @@ fn system_of(
     species: &[Species],
     particles: Vec<Particle>,
     tolerance: f64,
-) -> Result<System, McError> {
+) -> Result<System, StateError> {
     let touching =
         |i: usize, j: usize| pair_touches(&box_, species, &particles[i], &particles[j], tolerance);
     System::with_contacts(box_, species.to_vec(), particles.clone(), touching)
@@ -2598,7 +2598,7 @@ mod tests {
             .collect();
         let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
         let box_ = PeriodicBox::new(Vector3::repeat(7.0)).unwrap();
-        let system = crate::mc::start::lattice(box_, species, &[100, 100], &mut rng).unwrap();
+        let system = crate::state::start::lattice(box_, species, &[100, 100], &mut rng).unwrap();
         let options = DynamicsOptions {
             neighbour_shell,
             ..DynamicsOptions::default()

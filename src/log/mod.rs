@@ -36,8 +36,8 @@ use rand_pcg::Pcg64;
 
 use crate::mc::compress::CompressorState;
 use crate::mc::moves::{Counts, MoveSizes};
-use crate::mc::{Particle, Species};
 use crate::space::PeriodicBox;
+use crate::state::{Particle, Species};
 
 /// Nanoseconds of log time per Monte Carlo sweep.
 pub const NS_PER_SWEEP: u64 = 1_000_000;

@@ -15,7 +15,7 @@ use nalgebra::Vector3;
 use super::{FRAME_ID, StateRecord};
 use crate::geometry::Shape;
 use crate::geometry::roots::solve_power_sum;
-use crate::mc::Species;
+use crate::state::Species;
 
 /// Distinct colours (Tableau 10), cycled over species.
 const PALETTE: [(f64, f64, f64); 10] = [

@@ -22,8 +22,8 @@ use serde::{Deserialize, Serialize};
 use super::moves::{Counts, Ensemble, MoveSizes, particle_moves, sweep, sweep_by_species};
 use super::sdf::Sdf;
 use super::tuning::Tuner;
-use super::{Particle, System};
 use crate::space::PeriodicBox;
+use crate::state::{Particle, System};
 
 /// The share of bodies a shrink should leave overlapping: the step grows
 /// while fewer do and falls while many more do.

@@ -7,7 +7,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-use super::System;
+use crate::state::System;
 
 /// Attempts and acceptances of one kind of move; counts add.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

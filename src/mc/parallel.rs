@@ -52,7 +52,7 @@ use std::sync::RwLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use super::moves::{Counts, Ensemble, MoveSizes, box_move, particle_moves, sweep};
-use super::{Neighbours, SPHERE_LISTS_REVIEW, System};
+use crate::state::{Neighbours, SPHERE_LISTS_REVIEW, System};
 
 type V3 = Vector3<f64>;
 

@@ -12,9 +12,9 @@
 
 use nalgebra::Matrix3;
 
-use super::System;
 use crate::geometry::{Relative, overlap};
 use crate::space::CellList;
+use crate::state::System;
 
 /// Accumulates the scale distribution over configurations.
 #[derive(Debug, Clone)]
@@ -188,9 +188,9 @@ mod tests {
     use super::*;
     use crate::bench::mc::dense_start;
     use crate::geometry::Shape;
-    use crate::mc::Species;
     use crate::mc::moves::{Ensemble, MoveSizes, sweep};
     use crate::space::PeriodicBox;
+    use crate::state::Species;
     use nalgebra::Vector3;
     use rand::SeedableRng;
 
@@ -236,7 +236,7 @@ mod tests {
         }];
         let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
         let box_ = PeriodicBox::new(Vector3::repeat(8.0)).unwrap();
-        let spheres = crate::mc::start::lattice(box_, sphere, &[340], &mut rng).unwrap();
+        let spheres = crate::state::start::lattice(box_, sphere, &[340], &mut rng).unwrap();
         systems.push(shaken(spheres, 6));
         let mixture = crate::test_support::cubes_among_spheres(0.5, 0.2, 11.0, [300, 600], 3);
         systems.push(shaken(mixture, 4));

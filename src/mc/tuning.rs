@@ -4,8 +4,8 @@
 
 use rand::Rng;
 
-use super::System;
 use super::moves::{Count, Counts, Ensemble, MoveSizes, sweep};
+use crate::state::System;
 
 /// Tunes move sizes toward `target` acceptance.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -28,12 +28,12 @@ use crate::mc::compress::{CompressOptions, Compressor, CompressorState};
 use crate::mc::moves::{Count, Counts, Ensemble as McEnsemble, MoveSizes, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::Sdf;
-use crate::mc::start::{StartError, lattice, random_insertion};
 use crate::mc::tuning::{DriftWatch, Tuner, TuningSpan};
-use crate::mc::{McError, Particle, Species, System};
 use crate::scene::plan::Plan;
 use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
 use crate::space::PeriodicBox;
+use crate::state::start::{StartError, lattice, random_insertion};
+use crate::state::{Particle, Species, StateError, System};
 
 /// Sweeps between move-size updates while tuning (50: a window of 20
 /// holds only 20 box moves, too few to steer the volume step by).
@@ -461,7 +461,7 @@ fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result<System, Ru
 
 /// The species of a lattice start put in layers along `axis`: the sites
 /// sorted by that coordinate, the first species on the lowest.
-fn layered(system: System, axis: usize) -> Result<System, McError> {
+fn layered(system: System, axis: usize) -> Result<System, StateError> {
     let mut sites: Vec<Particle> = system.particles().to_vec();
     sites.sort_by(|a, b| a.position[axis].total_cmp(&b.position[axis]));
     let mut kinds: Vec<u16> = system.particles().iter().map(|p| p.species).collect();
@@ -562,7 +562,7 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, S
             species: s,
         })
         .collect();
-    System::new(box_, species, particles).map_err(|e: McError| format!("logged state: {e}"))
+    System::new(box_, species, particles).map_err(|e: StateError| format!("logged state: {e}"))
 }
 
 struct Runner<'a> {

@@ -410,10 +410,10 @@ impl Scene {
 
     /// The species as the Monte Carlo driver takes them (spheres never
     /// turn).
-    pub fn mc_species(&self) -> Vec<crate::mc::Species> {
+    pub fn mc_species(&self) -> Vec<crate::state::Species> {
         self.species
             .iter()
-            .map(|s| crate::mc::Species {
+            .map(|s| crate::state::Species {
                 name: s.name.clone(),
                 shape: s.shape,
                 rotation: s.rotation && !s.shape.is_sphere(),
@@ -552,7 +552,7 @@ impl Scene {
         match &self.start {
             Start::Lattice | Start::Layered(_) => {
                 let plan =
-                    crate::mc::start::lattice_plan(&self.box_vector(), &self.mc_species(), n);
+                    crate::state::start::lattice_plan(&self.box_vector(), &self.mc_species(), n);
                 if plan.sites.iter().product::<usize>() < n {
                     let w = plan.spacing;
                     return bad(

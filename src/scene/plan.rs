@@ -10,7 +10,7 @@ use super::{Ensemble, Neighbours, Scene, Stage, Start};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
 use crate::mc::tuning::TuningSpan;
-use crate::mc::{NeighbourPlan, Species};
+use crate::state::{NeighbourPlan, Species};
 
 /// One species as simulated.
 #[derive(Debug, Clone, PartialEq)]

@@ -267,14 +267,14 @@ pub fn reference_overlap(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
 /// n³ bodies of the given shapes (species alternating by index), placed on
 /// a dilute lattice with random orientations and compressed by MC to `phi`:
 /// the starting state of the dynamics tests.
-pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardbody::mc::System {
+pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardbody::state::System {
     use hardbody::mc::compress::{CompressOptions, compress};
     use hardbody::mc::moves::MoveSizes;
     use rand::SeedableRng;
     let mut rng = Pcg64::seed_from_u64(seed);
     let species = shapes
         .iter()
-        .map(|s| hardbody::mc::Species {
+        .map(|s| hardbody::state::Species {
             name: s.to_string(),
             shape: s.parse::<Shape>().unwrap(),
             rotation: true,
@@ -282,7 +282,8 @@ pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardb
         .collect();
     let count = shapes.len();
     let mut system =
-        hardbody::mc::start::dilute_lattice(n, species, |i| (i % count) as u16, &mut rng).unwrap();
+        hardbody::state::start::dilute_lattice(n, species, |i| (i % count) as u16, &mut rng)
+            .unwrap();
     let sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,

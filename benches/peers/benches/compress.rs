@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use hardbody::bench::compress::{dilute_start, timed};
 use hardbody::geometry::Shape;
-use hardbody::mc::{Particle, System};
+use hardbody::state::{Particle, System};
 use hoomd_geometry::Convex;
 use hoomd_geometry::shape::{Hypercuboid, Hyperellipsoid};
 use hoomd_interaction::PairwiseCutoff;

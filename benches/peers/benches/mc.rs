@@ -21,7 +21,7 @@ use hardbody::bench::mc::dense_start;
 use hardbody::geometry::Shape;
 use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::tuning::Tuner;
-use hardbody::mc::{Particle, System};
+use hardbody::state::{Particle, System};
 use hoomd_geometry::Convex;
 use hoomd_geometry::shape::{Hypercuboid, Hyperellipsoid};
 use hoomd_interaction::PairwiseCutoff;

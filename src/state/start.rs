@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use rand::Rng;
 
-use super::{McError, Particle, Species, System};
+use super::{Particle, Species, StateError, System};
 use crate::analysis::virial::random_rotation;
 use crate::space::PeriodicBox;
 
@@ -17,13 +17,13 @@ pub fn dilute_lattice<R: Rng>(
     species: Vec<Species>,
     species_of: impl Fn(usize) -> u16,
     rng: &mut R,
-) -> Result<System, McError> {
+) -> Result<System, StateError> {
     if n == 0 || species.is_empty() {
-        return Err(McError::Empty);
+        return Err(StateError::Empty);
     }
     let count = n * n * n;
     if let Some(i) = (0..count).find(|&i| species_of(i) as usize >= species.len()) {
-        return Err(McError::UnknownSpecies(i, species_of(i), species.len()));
+        return Err(StateError::UnknownSpecies(i, species_of(i), species.len()));
     }
     let largest = species
         .iter()
@@ -43,7 +43,7 @@ pub fn dilute_lattice<R: Rng>(
             species: species_of(i),
         })
         .collect();
-    let box_ = PeriodicBox::new(Vector3::repeat(len)).map_err(|_| McError::Empty)?;
+    let box_ = PeriodicBox::new(Vector3::repeat(len)).map_err(|_| StateError::Empty)?;
     System::new(box_, species, particles)
 }
 
@@ -79,7 +79,7 @@ pub enum StartError {
     },
     /// The box or the species are unusable.
     #[error(transparent)]
-    System(#[from] McError),
+    System(#[from] StateError),
 }
 
 /// A lattice for `n` particles of `species` in a box of edges `lengths`:

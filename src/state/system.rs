@@ -1,0 +1,261 @@
+//! Building a configuration, checking it, and what it reports.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::geometry::Placed;
+use crate::geometry::capsule::bounding_capsule;
+use crate::space::PeriodicBox;
+
+use super::*;
+
+type V3 = Vector3<f64>;
+
+impl System {
+    /// A system, checked to be overlap-free and in a box large enough for
+    /// the minimum image.
+    pub fn new(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+    ) -> Result<Self, StateError> {
+        Self::with_contacts(box_, species, particles, |_, _| false)
+    }
+
+    /// As [`System::new`], except that pairs (i < j) for which
+    /// `touching(i, j)` holds are let through where the overlap kernels
+    /// count them as overlapping: a state of the event-driven dynamics
+    /// holds the pair of its last collision touching to round-off, which
+    /// another kernel's arithmetic may put either side of contact. A move
+    /// of such a particle is then judged against its partner as usual
+    /// (moves that part them are accepted).
+    pub fn with_contacts(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+        touching: impl Fn(usize, usize) -> bool,
+    ) -> Result<Self, StateError> {
+        if particles.is_empty() {
+            return Err(StateError::Empty);
+        }
+        for (i, p) in particles.iter().enumerate() {
+            if p.species as usize >= species.len() {
+                return Err(StateError::UnknownSpecies(i, p.species, species.len()));
+            }
+        }
+        let species: Vec<Species> = species
+            .into_iter()
+            .map(|s| Species {
+                rotation: s.rotation && !s.shape.is_sphere(),
+                ..s
+            })
+            .collect();
+        let radii: Vec<f64> = species.iter().map(|s| s.shape.bounding_radius()).collect();
+        let max_radius = radii.iter().cloned().fold(0.0, f64::max);
+        let range = 2.0 * max_radius;
+        let particles: Vec<Particle> = particles
+            .into_iter()
+            .map(|p| Particle {
+                position: box_.wrap(&p.position),
+                ..p
+            })
+            .collect();
+        let rotations: Vec<Matrix3<f64>> = particles
+            .iter()
+            .map(|p| p.orientation.to_rotation_matrix().into_inner())
+            .collect();
+        Self::check_box(&box_, range)?;
+        let obb: Vec<V3> = species.iter().map(|s| s.shape.obb_half_extents()).collect();
+        let aabb: Vec<V3> = particles
+            .iter()
+            .zip(&rotations)
+            .map(|(p, r)| aabb_half_extents(r, &obb[p.species as usize]))
+            .collect();
+        let placed: Vec<Placed> = particles
+            .iter()
+            .zip(&rotations)
+            .map(|(p, r)| Placed::new(&species[p.species as usize].shape, r))
+            .collect();
+        let plan = NeighbourPlan::for_species(&species);
+        let capsules = species.iter().map(|s| bounding_capsule(&s.shape)).collect();
+        let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
+        let kinds: Vec<u16> = particles.iter().map(|p| p.species).collect();
+        let all_spheres = species.iter().all(|s| s.shape.is_sphere());
+        let cells = Neighbours::build(&plan, range, &box_, &positions, &aabb, &kinds, &radii);
+        let system = Self {
+            box_,
+            species,
+            particles: particles.into(),
+            rotations,
+            radii,
+            max_radius,
+            positions: positions.into(),
+            obb,
+            aabb,
+            placed,
+            cells,
+            plan,
+            range,
+            all_spheres,
+            sphere_lists: None,
+            capsules,
+            capsule_lists: None,
+            list_window: (0, 0.0),
+            review_deferred: false,
+            list_window_base: 0,
+            scaled: Vec::new(),
+            ideal: false,
+            stamp: new_stamp(),
+            changed: false,
+        };
+        if let Some(i) = system.first_wall_overlap() {
+            return Err(StateError::WallOverlap(i));
+        }
+        // Through the neighbour structure: O(N), where the all-pairs check is
+        // O(N²) (that one is for tests).
+        for i in 0..system.len() {
+            if system.overlaps_where_it_is(i) {
+                let partners: Vec<usize> = system.partners_of(i).collect();
+                match partners.iter().find(|&&j| !touching(i.min(j), i.max(j))) {
+                    Some(&j) => return Err(StateError::Overlap(i.min(j), i.max(j))),
+                    None if partners.is_empty() => return Err(StateError::Overlap(i, i)),
+                    None => {} // Touching partners only.
+                }
+            }
+        }
+        Ok(system)
+    }
+
+    pub(super) fn check_box(box_: &PeriodicBox, range: f64) -> Result<(), StateError> {
+        if box_.lengths().min() < 2.0 * range {
+            Err(StateError::BoxTooSmall {
+                lengths: box_.lengths().into(),
+                range,
+            })
+        } else {
+            Ok(())
+        }
+    }
+
+    /// The largest centre–centre distance at which two particles can
+    /// touch (twice the largest bounding radius): the box edges must stay
+    /// at least twice this for the minimum image to be unique.
+    pub fn interaction_range(&self) -> f64 {
+        self.range
+    }
+
+    /// Switches overlap tests off (an ideal gas of the same particles), for
+    /// checking the volume-move statistics.
+    pub fn set_ideal(&mut self, ideal: bool) {
+        self.changed = true;
+        self.ideal = ideal;
+    }
+
+    /// The box.
+    pub fn periodic_box(&self) -> &PeriodicBox {
+        &self.box_
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &[Particle] {
+        self.particles.as_slice()
+    }
+
+    /// The species.
+    pub fn species(&self) -> &[Species] {
+        &self.species
+    }
+
+    /// An identity of the state: a system and a clone of it have the same
+    /// stamp until either changes (a stamp asked for after any move placed
+    /// or box rescaled is a fresh one). Replicas kept for parallel sweeps
+    /// are reused while the system's stamp is the one they were
+    /// synchronised at.
+    pub fn stamp(&mut self) -> u64 {
+        if self.changed {
+            self.stamp = new_stamp();
+            self.changed = false;
+        }
+        self.stamp
+    }
+
+    /// The neighbour structure it uses, and why.
+    pub fn plan(&self) -> &NeighbourPlan {
+        &self.plan
+    }
+
+    /// Whether sphere moves are answered by Verlet lists now (built once
+    /// the box has stayed put long enough; see [`NeighbourPlan::sphere_skin`]).
+    pub fn uses_sphere_lists(&self) -> bool {
+        self.sphere_lists.is_some()
+    }
+
+    /// Whether capsule Verlet lists answer most moves now (bodies on AABB
+    /// cells, once the moves are short; see [`NeighbourPlan::capsule_pad`]).
+    pub fn uses_capsule_lists(&self) -> bool {
+        self.capsule_lists.is_some()
+    }
+
+    /// Whether candidates come from AABB cells (elongated or flat species)
+    /// rather than range-wide cells.
+    pub fn uses_aabb_cells(&self) -> bool {
+        self.plan.aabb_cells
+    }
+
+    /// Whether each species has a grid of its own (size-asymmetric
+    /// mixtures).
+    pub fn uses_per_species_cells(&self) -> bool {
+        self.plan.per_species
+    }
+
+    /// How many particles the neighbour structure hands to the overlap test
+    /// for particle `i` where it is (itself included): the work of one
+    /// trial move before the pair kernels.
+    pub fn candidates_of(&self, i: usize) -> usize {
+        let mut count = 0;
+        let mut seen = |_: usize, _: &V3| {
+            count += 1;
+            false
+        };
+        let position = self.positions[i];
+        let si = self.particles[i].species as usize;
+        match &self.cells {
+            Neighbours::Cells(cells) => {
+                cells.any_near(&position, &mut seen);
+            }
+            Neighbours::Aabb(cells) => match &self.capsule_lists {
+                // Itself included, as the cells count it.
+                Some(lists) => count = lists.of(i).len() + 1,
+                None => {
+                    let h = aabb_half_extents(&self.rotations[i], &self.obb[si]);
+                    cells.any_near(&position, &h, |j| seen(j, &position));
+                }
+            },
+            Neighbours::PerSpecies(grids) => {
+                for (sj, grid) in grids.iter().enumerate() {
+                    grid.any_within(&position, self.radii[si] + self.radii[sj], &mut seen);
+                }
+            }
+        }
+        count
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// Always false: a system has particles.
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    /// φ = Σ vᵢ / V.
+    pub fn packing_fraction(&self) -> f64 {
+        let v: f64 = self
+            .particles
+            .iter()
+            .map(|p| self.species[p.species as usize].shape.volume())
+            .sum();
+        v / self.box_.volume()
+    }
+}
