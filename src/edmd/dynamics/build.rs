@@ -1,0 +1,571 @@
+//! Building the dynamics: from a state, from its parts or from a dump,
+//! and the first predictions of every event.
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::Rng;
+use rand_distr::StandardNormal;
+
+use crate::edmd::calendar::Calendar;
+use crate::edmd::motion::position_after;
+use crate::edmd::predict::Predictor;
+use crate::geometry::pair::contact_sum;
+use crate::space::{CellList, NeighbourLists, PeriodicBox};
+use crate::state::{Particle, Species, StateError, System};
+
+type V3 = Vector3<f64>;
+
+use super::*;
+
+impl Dynamics {
+    /// Dynamics from an MC state with Maxwell–Boltzmann velocities at the
+    /// temperature of `options`, zero total momentum, and the kinetic energy
+    /// set exactly to dof · kT / 2.
+    pub fn from_state<R: Rng>(
+        system: &System,
+        options: &DynamicsOptions,
+        rng: &mut R,
+    ) -> Result<Self, EdmdError> {
+        let t = options.temperature;
+        if !(t.is_finite() && t > 0.0) {
+            return Err(EdmdError::BadTemperature(t));
+        }
+        let n = system.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let species = system.species().to_vec();
+        let kinds = kinds_for(&species, options)?;
+        let mut bodies: Vec<Body> = system
+            .particles()
+            .iter()
+            .map(|p| {
+                let kind = &kinds[p.species as usize];
+                let gauss = |rng: &mut R| {
+                    V3::new(
+                        rng.sample(StandardNormal),
+                        rng.sample(StandardNormal),
+                        rng.sample(StandardNormal),
+                    )
+                };
+                let velocity = gauss(rng) * (t * kind.inverse_mass).sqrt();
+                // Equipartition about each principal axis, then to the lab.
+                let angular_velocity = if kind.rotates {
+                    p.orientation * gauss(rng).component_mul(&kind.moments.map(|i| (t / i).sqrt()))
+                } else {
+                    V3::zeros()
+                };
+                Body {
+                    position: p.position,
+                    velocity,
+                    time: 0.0,
+                    orientation: p.orientation,
+                    angular_velocity,
+                    species: p.species,
+                    horizon: f64::INFINITY,
+                }
+            })
+            .collect();
+        // Zero total momentum, then the exact kinetic energy.
+        let total_mass: f64 = bodies
+            .iter()
+            .map(|b| 1.0 / kinds[b.species as usize].inverse_mass)
+            .sum();
+        let momentum: V3 = bodies
+            .iter()
+            .map(|b| b.velocity / kinds[b.species as usize].inverse_mass)
+            .sum();
+        let drift = momentum / total_mass;
+        let rotors = kinds_rotating(&bodies, &kinds);
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
+        for b in &mut bodies {
+            b.velocity -= drift;
+        }
+        let energy: f64 = bodies.iter().map(|b| body_energy(b, &kinds)).sum();
+        let scale = (0.5 * dof * t / energy).sqrt();
+        for b in &mut bodies {
+            b.velocity *= scale;
+            b.angular_velocity *= scale;
+        }
+        Self::assemble(system, species, kinds, bodies, options, 0.0)
+    }
+
+    /// The dynamics of `system` with velocities and angular velocities
+    /// (lab frame) given, at simulated time `time` after `collisions`
+    /// collisions: what a frame of a log holds. Building from the state
+    /// [`Dynamics::resynchronize`] leaves gives the same dynamics bit for
+    /// bit.
+    pub fn from_parts(
+        system: &System,
+        velocities: &[(V3, V3)],
+        options: &DynamicsOptions,
+        time: f64,
+        collisions: u64,
+    ) -> Result<Self, EdmdError> {
+        let n = system.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let species = system.species().to_vec();
+        let kinds = kinds_for(&species, options)?;
+        if velocities.len() != n
+            || velocities
+                .iter()
+                .zip(system.particles())
+                .any(|((v, w), p)| {
+                    !(v.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()))
+                        || (!kinds[p.species as usize].rotates && *w != V3::zeros())
+                })
+        {
+            return Err(EdmdError::BadVelocities(n));
+        }
+        let bodies: Vec<Body> = system
+            .particles()
+            .iter()
+            .zip(velocities)
+            .map(|(p, (v, w))| Body {
+                position: p.position,
+                velocity: *v,
+                time: 0.0,
+                orientation: p.orientation,
+                angular_velocity: *w,
+                species: p.species,
+                horizon: f64::INFINITY,
+            })
+            .collect();
+        let mut dynamics = Self::assemble(system, species, kinds, bodies, options, 0.0)?;
+        dynamics.origin = time;
+        dynamics.collisions = collisions;
+        dynamics.collisions_at_rebase = collisions;
+        Ok(dynamics)
+    }
+
+    /// Every body's stored pose and time, and the clock: what
+    /// [`Dynamics::from_dump`] rebuilds the predictions from, bit for bit.
+    pub fn dump(&self) -> DynamicsDump {
+        let triple = |v: &V3| [v.x, v.y, v.z];
+        DynamicsDump {
+            time_origin: self.origin,
+            now: self.now,
+            collisions: self.collisions,
+            collisions_at_rebase: self.collisions_at_rebase,
+            box_lengths: triple(&self.box_.lengths()),
+            walls: self.box_.walls(),
+            bodies: self
+                .bodies
+                .iter()
+                .map(|b| {
+                    let q = b.orientation.quaternion();
+                    BodyDump {
+                        species: b.species,
+                        time: b.time,
+                        position: triple(&b.position),
+                        orientation: [q.w, q.i, q.j, q.k],
+                        velocity: triple(&b.velocity),
+                        angular_velocity: triple(&b.angular_velocity),
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// The dynamics a [`Dynamics::dump`] was taken from, with every event
+    /// predicted again from the dumped stored poses: the events it had
+    /// scheduled come back at the same times (to replay a failure). The
+    /// species and options must be those of the dumped run.
+    pub fn from_dump(
+        species: &[Species],
+        dump: &DynamicsDump,
+        options: &DynamicsOptions,
+    ) -> Result<Self, EdmdError> {
+        let n = dump.bodies.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let kinds = kinds_for(species, options)?;
+        let bad = |why: String| EdmdError::BadDump(why);
+        if !(dump.now.is_finite() && dump.time_origin.is_finite()) {
+            return Err(bad(format!(
+                "clock {} + {} is not finite",
+                dump.time_origin, dump.now
+            )));
+        }
+        let mut bodies = Vec::with_capacity(n);
+        for (k, b) in dump.bodies.iter().enumerate() {
+            let finite = b
+                .position
+                .iter()
+                .chain(&b.orientation)
+                .chain(&b.velocity)
+                .chain(&b.angular_velocity)
+                .all(|x| x.is_finite());
+            if !finite || !b.time.is_finite() || b.time > dump.now {
+                return Err(bad(format!(
+                    "body {k}: values must be finite and its time at most now ({})",
+                    dump.now
+                )));
+            }
+            let Some(kind) = kinds.get(b.species as usize) else {
+                return Err(bad(format!(
+                    "body {k}: species {} of {}",
+                    b.species,
+                    kinds.len()
+                )));
+            };
+            let [w, x, y, z] = b.orientation;
+            let q = nalgebra::Quaternion::new(w, x, y, z);
+            if (q.norm() - 1.0).abs() > 1e-9 {
+                return Err(bad(format!(
+                    "body {k}: orientation {:?} is not a unit quaternion",
+                    b.orientation
+                )));
+            }
+            let angular_velocity = V3::from(b.angular_velocity);
+            if !kind.rotates && angular_velocity != V3::zeros() {
+                return Err(EdmdError::BadVelocities(n));
+            }
+            bodies.push(Body {
+                position: V3::from(b.position),
+                velocity: V3::from(b.velocity),
+                time: b.time,
+                // As stored, to the bit (renormalising would move it).
+                orientation: UnitQuaternion::new_unchecked(q),
+                angular_velocity,
+                species: b.species,
+                horizon: f64::INFINITY,
+            });
+        }
+        let box_ = PeriodicBox::new(V3::from(dump.box_lengths))
+            .map_err(|e| bad(format!("box: {e}")))?
+            .with_walls(dump.walls);
+        let particles = particles_at(&box_, &kinds, &bodies, dump.now);
+        let tolerance = Predictor::new(options.predictor).contact_tolerance();
+        let system = system_of(box_, species, particles, tolerance)?;
+        let mut dynamics =
+            Self::assemble(&system, species.to_vec(), kinds, bodies, options, dump.now)?;
+        dynamics.origin = dump.time_origin;
+        dynamics.collisions = dump.collisions;
+        dynamics.collisions_at_rebase = dump.collisions_at_rebase.min(dump.collisions);
+        Ok(dynamics)
+    }
+
+    /// Advances every body to now and predicts every event again from that
+    /// state, as [`Dynamics::from_parts`] would from a frame written now:
+    /// a run that does this at each frame and a run resumed from any of
+    /// those frames follow the same trajectory bit for bit. Observables
+    /// (the interval's sums, MSD and C₂ references) carry over.
+    pub fn resynchronize(&mut self) -> Result<(), EdmdError> {
+        let system = self.to_system()?;
+        let unwrapped: Vec<V3> = self.trajectory_points().map(|(r, _)| r).collect();
+        let mut next = Self::from_parts(
+            &system,
+            &self.velocities(),
+            &self.options,
+            self.time(),
+            self.collisions,
+        )?;
+        next.interval = Interval {
+            start: self.interval.start - self.now,
+            ke_since: self.interval.ke_since - self.now,
+            ..self.interval
+        };
+        for ((image, r), b) in next.images.iter_mut().zip(&unwrapped).zip(&next.bodies) {
+            *image = r - b.position;
+        }
+        next.predictor.continue_work(self.predictor.work());
+        next.reference = std::mem::take(&mut self.reference);
+        next.trace = self.trace.take();
+        *self = next;
+        Ok(())
+    }
+
+    /// Everything but the velocities: cells, calendar, first predictions,
+    /// with the clock at `now` (the bodies' stored times are at most it).
+    pub(super) fn assemble(
+        system: &System,
+        species: Vec<Species>,
+        kinds: Vec<Kind>,
+        bodies: Vec<Body>,
+        options: &DynamicsOptions,
+        now: f64,
+    ) -> Result<Self, EdmdError> {
+        let n = bodies.len();
+        let rotors = kinds_rotating(&bodies, &kinds);
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
+        let rotating = rotors > 0;
+        let ns = species.len();
+        let contact_sums: Vec<Option<f64>> = (0..ns * ns)
+            .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
+            .collect();
+        let box_ = *system.periodic_box();
+        if let Some(shell) = options.neighbour_shell
+            && !(shell.is_finite() && shell > 0.0)
+        {
+            return Err(EdmdError::BadShell(shell));
+        }
+        let shell = options.neighbour_shell.unwrap_or(0.0);
+        // Spheres keep spheres; any other system gets oriented boxes.
+        let box_regions =
+            options.neighbour_shell.is_some() && kinds.iter().any(|k| !k.shape.is_sphere());
+        let box_half: Vec<V3> = kinds
+            .iter()
+            .map(|k| k.shape.obb_half_extents().add_scalar(shell))
+            .collect();
+        let reach: Vec<f64> = if box_regions {
+            box_half.iter().map(|h| h.norm()).collect()
+        } else {
+            kinds
+                .iter()
+                .map(|k| k.shape.bounding_radius() + shell)
+                .collect()
+        };
+        let range = 2.0 * reach.iter().copied().fold(0.0, f64::max);
+        // Where the bodies are now (their stored poses, at a fresh start).
+        let poses: Vec<(V3, UnitQuaternion<f64>)> = bodies
+            .iter()
+            .map(|b| {
+                if b.time == now {
+                    return (b.position, b.orientation);
+                }
+                let (r, q) = body_pose(&kinds, b, now);
+                (box_.wrap(&r), q)
+            })
+            .collect();
+        let positions: Vec<V3> = poses.iter().map(|(r, _)| *r).collect();
+        // Per body: the stored position in the image of the cell it is in
+        // now (whole box lengths).
+        let cell_shifts: Vec<V3> = bodies
+            .iter()
+            .zip(&positions)
+            .map(|(b, r)| {
+                let moved = position_after(&b.position, &b.velocity, now - b.time);
+                let l = box_.lengths();
+                V3::from_fn(|k, _| ((r[k] - moved[k]) / l[k]).round() * l[k])
+            })
+            .collect();
+        let cells = CellList::new(box_.lengths(), range, &positions);
+        let cell_lengths = cells.cell_lengths();
+        let neighbours = match options.neighbour_shell {
+            Some(shell) => {
+                let boxes = box_regions.then(|| {
+                    let axes = poses
+                        .iter()
+                        .map(|(_, q)| q.to_rotation_matrix().into_inner())
+                        .collect();
+                    (box_half, axes)
+                });
+                let mut spheres = NeighbourSpheres {
+                    shell,
+                    reach,
+                    centres: positions,
+                    boxes,
+                    lists: NeighbourLists::new(n, 16),
+                };
+                for i in 0..n {
+                    link_overlapping(i, true, &box_, &cells, &bodies, &mut spheres);
+                }
+                Some(spheres)
+            }
+            None => None,
+        };
+        let kinetic_translational = bodies
+            .iter()
+            .map(|b| 0.5 * b.velocity.norm_squared() / kinds[b.species as usize].inverse_mass)
+            .sum();
+        let closed_form = contact_sums.iter().all(Option::is_some);
+        let mut dynamics = Self {
+            box_,
+            closed_form,
+            contact_sums,
+            cells,
+            cell_lengths,
+            neighbours,
+            candidates: Vec::new(),
+            cell_shifts,
+            calendar: Calendar::new(n),
+            predictor: Predictor::new(options.predictor),
+            now,
+            origin: 0.0,
+            collisions_at_rebase: 0,
+            collisions: 0,
+            interval: Interval::default(),
+            kinetic_translational,
+            degrees_of_freedom: dof,
+            packing_fraction: system.packing_fraction(),
+            rotating,
+            options: options.clone(),
+            trace: None,
+            deferred: Vec::new(),
+            found: std::collections::HashMap::new(),
+            molecular_axes: Vec::new(),
+            images: vec![V3::zeros(); n],
+            reference: Vec::new(),
+            events_at_now: 0,
+            species,
+            kinds,
+            bodies,
+            crossing_times: vec![f64::INFINITY; n],
+        };
+        dynamics.molecular_axes = dynamics.species.iter().map(Species::order_axis).collect();
+        dynamics.set_reference();
+        dynamics.schedule_everything()?;
+        Ok(dynamics)
+    }
+
+    /// Predicts every crossing and every pair collision from scratch.
+    pub(super) fn schedule_everything(&mut self) -> Result<(), EdmdError> {
+        self.calendar.clear();
+        // The horizons belong to the predictions dropped: a search cut at
+        // one would miss what the new ones find beyond it.
+        for b in &mut self.bodies {
+            b.horizon = f64::INFINITY;
+        }
+        for i in 0..self.bodies.len() {
+            self.schedule_crossing(i);
+        }
+        for i in 0..self.bodies.len() {
+            self.schedule_collisions(i, None, true)?;
+        }
+        Ok(())
+    }
+}
+
+/// Links body `i` to every body whose neighbour sphere overlaps its own
+/// (`after`: only bodies with a higher index, for the first build).
+pub(super) fn link_overlapping(
+    i: usize,
+    after: bool,
+    box_: &PeriodicBox,
+    cells: &CellList,
+    bodies: &[Body],
+    spheres: &mut NeighbourSpheres,
+) {
+    let centre = spheres.centres[i];
+    let si = bodies[i].species as usize;
+    let reach = spheres.reach[si];
+    // The bodies whose spheres overlap i's are gathered without a branch
+    // per candidate (a few in ten of the cells' members are, at random: a
+    // branch on it mispredicts often), then linked.
+    let mut near = [0u32; 64];
+    let mut count = 0;
+    // One species: its reach, without reading the second cache line of
+    // every candidate's body for its species.
+    let one_kind = spheres.reach.len() == 1;
+    for &nc in cells.neighbour_cells(cells.cell_of(i)) {
+        for &j in cells.members(nc as usize) {
+            let sj = if one_kind {
+                0
+            } else {
+                bodies[j as usize].species as usize
+            };
+            // Centres are wrapped into the box: the near form of the minimum
+            // image (no rounding call) and squared lengths serve the many
+            // candidates of long bodies' wide cells.
+            let d = box_.minimum_image_near(&(spheres.centres[j as usize] - centre));
+            let contact = reach + spheres.reach[sj];
+            let wanted = (j as usize != i) & !(after & ((j as usize) < i));
+            near[count] = j;
+            count += (wanted & (d.norm_squared() <= contact * contact)) as usize;
+            if count == near.len() {
+                link_near(i, &near, box_, bodies, spheres);
+                count = 0;
+            }
+        }
+    }
+    link_near(i, &near[..count], box_, bodies, spheres);
+}
+
+/// Links body `i` to each of `near` (bodies whose neighbour spheres
+/// overlap its own) whose neighbour box, where there are boxes, overlaps
+/// its own.
+pub(super) fn link_near(
+    i: usize,
+    near: &[u32],
+    box_: &PeriodicBox,
+    bodies: &[Body],
+    spheres: &mut NeighbourSpheres,
+) {
+    let si = bodies[i].species as usize;
+    for &j in near {
+        let j = j as usize;
+        if let Some((half, axes)) = &spheres.boxes {
+            let sj = bodies[j].species as usize;
+            let d = box_.minimum_image_near(&(spheres.centres[j] - spheres.centres[i]));
+            // The 15-axis test in i's box frame (De Michele eqs. 62–64).
+            let apart = !crate::geometry::obb::boxes_overlap(
+                &half[si],
+                &half[sj],
+                &axes[i].tr_mul(&axes[j]),
+                &axes[i].tr_mul(&d),
+            );
+            if apart {
+                continue;
+            }
+        }
+        spheres.lists.link(i, j);
+    }
+}
+
+/// The particles as an MC system, checked to be overlap-free, pairs that
+/// touch to the dynamics' contact `tolerance` let through (see
+/// [`System::with_contacts`]).
+pub(super) fn system_of(
+    box_: PeriodicBox,
+    species: &[Species],
+    particles: Vec<Particle>,
+    tolerance: f64,
+) -> Result<System, StateError> {
+    let touching =
+        |i: usize, j: usize| pair_touches(&box_, species, &particles[i], &particles[j], tolerance);
+    System::with_contacts(box_, species.to_vec(), particles.clone(), touching)
+}
+
+/// How many bodies rotate.
+pub(super) fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
+    bodies
+        .iter()
+        .filter(|b| kinds[b.species as usize].rotates)
+        .count()
+}
+
+/// The per-species dynamics data, checked against the options.
+pub(super) fn kinds_for(
+    species: &[Species],
+    options: &DynamicsOptions,
+) -> Result<Vec<Kind>, EdmdError> {
+    let masses = if options.masses.is_empty() {
+        vec![1.0; species.len()]
+    } else {
+        options.masses.clone()
+    };
+    if masses.len() != species.len() || masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
+        return Err(EdmdError::BadMasses {
+            species: species.len(),
+            masses: options.masses.clone(),
+        });
+    }
+    let mut kinds = Vec::with_capacity(species.len());
+    for (s, &m) in species.iter().zip(&masses) {
+        let principal = s.shape.inertia_tensor(m).diagonal();
+        let (moments, top_axis) = if options.true_inertia {
+            match s.shape.symmetric_top_axis() {
+                Some(k) => (principal, k),
+                None => {
+                    return Err(EdmdError::NotATop {
+                        species: s.name.clone(),
+                        moments: principal.into(),
+                    });
+                }
+            }
+        } else {
+            (V3::repeat(principal.sum() / 3.0), 2)
+        };
+        kinds.push(Kind {
+            shape: s.shape,
+            inverse_mass: 1.0 / m,
+            rotates: s.rotation,
+            moments,
+            top_axis,
+        });
+    }
+    Ok(kinds)
+}

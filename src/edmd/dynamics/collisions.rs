@@ -1,0 +1,304 @@
+//! Collisions: the contact point and normal of a touching pair and the
+//! elastic impulse there (De Michele Sec. 2.6).
+
+use nalgebra::Vector3;
+
+use crate::edmd::collision::{Kinetics, collide, collide_patch, collide_spheres};
+use crate::edmd::motion::position_after;
+use crate::geometry::Relative;
+use crate::space::PeriodicBox;
+use crate::state::{Particle, Species};
+
+type V3 = Vector3<f64>;
+
+use super::*;
+
+impl Dynamics {
+    pub(super) fn collide(&mut self, i: usize, j: usize) -> Result<(), EdmdError> {
+        // The body of lower index first, whichever body's search found the
+        // pair: the same bits for the same collision (see `closed_form`).
+        let (i, j) = (i.min(j), i.max(j));
+        // A collision that fails leaves both bodies as they were, so that a
+        // dump taken then replays it (see `DynamicsDump`). Two spheres are
+        // checked before anything changes; bodies are kept aside.
+        let spheres = self.contact_sums[self.pair_index(i, j)].is_some();
+        let kept = (!spheres)
+            .then(|| [i, j].map(|k| (self.bodies[k], self.cell_shifts[k], self.images[k])));
+        let impulse = match self.impulse_at_contact(i, j) {
+            Ok(impulse) => impulse,
+            Err(e) => {
+                for (k, (body, shift, image)) in [i, j].into_iter().zip(kept.into_iter().flatten())
+                {
+                    (self.bodies[k], self.cell_shifts[k], self.images[k]) = (body, shift, image);
+                }
+                return Err(e);
+            }
+        };
+        self.interval.virial += impulse;
+        self.interval.collisions += 1;
+        self.collisions += 1;
+        if let Some(trace) = self.trace.as_mut() {
+            trace.push((self.origin + self.now, i.min(j) as u32, i.max(j) as u32));
+        }
+        self.calendar.invalidate(i);
+        self.calendar.invalidate(j);
+        self.schedule_crossing(i);
+        self.schedule_crossing(j);
+        self.schedule_collisions(i, Some(j), false)?;
+        self.schedule_collisions(j, Some(i), false)?;
+        // The pair itself last, within both horizons: a pair that has just
+        // touched stays within ε_d for a while, where the search is slow.
+        // Found, it is `i`'s earliest collision, in place of the one its
+        // search found: `i`'s horizon, so that if `j` changes first, `i`'s
+        // search is renewed there (see `process_next`).
+        // Two spheres that have just collided recede for ever on their
+        // straight lines (|d + Δv t|² grows once d·Δv > 0): nothing to search.
+        if spheres {
+            return Ok(());
+        }
+        let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
+        if let PairSearch::Contact(t, warm) =
+            self.predict_pair(i, j, horizon, u32::MAX, None, &mut None)?
+        {
+            self.bodies[i].horizon = t;
+            schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
+        }
+        Ok(())
+    }
+
+    /// Advances bodies `i` < `j` to now, where they touch, and applies the
+    /// impulse; returns (r_B − r_A)·J n̂ for the virial. Changes nothing
+    /// but the two bodies, and their velocities only if it succeeds.
+    pub(super) fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<f64, EdmdError> {
+        let (si, sj) = (self.species_of(i), self.species_of(j));
+        let sphere_contact = self.contact_sums[self.pair_index(i, j)];
+        // The separation now, from the positions `advance` will store (to
+        // the bit), before either body is touched.
+        let now = |k: usize| {
+            let b = &self.bodies[k];
+            position_after(&b.position, &b.velocity, self.now - b.time)
+        };
+        let d = self.box_.minimum_image(&(now(j) - now(i)));
+        if let Some(sigma) = sphere_contact {
+            // Two spheres touch now.
+            let gap = d.norm() - sigma;
+            if gap.abs() > 1e-9 * sigma {
+                return Err(EdmdError::ContactMismatch {
+                    i,
+                    j,
+                    time: self.time(),
+                    distance: gap,
+                });
+            }
+        }
+        self.advance(i);
+        self.advance(j);
+        // New stored poses: wrapped into the box here, and only here;
+        // with cells, in the image of the body's cell.
+        for k in [i, j] {
+            let p = self.bodies[k].position;
+            let wrapped = match self.neighbours {
+                Some(_) => self.box_.wrap(&p),
+                None => {
+                    let l = self.box_.lengths();
+                    let c = self.cells.coords_of(self.cells.cell_of(k));
+                    let centre = V3::from_fn(|a, _| {
+                        -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a]
+                    });
+                    p + self.box_.image_shift(&(p - centre))
+                }
+            };
+            self.images[k] += p - wrapped;
+            self.bodies[k].position = wrapped;
+            self.cell_shifts[k] = V3::zeros();
+        }
+        let impulse = if sphere_contact.is_some() {
+            let len = d.norm();
+            let normal = d / len;
+            let (mi, mj) = (self.kinds[si].inverse_mass, self.kinds[sj].inverse_mass);
+            let (a, b) = pair_mut(&mut self.bodies, i, j);
+            let ke_before = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
+            let jn = collide_spheres(&mut a.velocity, &mut b.velocity, mi, mj, &normal);
+            let ke_after = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
+            self.accumulate_kinetic();
+            self.kinetic_translational += ke_after - ke_before;
+            jn * len
+        } else {
+            self.collide_bodies(i, j, &d)?
+        };
+        Ok(impulse)
+    }
+
+    /// The collision of two bodies with at least one non-sphere: contact
+    /// point and normal from the distance kernel, impulse from
+    /// [`collide`]. Returns (r_B − r_A)·J n̂ for the virial.
+    pub(super) fn collide_bodies(&mut self, i: usize, j: usize, d: &V3) -> Result<f64, EdmdError> {
+        let (bi, bj) = (self.bodies[i], self.bodies[j]);
+        let (ki, kj) = (
+            &self.kinds[bi.species as usize],
+            &self.kinds[bj.species as usize],
+        );
+        let rel = Relative::new(d, &bi.orientation, &bj.orientation);
+        let warm = self.found.remove(&(i as u32, j as u32));
+        let contact = self
+            .predictor
+            .contact_from(&ki.shape, &kj.shape, &rel, warm.as_ref());
+        if !contact.distance.is_finite() {
+            return Err(EdmdError::Solver {
+                i,
+                j,
+                time: self.time(),
+                why: format!("{:?}", contact.status),
+            });
+        }
+        let scale = ki.shape.min_half_extent().min(kj.shape.min_half_extent());
+        if contact.distance.abs() > self.predictor.contact_tolerance() * scale {
+            return Err(EdmdError::ContactMismatch {
+                i,
+                j,
+                time: self.time(),
+                distance: contact.distance,
+            });
+        }
+        let lab = |c: &crate::geometry::Contact| {
+            let normal = bi.orientation * c.normal;
+            let arm_a = bi.orientation * (0.5 * (c.point_a + c.point_b));
+            let closing = normal.dot(
+                &(bi.velocity + bi.angular_velocity.cross(&arm_a)
+                    - bj.velocity
+                    - bj.angular_velocity.cross(&(arm_a - d))),
+            );
+            (normal, arm_a, closing)
+        };
+        let kinetics = |b: &Body, k: &Kind| Kinetics {
+            velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
+            inverse_mass: k.inverse_mass,
+            inverse_inertia: k.inverse_inertia(&b.orientation),
+        };
+        // A face or an edge lying on a face: the impact acts on all the
+        // corners of the shared region at once (see `collide_patch`).
+        let patch = crate::geometry::pair::contact_patch(
+            &ki.shape,
+            &kj.shape,
+            &rel,
+            &contact.normal,
+            self.predictor.contact_tolerance() * scale,
+        );
+        if patch.points().len() >= 2 {
+            let normal = bi.orientation * contact.normal;
+            let mut arms = [(V3::zeros(), V3::zeros()); 8];
+            for (arm, p) in arms.iter_mut().zip(patch.points()) {
+                let arm_a = bi.orientation * p;
+                *arm = (arm_a, arm_a - d);
+            }
+            let mut ka = kinetics(&bi, ki);
+            let mut kb = kinetics(&bj, kj);
+            let jn = collide_patch(&mut ka, &mut kb, &arms[..patch.points().len()], &normal);
+            return Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)));
+        }
+        let (mut normal, mut arm_a, closing) = lab(&contact);
+        if closing <= 0.0 {
+            // Touching, but not where the bodies close in: at a contact
+            // within round-off of a second one (a box face about to meet a
+            // vertex beside the one touching), the pair overlaps an instant
+            // later at the other. Take the contact from there.
+            let (spin_i, spin_j) = (
+                ki.spin(&bi.orientation, &bi.angular_velocity),
+                kj.spin(&bj.orientation, &bj.angular_velocity),
+            );
+            let rate = (bj.velocity - bi.velocity).norm()
+                + bi.angular_velocity.norm() * ki.shape.moment_arm()
+                + bj.angular_velocity.norm() * kj.shape.moment_arm();
+            let mut delta =
+                self.predictor.contact_tolerance() * scale / rate.max(f64::MIN_POSITIVE);
+            for _ in 0..40 {
+                let later = Relative::new(
+                    &(d + (bj.velocity - bi.velocity) * delta),
+                    &spin_i.orientation_after(&bi.orientation, delta),
+                    &spin_j.orientation_after(&bj.orientation, delta),
+                );
+                let ahead = self.predictor.contact(&ki.shape, &kj.shape, &later);
+                if ahead.distance < 0.0 {
+                    let (n, a, c) = lab(&ahead);
+                    if c > 0.0 {
+                        (normal, arm_a) = (n, a);
+                    }
+                    break;
+                }
+                delta *= 2.0;
+            }
+        }
+        let arm_b = arm_a - d;
+        let mut ka = kinetics(&bi, ki);
+        let mut kb = kinetics(&bj, kj);
+        let jn = collide(&mut ka, &mut kb, &arm_a, &arm_b, &normal);
+        Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)))
+    }
+
+    /// Stores bodies `i` and `j`'s velocities after a collision (`ka`,
+    /// `kb`) and the change of the translational kinetic energy; passes
+    /// the virial term through.
+    pub(super) fn apply_impulse(
+        &mut self,
+        i: usize,
+        j: usize,
+        ka: Kinetics,
+        kb: Kinetics,
+        virial: f64,
+    ) -> f64 {
+        let ke_before = 0.5
+            * (self.bodies[i].velocity.norm_squared() / ka.inverse_mass
+                + self.bodies[j].velocity.norm_squared() / kb.inverse_mass);
+        let ke_after = 0.5
+            * (ka.velocity.norm_squared() / ka.inverse_mass
+                + kb.velocity.norm_squared() / kb.inverse_mass);
+        self.accumulate_kinetic();
+        self.kinetic_translational += ke_after - ke_before;
+        for (idx, k) in [(i, ka), (j, kb)] {
+            self.bodies[idx].velocity = k.velocity;
+            self.bodies[idx].angular_velocity = k.angular_velocity;
+        }
+        virial
+    }
+}
+
+/// Whether particles `a` and `b` are at most touching: their signed
+/// distance, by the geometry layer's distance kernel (the one the
+/// predictions follow), is no deeper than `tolerance` times the smaller
+/// body's smallest half-extent (the contact tolerance of the dynamics).
+pub(super) fn pair_touches(
+    box_: &PeriodicBox,
+    species: &[Species],
+    a: &Particle,
+    b: &Particle,
+    tolerance: f64,
+) -> bool {
+    let (sa, sb) = (
+        &species[a.species as usize].shape,
+        &species[b.species as usize].shape,
+    );
+    let d = box_.minimum_image(&(b.position - a.position));
+    let rel = Relative::new(&d, &a.orientation, &b.orientation);
+    let contact = crate::geometry::distance(
+        sa,
+        sb,
+        &rel,
+        &crate::geometry::DistanceOptions::default(),
+        None,
+    );
+    let scale = sa.min_half_extent().min(sb.min_half_extent());
+    contact.distance >= -tolerance * scale
+}
+
+/// Two distinct elements of a slice, mutably.
+pub(super) fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
+    debug_assert_ne!(i, j);
+    if i < j {
+        let (lo, hi) = s.split_at_mut(j);
+        (&mut lo[i], &mut hi[0])
+    } else {
+        let (lo, hi) = s.split_at_mut(i);
+        (&mut hi[0], &mut lo[j])
+    }
+}

@@ -1,0 +1,396 @@
+//! Cell crossings, box escapes and hard walls: the events a single body
+//! has with the space around it.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::edmd::calendar::EventKind;
+use crate::edmd::collision::{Kinetics, collide};
+use crate::edmd::motion::position_after;
+use crate::geometry::roots::{brent_minimize, narrow_sign_change};
+
+type V3 = Vector3<f64>;
+
+use super::*;
+
+impl Dynamics {
+    pub(super) fn cross(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
+        // The stored pose stays (see `closed_form`): a periodic crossing
+        // moves `cell_shifts`, not the pose.
+        let dims = self.cells.dims();
+        let mut c = self.cells.coords_of(self.cells.cell_of(i));
+        let l = self.box_.lengths()[axis];
+        let mut shift = 0.0;
+        if up {
+            c[axis] += 1;
+            if c[axis] == dims[axis] {
+                c[axis] = 0;
+                shift = -l;
+            }
+        } else if c[axis] == 0 {
+            c[axis] = dims[axis] - 1;
+            shift = l;
+        } else {
+            c[axis] -= 1;
+        }
+        if shift != 0.0 {
+            self.cell_shifts[i][axis] += shift;
+        }
+        let cell = self.cells.index_of(c);
+        self.cells.move_to(i, cell);
+        if self.closed_form {
+            // The trajectory is unchanged and its events stand; only the
+            // bodies in the layer of cells ahead are new neighbours.
+            self.schedule_crossing(i);
+            let mut layer = c;
+            layer[axis] = if up {
+                (c[axis] + 1) % dims[axis]
+            } else {
+                (c[axis] + dims[axis] - 1) % dims[axis]
+            };
+            return self.schedule_collisions_in_layer(i, layer, axis);
+        }
+        self.calendar.invalidate(i);
+        self.schedule_crossing(i);
+        self.schedule_collisions(i, None, false)
+    }
+
+    /// Body `i` has moved the shell from its neighbour sphere's centre: the
+    /// sphere is rebuilt around it, and `i` searches its new list.
+    pub(super) fn escape(&mut self, i: usize) -> Result<(), EdmdError> {
+        // The stored pose stays (see `closed_form`).
+        let (centre, orientation) = self.pose_at(i, self.now);
+        let wrapped = self.box_.wrap(&centre);
+        self.cells.update(i, &wrapped);
+        let spheres = self
+            .neighbours
+            .as_mut()
+            .expect("escapes come with neighbour lists");
+        spheres.centres[i] = wrapped;
+        if let Some((_, axes)) = &mut spheres.boxes {
+            axes[i] = orientation.to_rotation_matrix().into_inner();
+        }
+        spheres.lists.unlink_all(i);
+        link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
+        if self.closed_form {
+            prefetch_bodies(&self.bodies, spheres.lists.of(i));
+            // Its trajectory and its events stand; only earlier contacts
+            // with its new neighbours are scheduled.
+            self.schedule_crossing(i);
+            let spheres = self.neighbours.as_ref().expect("just rebuilt");
+            let earliest = self.earliest_closed_form_listed(
+                i,
+                spheres.lists.of(i),
+                |_| true,
+                self.bodies[i].horizon,
+            );
+            self.schedule_earliest(i, earliest);
+            return Ok(());
+        }
+        self.calendar.invalidate(i);
+        self.schedule_crossing(i);
+        self.schedule_collisions(i, None, false)
+    }
+
+    /// Schedules body `i`'s next cell crossing, or with neighbour lists its
+    /// escape from its neighbour sphere (`i` at its own time), or its wall
+    /// contact if that comes first.
+    pub(super) fn schedule_crossing(&mut self, i: usize) {
+        let b = &self.bodies[i];
+        if let Some(spheres) = &self.neighbours {
+            if spheres.boxes.is_some() {
+                let t = self.box_escape_time(i);
+                self.schedule_neighbourhood_event(i, t, EventKind::Escape);
+                return;
+            }
+            // Against a sphere shrunk by a relative 1e-9: rounding never
+            // takes a body out of its sphere unseen.
+            let now = position_after(&b.position, &b.velocity, self.now - b.time);
+            let dt = escape_time(
+                &self.box_.minimum_image(&(now - spheres.centres[i])),
+                &b.velocity,
+                spheres.shell * (1.0 - 1e-9),
+            );
+            self.schedule_neighbourhood_event(i, self.now + dt, EventKind::Escape);
+            return;
+        }
+        let c = self.cells.coords_of(self.cells.cell_of(i));
+        let half = self.box_.lengths() * 0.5;
+        let mut best = (f64::INFINITY, 0u8, false);
+        for k in 0..3 {
+            let v = b.velocity[k];
+            if v == 0.0 {
+                continue;
+            }
+            let lower = -half[k] + c[k] as f64 * self.cell_lengths[k];
+            let (face, up) = if v > 0.0 {
+                (lower + self.cell_lengths[k], true)
+            } else {
+                (lower, false)
+            };
+            // The stored position in the image of its cell (they differ
+            // when the pose is kept through a periodic crossing).
+            let x = b.position[k] + self.cell_shifts[i][k];
+            let t = ((face - x) / v).max(0.0);
+            if t < best.0 {
+                best = (t, k as u8, up);
+            }
+        }
+        let time = b.time + best.0;
+        self.schedule_neighbourhood_event(
+            i,
+            time,
+            EventKind::CellCrossing {
+                axis: best.1,
+                up: best.2,
+            },
+        );
+    }
+
+    /// Schedules `kind` (a crossing or an escape) for body `i` at `time`,
+    /// or its wall contact if that comes first.
+    pub(super) fn schedule_neighbourhood_event(&mut self, i: usize, time: f64, kind: EventKind) {
+        if self.box_.has_walls() {
+            match self.wall_contact(i, time) {
+                WallContact::At { time: t, axis, up } => {
+                    self.crossing_times[i] = t;
+                    self.calendar.schedule(
+                        t,
+                        EventKind::Wall {
+                            axis: axis as u8,
+                            up,
+                        },
+                        i,
+                        i,
+                    );
+                    return;
+                }
+                WallContact::SearchedTo(t) if t < time => {
+                    self.crossing_times[i] = t;
+                    self.calendar.schedule(t, EventKind::WallSearch, i, i);
+                    return;
+                }
+                _ => {}
+            }
+        }
+        self.crossing_times[i] = time;
+        if time.is_finite() {
+            self.calendar.schedule(time, kind, i, i);
+        }
+    }
+
+    /// The gap between body `i` at time `t` and the faces of its neighbour
+    /// box: min over the box axes uₖ of Hₖ − |(r − c)·uₖ| − hₖ, with H the
+    /// box's half-extents, c its centre and hₖ the body's extent along uₖ.
+    pub(super) fn box_gap_at(&self, i: usize, t: f64) -> f64 {
+        let spheres = self.neighbours.as_ref().expect("box regions");
+        let (half, axes) = spheres.boxes.as_ref().expect("box regions");
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let (r, q) = self.pose_at(i, t);
+        let axes = &axes[i];
+        let h = kind
+            .shape
+            .lab_half_extents(&axes.tr_mul(&q.to_rotation_matrix().into_inner()));
+        let offset = axes.tr_mul(&self.box_.minimum_image(&(r - spheres.centres[i])));
+        let half = &half[b.species as usize];
+        (0..3)
+            .map(|k| half[k] - offset[k].abs() - h[k])
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// When body `i`'s neighbour box stops being trusted: the gap to its
+    /// faces cannot close faster than |v·uₖ| + |ω| × moment arm, so steps
+    /// of gap / rate never pass a face (conservative advancement); the
+    /// search stops within [`BOX_ESCAPE_MARGIN`] of the shell, or after 64
+    /// steps (an early rebuild costs a search, never a collision).
+    pub(super) fn box_escape_time(&self, i: usize) -> f64 {
+        let spheres = self.neighbours.as_ref().expect("box regions");
+        let (_, axes) = spheres.boxes.as_ref().expect("box regions");
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let along = axes[i].tr_mul(&b.velocity).abs().max();
+        let rate = along + b.angular_velocity.norm() * kind.shape.moment_arm();
+        if rate == 0.0 {
+            return f64::INFINITY;
+        }
+        let margin = BOX_ESCAPE_MARGIN * spheres.shell;
+        let mut t = self.now;
+        for _ in 0..64 {
+            let gap = self.box_gap_at(i, t);
+            if gap <= margin {
+                break;
+            }
+            t += gap / rate;
+        }
+        t
+    }
+
+    /// The gap between body `i` at absolute time `t` (relative to the
+    /// origin) and the nearest wall: min over walled axes of
+    /// L/2 − |rₖ| − hₖ(R), with the axis and side.
+    pub(super) fn wall_gap_at(&self, i: usize, t: f64) -> (f64, usize, bool) {
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let (r, q) = self.pose_at(i, t);
+        let h = kind
+            .shape
+            .lab_half_extents(&q.to_rotation_matrix().into_inner());
+        let half = self.box_.lengths() * 0.5;
+        let walls = self.box_.walls();
+        (0..3)
+            .filter(|&k| walls[k])
+            .map(|k| (half[k] - r[k].abs() - h[k], k, r[k] > 0.0))
+            .fold(
+                (f64::INFINITY, 0, true),
+                |m, x| if x.0 < m.0 { x } else { m },
+            )
+    }
+
+    /// Body `i`'s next wall contact before `t_end`: in closed form for a
+    /// body that does not turn; otherwise by bracketing the gap with steps
+    /// it cannot close faster than (|v| + |ω| × moment arm), a search for
+    /// grazing minima below ε_d, and the safeguarded root finder. Gives up
+    /// after a fixed number of steps (to be renewed from there).
+    pub(super) fn wall_contact(&self, i: usize, t_end: f64) -> WallContact {
+        let b = &self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let half = self.box_.lengths() * 0.5;
+        let walls = self.box_.walls();
+        if !kind.rotates || b.angular_velocity == V3::zeros() {
+            let h = kind
+                .shape
+                .lab_half_extents(&b.orientation.to_rotation_matrix().into_inner());
+            let mut best = WallContact::None;
+            let mut best_t = t_end;
+            for k in (0..3).filter(|&k| walls[k]) {
+                let v = b.velocity[k];
+                if v == 0.0 {
+                    continue;
+                }
+                let up = v > 0.0;
+                let gap = half[k] - h[k] - if up { b.position[k] } else { -b.position[k] };
+                let t = b.time + (gap / v.abs()).max(0.0);
+                if t < best_t {
+                    best_t = t;
+                    best = WallContact::At {
+                        time: t,
+                        axis: k,
+                        up,
+                    };
+                }
+            }
+            return best;
+        }
+        let opts = self.predictor.options();
+        let scale = kind.shape.min_half_extent();
+        let tol = opts.contact_tolerance * scale;
+        let eps = opts.grazing_threshold * scale;
+        let speed = (0..3)
+            .filter(|&k| walls[k])
+            .map(|k| b.velocity[k].abs())
+            .fold(0.0, f64::max);
+        let rate = speed + b.angular_velocity.norm() * kind.shape.moment_arm();
+        let gap = |t: f64| self.wall_gap_at(i, t).0;
+        let contact = |lo: f64| {
+            let (_, axis, up) = self.wall_gap_at(i, lo);
+            WallContact::At { time: lo, axis, up }
+        };
+        // From now: the pose is kept through the events that renew this
+        // search (see `closed_form`), and the body is clear of the walls
+        // up to now (a search that stopped renews itself from there).
+        let start = self.now.max(b.time);
+        let (mut t, mut g) = (start, gap(start));
+        for _ in 0..64 {
+            let t1 = (t + g.max(eps) / rate).min(t_end);
+            let g1 = gap(t1);
+            if g1 < 0.0 {
+                if g <= 0.0 {
+                    return contact(t);
+                }
+                let (lo, ..) = narrow_sign_change(gap, (t, g), (t1, g1), tol, 200);
+                return contact(lo);
+            }
+            if g.min(g1) < eps {
+                // A grazing approach: is there a dip below zero in between?
+                let (x, gx, _) = brent_minimize(gap, t, t1, 1e-12 * (t1 - t).max(1e-300), 60);
+                if gx < 0.0 && g > 0.0 {
+                    let (lo, ..) = narrow_sign_change(gap, (t, g), (x, gx), tol, 200);
+                    return contact(lo);
+                }
+            }
+            if t1 >= t_end {
+                return WallContact::None;
+            }
+            (t, g) = (t1, g1);
+        }
+        WallContact::SearchedTo(t)
+    }
+
+    /// Body `i` meets the wall normal to `axis` (at +L/2 if `up`): an
+    /// elastic impulse against an immovable wall at the body's extreme
+    /// point (collision::collide with an infinite-mass partner).
+    pub(super) fn hit_wall(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
+        self.advance(i);
+        let b = self.bodies[i];
+        let kind = &self.kinds[b.species as usize];
+        let normal = V3::ith(axis, if up { 1.0 } else { -1.0 });
+        let arm = b.orientation
+            * kind
+                .shape
+                .support(&b.orientation.inverse_transform_vector(&normal));
+        let gap = 0.5 * self.box_.lengths()[axis] - (b.position[axis] + arm[axis]) * normal[axis];
+        let scale = kind.shape.min_half_extent();
+        if gap.abs() > 1e3 * self.predictor.contact_tolerance() * scale {
+            return Err(EdmdError::ContactMismatch {
+                i,
+                j: i,
+                time: self.time(),
+                distance: gap,
+            });
+        }
+        let mut body = Kinetics {
+            velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
+            inverse_mass: kind.inverse_mass,
+            inverse_inertia: kind.inverse_inertia(&b.orientation),
+        };
+        let mut wall = Kinetics {
+            velocity: V3::zeros(),
+            angular_velocity: V3::zeros(),
+            inverse_mass: 0.0,
+            inverse_inertia: Matrix3::zeros(),
+        };
+        let ke_before = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
+        let j = collide(&mut body, &mut wall, &arm, &V3::zeros(), &normal);
+        let ke_after = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
+        self.accumulate_kinetic();
+        self.kinetic_translational += ke_after - ke_before;
+        self.interval.wall_impulse[axis] += j;
+        self.bodies[i].velocity = body.velocity;
+        self.bodies[i].angular_velocity = body.angular_velocity;
+        self.calendar.invalidate(i);
+        self.schedule_crossing(i);
+        self.schedule_collisions(i, None, false)
+    }
+}
+
+/// When a centre `d` from its neighbour sphere's centre (inside: |d| <
+/// `shell`), moving at `v`, is `shell` from it.
+pub(super) fn escape_time(d: &V3, v: &V3, shell: f64) -> f64 {
+    let a = v.norm_squared();
+    let c = d.norm_squared() - shell * shell;
+    if a == 0.0 {
+        return f64::INFINITY;
+    }
+    if c >= 0.0 {
+        return 0.0;
+    }
+    let b = d.dot(v);
+    let root = (b * b - a * c).sqrt();
+    // The positive root, without cancellation.
+    if b > 0.0 {
+        -c / (b + root)
+    } else {
+        (root - b) / a
+    }
+}

@@ -1,0 +1,634 @@
+//! The dynamics of hard rigid bodies: bodies move freely and lazily (each
+//! keeps the time its stored pose belongs to), the calendar yields the next
+//! collision, cell crossing or wall contact, and only the bodies involved
+//! are advanced, changed and re-predicted (De Michele Sec. 2.7).
+//!
+//! - `mod.rs`: the [`Dynamics`] state, its bodies and kinds, the options
+//!   and errors;
+//! - `build.rs`: construction from a state, from parts or from a dump;
+//! - `events.rs`: the event loop;
+//! - `collisions.rs`: contact and impulse of a colliding pair;
+//! - `crossings.rs`: cell crossings, box escapes and walls;
+//! - `scheduling.rs`: the earliest collision of a body with its
+//!   neighbours;
+//! - `observables.rs`: what the dynamics reports.
+
+mod build;
+mod collisions;
+mod crossings;
+mod events;
+mod observables;
+mod scheduling;
+
+use build::*;
+use collisions::*;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use observables::*;
+use scheduling::*;
+
+use crate::edmd::calendar::Calendar;
+use crate::edmd::motion::{Spin, position_after};
+use crate::edmd::predict::{Predictor, PredictorOptions, Progress};
+use crate::geometry::{Shape, WarmStart};
+use crate::space::{CellList, NeighbourLists, PeriodicBox};
+use crate::state::{Species, StateError};
+
+type V3 = Vector3<f64>;
+
+/// What can go wrong setting up or running the dynamics.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EdmdError {
+    /// The temperature is not a positive finite number.
+    #[error("temperature must be finite and > 0, got {0}")]
+    BadTemperature(f64),
+    /// A mass is not a positive finite number, or the masses do not match
+    /// the species.
+    #[error("masses must be one finite value > 0 per species ({species} species), got {masses:?}")]
+    BadMasses {
+        /// Species count.
+        species: usize,
+        /// What was given.
+        masses: Vec<f64>,
+    },
+    /// Fewer than two particles: no degrees of freedom once the total
+    /// momentum is removed.
+    #[error("dynamics needs at least two particles, got {0}")]
+    TooFewParticles(usize),
+    /// The starting state is not a valid hard-body state.
+    #[error("invalid starting state: {0}")]
+    State(#[from] StateError),
+    /// A pair predicted to touch does not: the prediction or the motion is
+    /// wrong. Reported with the pair, the time and the distance found.
+    #[error(
+        "collision of particles {i} and {j} at t = {time}: their distance is {distance:e}, not 0 (predicted contact missed)"
+    )]
+    ContactMismatch {
+        /// First particle.
+        i: usize,
+        /// Second particle.
+        j: usize,
+        /// Simulated time.
+        time: f64,
+        /// Signed distance at the predicted contact.
+        distance: f64,
+    },
+    /// Events keep coming at one instant: a pair caught in a contact that
+    /// the collision rule cannot resolve (a bug, reported rather than
+    /// looped on).
+    #[error(
+        "{events} events at t = {time} without time advancing (last: particles {i} and {j}): the dynamics is stuck"
+    )]
+    Stalled {
+        /// Simulated time.
+        time: f64,
+        /// Events at that time.
+        events: u64,
+        /// The last event's particles.
+        i: usize,
+        /// See `i`.
+        j: usize,
+    },
+    /// True inertia was asked for a body that is not a body of revolution
+    /// (its free rotation has no closed form here).
+    #[error(
+        "species {species}: true inertia needs a body of revolution (two equal principal moments), got {moments:?}"
+    )]
+    NotATop {
+        /// The species.
+        species: String,
+        /// Its principal moments.
+        moments: [f64; 3],
+    },
+    /// Velocities given for a different number of bodies, not finite, or
+    /// spinning a body that does not rotate.
+    #[error(
+        "velocities must be finite, one pair per body ({0} bodies), and zero spin for bodies that do not rotate"
+    )]
+    BadVelocities(usize),
+    /// A neighbour shell that is not a finite length > 0 (with a zero
+    /// shell every body would rebuild its list at every instant).
+    #[error("the neighbour shell must be a finite length > 0, got {0}")]
+    BadShell(f64),
+    /// A dump that cannot be a dynamics state.
+    #[error("invalid dump: {0}")]
+    BadDump(String),
+    /// The distance solver failed at a collision or a prediction.
+    #[error("distance of particles {i} and {j} at t = {time} could not be computed: {why}")]
+    Solver {
+        /// First particle.
+        i: usize,
+        /// Second particle.
+        j: usize,
+        /// Simulated time.
+        time: f64,
+        /// The solver's report.
+        why: String,
+    },
+}
+
+/// Settings of a dynamics run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicsOptions {
+    /// kT of the Maxwell–Boltzmann start; the kinetic energy is set to
+    /// exactly (dof/2) kT.
+    pub temperature: f64,
+    /// Mass per species (empty: all 1).
+    pub masses: Vec<f64>,
+    /// Collision prediction for non-spherical pairs.
+    pub predictor: PredictorOptions,
+    /// Rotate bodies of revolution as symmetric tops with their true
+    /// principal moments; otherwise every body is a spherical top with the
+    /// mean moment (De Michele's choice, eqs. 4–6).
+    pub true_inertia: bool,
+    /// Neighbour lists (Donev et al.; De Michele Sec. 3.3): each body gets
+    /// a neighbour region fixed where the body was when it was built, and
+    /// collisions are predicted only between bodies whose regions overlap;
+    /// a region is rebuilt when its body is about to leave it. Systems of
+    /// spheres use the bounding sphere grown by this shell (rebuilt when the
+    /// centre has moved by the shell); any other system the paper's
+    /// oriented boxes, the body's bounding box grown by the shell on every
+    /// face (rebuilt when the turning body is about to poke out of a face).
+    /// `None`: cells with cell-crossing events.
+    pub neighbour_shell: Option<f64>,
+}
+
+impl Default for DynamicsOptions {
+    fn default() -> Self {
+        Self {
+            temperature: 1.0,
+            masses: Vec::new(),
+            predictor: PredictorOptions::default(),
+            true_inertia: false,
+            neighbour_shell: None,
+        }
+    }
+}
+
+/// Below this packing fraction hard spheres run faster with cells.
+pub const SPHERE_LISTS_FROM: f64 = 0.45;
+
+/// The neighbour structure a scene gets unless it names one, at packing
+/// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
+/// lists (bounding spheres) with a shell of a quarter of the diameter
+/// above; for every other system, oriented-box lists with a shell of a
+/// tenth of the thinnest body's thickness (twice its smallest half-extent)
+/// times the square root of the largest elongation (longest over shortest
+/// half-extent): long and flat bodies rebuild their boxes often, and
+/// since the support-plane searches made each pair cheap, a wider shell
+/// pays for them.
+/// Measured (`hardbody bench edmd-shell`, `edmd-density`,
+/// `edmd-elongation`, one core; docs/ACCURACY.md): hard spheres N = 4000
+/// at φ = 0.5, 2.48–2.50 µs per collision at shells 0.2–0.3 against 3.39
+/// with cells; at φ = 0.4 no better than cells within the noise; at
+/// φ = 0.3 cells win (2.98 against 3.96 at best). Bodies at φ = 0.5 with
+/// box lists (`bench edmd`, 2026-11-21 after the support-plane searches),
+/// thickness 1: prolate 2:1 38.7 µs at 0.1, 45.6 at 0.2, 54.8 at 0.5;
+/// oblate 1:2 35.8 at 0.1, 41.0 at 0.05, 49.0 at 0.25; cubes 72.5 at 0.087,
+/// 81.2 at 0.17. Aligned needles and plates (side by side, one core):
+/// needles 10:1 at φ = 0.3 86 µs at shell 0.1 and 71 at 0.25, at φ = 0.5
+/// 71 and 69; plates 1:10 (thickness 0.1) at φ = 0.3 54 at 0.01 and 44 at
+/// 0.025; prolate 2:1 at φ = 0.5 39 at 0.1 and 40 at 0.25.
+pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
+    if species.iter().all(|s| s.shape.is_sphere()) {
+        let diameter = species
+            .iter()
+            .map(|s| 2.0 * s.shape.bounding_radius())
+            .fold(f64::INFINITY, f64::min);
+        (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
+    } else {
+        let thickness = species
+            .iter()
+            .map(|s| 2.0 * s.shape.min_half_extent())
+            .fold(f64::INFINITY, f64::min);
+        let elongation = species
+            .iter()
+            .map(|s| {
+                let h = s.shape.obb_half_extents();
+                h.max() / h.min()
+            })
+            .fold(1.0, f64::max);
+        Some(0.1 * thickness * elongation.sqrt())
+    }
+}
+
+/// The neighbour regions of [`DynamicsOptions::neighbour_shell`]: spheres,
+/// or oriented boxes.
+#[derive(Debug, Clone)]
+struct NeighbourSpheres {
+    shell: f64,
+    /// Per species: the largest distance from the centre to a point of the
+    /// region (bounding radius + shell for spheres, the box's half-diagonal
+    /// for boxes).
+    reach: Vec<f64>,
+    /// Where each body's region is centred (its centre when it was built,
+    /// wrapped into the box).
+    centres: Vec<V3>,
+    /// Oriented boxes: per species the half-extents (the body's bounding
+    /// box grown by the shell), per body the box axes (the body's axes when
+    /// it was built). `None`: spheres.
+    boxes: Option<(Vec<V3>, Vec<Matrix3<f64>>)>,
+    lists: NeighbourLists,
+}
+
+/// A box region stops being trusted when its body is this fraction of the
+/// shell from a face (the escape search stops there, never past the face).
+const BOX_ESCAPE_MARGIN: f64 = 0.02;
+
+/// A body's motion since its last event.
+///
+/// The first cache line holds all that a closed-form (sphere) search reads
+/// of a partner: position, velocity, time and horizon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(64))]
+struct Body {
+    /// Centre at `time` (wrapped into the box at cell crossings only).
+    position: V3,
+    velocity: V3,
+    /// The time the stored pose belongs to.
+    time: f64,
+    /// Where its last collision search stopped: its crossing time or the
+    /// earliest collision it found, whichever is first (any later
+    /// collision of this body will be invalidated by that event). If that
+    /// collision is invalidated by the partner instead, the search is
+    /// renewed from there.
+    horizon: f64,
+    orientation: UnitQuaternion<f64>,
+    /// Lab frame.
+    angular_velocity: V3,
+    species: u16,
+}
+
+// Two cache lines, the first all a sphere search reads of a partner.
+const _: () = assert!(std::mem::size_of::<Body>() == 128);
+
+/// Per species: what the dynamics needs to know.
+#[derive(Debug, Clone, PartialEq)]
+struct Kind {
+    shape: Shape,
+    inverse_mass: f64,
+    /// Whether the species turns.
+    rotates: bool,
+    /// Principal moments of inertia along the body axes: all equal (the
+    /// mean of the body's) for a spherical top, the body's own for a
+    /// symmetric top.
+    moments: V3,
+    /// The body axis of the symmetric top (the odd moment).
+    top_axis: usize,
+}
+
+impl Kind {
+    /// The free rotation of a body of this kind with orientation `q` and
+    /// lab angular velocity `omega` (zero for kinds that do not turn).
+    #[inline]
+    fn spin(&self, q: &UnitQuaternion<f64>, omega: &V3) -> Spin {
+        if !self.rotates {
+            return Spin::constant(V3::zeros());
+        }
+        let k = self.top_axis;
+        let (i1, i3) = (self.moments[(k + 1) % 3], self.moments[k]);
+        if i1 == i3 {
+            return Spin::constant(*omega);
+        }
+        let axis = V3::ith(k, 1.0);
+        let e3 = q * axis;
+        let w3 = omega.dot(&e3);
+        Spin {
+            lab: omega + e3 * ((i3 / i1 - 1.0) * w3),
+            body: axis * (w3 * (1.0 - i3 / i1)),
+        }
+    }
+
+    /// I⁻¹ in the lab frame at orientation `q`.
+    fn inverse_inertia(&self, q: &UnitQuaternion<f64>) -> Matrix3<f64> {
+        if !self.rotates {
+            return Matrix3::zeros();
+        }
+        let r = q.to_rotation_matrix().into_inner();
+        r * Matrix3::from_diagonal(&self.moments.map(|m| 1.0 / m)) * r.transpose()
+    }
+
+    /// ½ ω·I ω.
+    fn rotational_energy(&self, q: &UnitQuaternion<f64>, omega: &V3) -> f64 {
+        if !self.rotates {
+            return 0.0;
+        }
+        let body = q.inverse_transform_vector(omega);
+        0.5 * body.component_mul(&body).dot(&self.moments)
+    }
+}
+
+/// Counters and sums over the interval since the last sample (times on
+/// the dynamics' own clock): what a frame records so that a resumed run's
+/// first sample covers the same interval as the uninterrupted run's.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Interval {
+    /// When the interval began.
+    pub start: f64,
+    /// Collisions in it.
+    pub collisions: u64,
+    /// Σ (r_B − r_A)·J n̂ over collisions.
+    pub virial: f64,
+    /// ∫ (translational kinetic energy) dt, up to `ke_since`.
+    pub ke_integral: f64,
+    /// See `ke_integral`.
+    pub ke_since: f64,
+    /// Impulse taken by the two walls of each axis.
+    pub wall_impulse: [f64; 3],
+}
+
+/// Observables over the interval since the previous sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Simulated time.
+    pub time: f64,
+    /// Collisions since the start of the run.
+    pub collisions: u64,
+    /// Collisions in the interval.
+    pub interval_collisions: u64,
+    /// βP from the collision virial over the interval:
+    /// P V = ⅔⟨K_trans⟩ + Σ r_AB·J / (3 Δt), β = 1/kT.
+    pub pressure: Option<f64>,
+    /// kT = 2K / dof.
+    pub temperature: f64,
+    /// φ.
+    pub packing_fraction: f64,
+    /// S₂ of the molecular axes of the rotating anisotropic bodies; `None`
+    /// if there are none.
+    pub nematic_order: Option<f64>,
+}
+
+/// One body as the dynamics stores it: the pose at its own time (not the
+/// common time), and its velocities.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BodyDump {
+    /// Species index.
+    pub species: u16,
+    /// The time the pose belongs to (relative to `time_origin`).
+    pub time: f64,
+    /// Centre at `time`.
+    pub position: [f64; 3],
+    /// [w, x, y, z] at `time`.
+    pub orientation: [f64; 4],
+    /// Velocity.
+    pub velocity: [f64; 3],
+    /// Angular velocity, lab frame, at `time`.
+    pub angular_velocity: [f64; 3],
+}
+
+/// Everything the predictions depend on, to the bit: each body's stored
+/// pose and time (they differ from body to body between events), the
+/// clock and the box. Written when a run fails so that the failure can be
+/// replayed: [`Dynamics::from_dump`] predicts every event again from the
+/// same stored poses, and predictions are canonical (a function of the
+/// two stored poses alone; see `closed_form`), so the failing event comes
+/// back.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DynamicsDump {
+    /// Absolute time of `now` = 0.
+    pub time_origin: f64,
+    /// The clock, relative to `time_origin`.
+    pub now: f64,
+    /// Collisions so far.
+    pub collisions: u64,
+    /// Collisions at the last rebase (the next comes 32 N collisions
+    /// after it).
+    pub collisions_at_rebase: u64,
+    /// Box edges.
+    pub box_lengths: [f64; 3],
+    /// Hard walls per axis.
+    pub walls: [bool; 3],
+    /// Per body.
+    pub bodies: Vec<BodyDump>,
+}
+
+/// Event-driven molecular dynamics of hard bodies in a periodic box.
+#[derive(Debug, Clone)]
+pub struct Dynamics {
+    box_: PeriodicBox,
+    species: Vec<Species>,
+    kinds: Vec<Kind>,
+    /// Closed-form contact distance per species pair (spheres), else None.
+    contact_sums: Vec<Option<f64>>,
+    /// Every pair in closed form (spheres only): a contact time is exact
+    /// whenever it is found, so searches need no horizon, and a body that
+    /// crosses into a cell searches only the layer of cells it now
+    /// neighbours (Smallenburg's scheme); otherwise a crossing renews the
+    /// whole search, which stopped at it.
+    ///
+    /// Every prediction, closed form or searched, is canonical: a body's
+    /// stored pose changes only at its collisions and wall bounces
+    /// (wrapped into the box there) and at rebases (at a collision), never
+    /// at crossings or list rebuilds, and a pair is solved from the later
+    /// of its two stored poses (searches: with the lower index as A, on a
+    /// step grid the horizon does not cut, resumed with their solver
+    /// state; see `predict_pair`); so the predicted times, and the
+    /// trajectory, do not depend on when searches run or on the neighbour
+    /// structure.
+    closed_form: bool,
+    bodies: Vec<Body>,
+    /// Per body: when it next leaves its cell or neighbour region (its
+    /// events after that are invalidated there anyway, so none later is
+    /// scheduled). Beside `bodies`, which keep a sphere search's reads in
+    /// one cache line.
+    crossing_times: Vec<f64>,
+    /// Cells over the bodies' centres (with crossing events), or with
+    /// neighbour lists over their neighbour spheres' centres (updated when
+    /// a sphere is rebuilt, to find the spheres it overlaps).
+    cells: CellList,
+    cell_lengths: V3,
+    /// Neighbour lists, when the options ask for them.
+    neighbours: Option<NeighbourSpheres>,
+    /// Scratch: the bodies a search looks at.
+    candidates: Vec<u32>,
+    /// Per body, with cells and closed-form pairs: what to add to the
+    /// stored position to put it in its cell's image (the pose is kept
+    /// through periodic crossings; see `closed_form`).
+    cell_shifts: Vec<V3>,
+    calendar: Calendar,
+    predictor: Predictor,
+    /// Time since `origin`.
+    now: f64,
+    /// Absolute time of `now` = 0 (moved forward at rebases).
+    origin: f64,
+    /// Collisions at the last rebase.
+    collisions_at_rebase: u64,
+    collisions: u64,
+    interval: Interval,
+    /// Translational kinetic energy (changes only at collisions).
+    kinetic_translational: f64,
+    degrees_of_freedom: f64,
+    packing_fraction: f64,
+    /// Whether any body rotates (else orientations are never touched).
+    rotating: bool,
+    /// Per species: the body axis S₂ and C₂ follow (rotating anisotropic
+    /// species only).
+    molecular_axes: Vec<Option<V3>>,
+    /// Per body: the box lengths it has been wrapped by (unwrapped centre =
+    /// centre + image).
+    images: Vec<V3>,
+    /// Per body: unwrapped centre and lab-frame molecular axis at the
+    /// reference time of the MSD and C₂.
+    reference: Vec<(V3, Option<V3>)>,
+    /// The distance solver's state at each scheduled collision's predicted
+    /// contact, by (first, second) body: the collision starts from it.
+    found: std::collections::HashMap<(u32, u32), WarmStart>,
+    /// Scratch: searches put off until the cheap ones are done (partner,
+    /// the time it got to, where to resume it).
+    deferred: Vec<(u32, f64, Progress)>,
+    /// Events processed at the current instant (a guard against loops).
+    events_at_now: u64,
+    /// The options it was built with (to rebuild itself).
+    options: DynamicsOptions,
+    /// Every collision (time, lower index, higher index) while on.
+    trace: Option<Vec<(f64, u32, u32)>>,
+}
+
+/// The outcome of a search for a body's next wall contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum WallContact {
+    /// It touches the wall normal to `axis` (+L/2 if `up`) at `time`.
+    At { time: f64, axis: usize, up: bool },
+    /// No contact before the end of the search.
+    None,
+    /// The search stopped here without deciding.
+    SearchedTo(f64),
+}
+
+/// How a pair's search ended (times absolute).
+#[derive(Debug, Clone, Copy)]
+enum PairSearch {
+    /// A contact at this time, with the solver state there.
+    Contact(f64, Option<WarmStart>),
+    /// None before the horizon.
+    Apart,
+    /// Out of budget at this time; the progress to resume from is in the
+    /// caller's slot.
+    Unfinished(f64),
+}
+
+/// Steps a pair's contact search may take before it is put off behind the
+/// other pairs of the same body.
+const CHEAP_SEARCH: u32 = 16;
+
+/// Body `b`'s centre and orientation at time `t`, by free motion from its
+/// stored pose.
+#[inline]
+fn body_pose(kinds: &[Kind], b: &Body, t: f64) -> (V3, UnitQuaternion<f64>) {
+    let dt = t - b.time;
+    let r = position_after(&b.position, &b.velocity, dt);
+    let q = body_spin(kinds, b).orientation_after(&b.orientation, dt);
+    (r, q)
+}
+
+/// A body's free rotation since its stored time.
+#[inline]
+fn body_spin(kinds: &[Kind], b: &Body) -> Spin {
+    kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::Species;
+    use rand::SeedableRng;
+
+    /// A binary hard-sphere mixture run for a while, so that the bodies'
+    /// stored times differ and some have crossed the box.
+    fn mixture(neighbour_shell: Option<f64>) -> Dynamics {
+        let species: Vec<Species> = ["Sphere(radius: 0.5)", "Sphere(radius: 0.3)"]
+            .iter()
+            .map(|s| Species {
+                name: s.to_string(),
+                shape: s.parse().unwrap(),
+                rotation: false,
+            })
+            .collect();
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
+        let box_ = PeriodicBox::new(Vector3::repeat(7.0)).unwrap();
+        let system = crate::state::start::lattice(box_, species, &[100, 100], &mut rng).unwrap();
+        let options = DynamicsOptions {
+            neighbour_shell,
+            ..DynamicsOptions::default()
+        };
+        let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
+        md.run_collisions(5_000).unwrap();
+        md
+    }
+
+    /// The cells' members are gathered in order, and a gathering that
+    /// does not fit says so (the search then goes one by one).
+    #[test]
+    fn gathering_keeps_the_order_and_reports_overflow() {
+        let cells: [&[u32]; 3] = [&[4, 1], &[], &[7, 3, 9]];
+        let mut into = [0u32; 5];
+        assert_eq!(gather(cells.iter().copied(), &mut into), Some(5));
+        assert_eq!(into, [4, 1, 7, 3, 9]);
+        let mut small = [0u32; 4];
+        assert_eq!(gather(cells.iter().copied(), &mut small), None);
+    }
+
+    /// The contact times computed four side by side are those of the pair
+    /// by pair search, to the bit, for any partners (near and far, either
+    /// species, meeting or not); and the earliest over a list is the same
+    /// pair at the same time by either.
+    #[test]
+    fn side_by_side_contact_times_are_the_pairwise_ones_to_the_bit() {
+        let md = mixture(Some(0.2));
+        assert!(md.closed_form);
+        let n = md.bodies.len();
+        let spheres = md.neighbours.as_ref().unwrap();
+        let mut u = crate::test_support::uniform(3);
+        let (mut finite, mut never) = (0, 0);
+        for _ in 0..5_000 {
+            let i = (u() * n as f64) as usize;
+            // Listed partners (near) and any body (mostly far).
+            let list = spheres.lists.of(i);
+            let lanes: [usize; LANES] = std::array::from_fn(|k| {
+                if k % 2 == 0 && !list.is_empty() {
+                    list[(u() * list.len() as f64) as usize] as usize
+                } else {
+                    (u() * n as f64) as usize
+                }
+            });
+            let times = md.closed_form_contacts(i, &lanes);
+            for (t, &j) in times.iter().zip(&lanes) {
+                if j == i {
+                    continue;
+                }
+                let pairwise = md.closed_form_contact(i, j);
+                assert_eq!(t.to_bits(), pairwise.to_bits(), "{i} {j}: {t} {pairwise}");
+                if t.is_finite() {
+                    finite += 1;
+                } else {
+                    never += 1;
+                }
+            }
+        }
+        assert!(finite > 1000 && never > 1000, "{finite} {never}");
+        for i in 0..n {
+            let list = spheres.lists.of(i);
+            let keep = |j: usize| !j.is_multiple_of(3);
+            let pairwise = md.earliest_closed_form(
+                i,
+                list.iter().map(|&j| j as usize).filter(|&j| keep(j)),
+                f64::INFINITY,
+            );
+            let listed = md.earliest_closed_form_listed(i, list, keep, f64::INFINITY);
+            assert_eq!(listed, pairwise, "{i}");
+        }
+        // A pair overlapping by rounding and closing, stored before now:
+        // it touches now, not in the past.
+        let mut md = md;
+        let (i, j) = (0, md.neighbours.as_ref().unwrap().lists.of(0)[0] as usize);
+        let sigma = md.contact_sums[md.pair_index(i, j)].unwrap();
+        let t0 = md.now - 0.25;
+        let (position, velocity) = (md.bodies[i].position, md.bodies[i].velocity);
+        md.bodies[i].time = t0;
+        md.bodies[j].time = t0;
+        md.bodies[j].position = position + Vector3::x() * sigma * (1.0 - 1e-12);
+        md.bodies[j].velocity = velocity - Vector3::x();
+        let times = md.closed_form_contacts(i, &[j; LANES]);
+        assert_eq!(times, [md.now; LANES]);
+        assert_eq!(md.closed_form_contact(i, j), md.now);
+    }
+}

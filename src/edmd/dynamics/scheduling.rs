@@ -1,0 +1,477 @@
+//! Scheduling: the earliest predicted collision of a body with its
+//! neighbours, spheres in closed form side by side, bodies through the
+//! predictor.
+
+use nalgebra::{UnitQuaternion, Vector3};
+
+use crate::edmd::calendar::{Calendar, EventKind};
+use crate::edmd::motion::position_after;
+use crate::edmd::predict::{Found, Progress};
+use crate::geometry::WarmStart;
+
+type V3 = Vector3<f64>;
+
+use super::*;
+
+impl Dynamics {
+    /// Closed-form pairs only: schedules body `i`'s collisions with the
+    /// bodies in the 3×3 cells around `layer` across `axis` (its new
+    /// neighbours after a crossing), if earlier than its earliest one.
+    pub(super) fn schedule_collisions_in_layer(
+        &mut self,
+        i: usize,
+        layer: [usize; 3],
+        axis: usize,
+    ) -> Result<(), EdmdError> {
+        let dims = self.cells.dims();
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        let cells = &self.cells;
+        let layer_cells = [dims[a] - 1, 0, 1].into_iter().flat_map(|da| {
+            [dims[b] - 1, 0, 1].into_iter().map(move |db| {
+                let mut c = layer;
+                c[a] = (c[a] + da) % dims[a];
+                c[b] = (c[b] + db) % dims[b];
+                cells.index_of(c)
+            })
+        });
+        let earliest = self.earliest_closed_form_in_cells(
+            i,
+            layer_cells.map(|c| cells.members(c)),
+            |j| j != i,
+            self.bodies[i].horizon,
+        );
+        self.schedule_earliest(i, earliest);
+        Ok(())
+    }
+
+    /// Body `i`'s centre and orientation at time `t`, by free motion from
+    /// its stored pose.
+    pub(super) fn pose_at(&self, i: usize, t: f64) -> (V3, UnitQuaternion<f64>) {
+        body_pose(&self.kinds, &self.bodies[i], t)
+    }
+
+    /// Predicts and schedules the collisions of body `i` (at the current
+    /// time) with the bodies in the cells around it, except `skip`; with
+    /// `once`, only with bodies of larger index (the initial sweep over all
+    /// pairs). Each search stops at the earliest event found so far for `i`
+    /// (its horizon): a later collision of `i` would be invalidated by it.
+    pub(super) fn schedule_collisions(
+        &mut self,
+        i: usize,
+        skip: Option<usize>,
+        once: bool,
+    ) -> Result<(), EdmdError> {
+        let keep = |j: usize| j != i && Some(j) != skip && !(once && j < i);
+        if self.closed_form {
+            // Every search is one closed-form solve, exact whenever it is
+            // done: no horizon, none deferred.
+            let earliest = match &self.neighbours {
+                Some(spheres) => {
+                    prefetch_bodies(&self.bodies, spheres.lists.of(i));
+                    self.earliest_closed_form_listed(i, spheres.lists.of(i), keep, f64::INFINITY)
+                }
+                None => {
+                    let cells = &self.cells;
+                    let around = cells.neighbour_cells(cells.cell_of(i));
+                    self.earliest_closed_form_in_cells(
+                        i,
+                        around.iter().map(|&nc| cells.members(nc as usize)),
+                        keep,
+                        f64::INFINITY,
+                    )
+                }
+            };
+            self.bodies[i].horizon = f64::INFINITY;
+            self.schedule_earliest(i, earliest);
+            return Ok(());
+        }
+        let mut horizon_i = self.crossing_times[i];
+        // Searches that need many steps (pairs lingering close together)
+        // wait until the cheap ones have shortened the horizon.
+        let mut deferred = std::mem::take(&mut self.deferred);
+        deferred.clear();
+        // Only the earliest contact found is scheduled: a later one would be
+        // invalidated by it, or, if its partner changes first, found again
+        // when the search is renewed from there (see `process_next`).
+        let mut earliest = None;
+        let mut candidates = std::mem::take(&mut self.candidates);
+        candidates.clear();
+        match &self.neighbours {
+            Some(spheres) => candidates.extend_from_slice(spheres.lists.of(i)),
+            None => {
+                for &nc in self.cells.neighbour_cells(self.cells.cell_of(i)) {
+                    candidates.extend_from_slice(self.cells.members(nc as usize));
+                }
+            }
+        }
+        // Where a search out of budget leaves its progress.
+        let mut stopped = None;
+        for &j in &candidates {
+            let j = j as usize;
+            if !keep(j) {
+                continue;
+            }
+            // Past j's own horizon, j's first event will have changed it
+            // or renewed its search (which covers this pair).
+            let horizon = horizon_i.min(self.bodies[j].horizon);
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, None, &mut stopped)? {
+                PairSearch::Contact(t, warm) => {
+                    earliest = Some((t, j, warm));
+                    horizon_i = t;
+                }
+                PairSearch::Apart => {}
+                PairSearch::Unfinished(t) => {
+                    deferred.push((j as u32, t, stopped.take().expect("stopped")))
+                }
+            }
+        }
+        self.candidates = candidates;
+        // The put-off searches race: the least advanced one takes the next
+        // few steps, so that the first contact among them is found before
+        // any of them searches past it (it becomes everyone's horizon). A
+        // search resumes with its solver state: the same steps as if it
+        // had not stopped (see `predict_pair`).
+        while !deferred.is_empty() {
+            let (k, &(j, _, progress)) = deferred
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.1.total_cmp(&b.1.1))
+                .expect("not empty");
+            let j = j as usize;
+            let horizon = horizon_i.min(self.bodies[j].horizon);
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, Some(&progress), &mut stopped)? {
+                PairSearch::Contact(t, warm) => {
+                    earliest = Some((t, j, warm));
+                    horizon_i = t;
+                    deferred.swap_remove(k);
+                }
+                PairSearch::Apart => {
+                    deferred.swap_remove(k);
+                }
+                PairSearch::Unfinished(t) => {
+                    deferred[k] = (j as u32, t, stopped.take().expect("stopped"))
+                }
+            }
+        }
+        self.deferred = deferred;
+        self.bodies[i].horizon = horizon_i;
+        if let Some((t, j, warm)) = earliest {
+            schedule_collision(&mut self.calendar, &mut self.found, t, i, j, warm);
+        }
+        Ok(())
+    }
+
+    /// Closed-form pairs: the earliest contact of body `i` (at the current
+    /// time) with one of `others` before `horizon` and before the other's
+    /// own horizon (past it, the other's first event changes it or renews
+    /// its search, which covers the pair).
+    pub(super) fn earliest_closed_form(
+        &self,
+        i: usize,
+        others: impl Iterator<Item = usize>,
+        mut horizon: f64,
+    ) -> Option<(f64, usize)> {
+        let mut earliest = None;
+        for j in others {
+            // +∞ for pairs that never meet: no branch on whether they do.
+            let t = self.closed_form_contact(i, j);
+            if t < horizon.min(self.bodies[j].horizon) {
+                earliest = Some((t, j));
+                horizon = t;
+            }
+        }
+        earliest
+    }
+
+    /// [`Dynamics::earliest_closed_form`] over a neighbour list, the
+    /// partners `keep` lets through: four contact times are computed side
+    /// by side, so that the square roots and divisions of four run at once
+    /// instead of one after the other (their latency was a quarter of a
+    /// sphere run with lists). The same result to the bit, the partners
+    /// taken in the list's order (which of equal times wins).
+    #[inline(always)]
+    pub(super) fn earliest_closed_form_listed(
+        &self,
+        i: usize,
+        list: &[u32],
+        keep: impl Fn(usize) -> bool,
+        mut horizon: f64,
+    ) -> Option<(f64, usize)> {
+        let mut earliest = None;
+        let lanes = list.chunks_exact(LANES);
+        let tail = lanes.remainder();
+        for lanes in lanes {
+            let lanes: [usize; LANES] = std::array::from_fn(|k| lanes[k] as usize);
+            let times = self.closed_form_contacts(i, &lanes);
+            for (&t, &j) in times.iter().zip(&lanes) {
+                if keep(j) && t < horizon.min(self.bodies[j].horizon) {
+                    earliest = Some((t, j));
+                    horizon = t;
+                }
+            }
+        }
+        // The rest one by one (padding them into a batch was no faster).
+        let rest = tail.iter().map(|&j| j as usize).filter(|&j| keep(j));
+        self.earliest_closed_form(i, rest, horizon).or(earliest)
+    }
+
+    /// [`Dynamics::earliest_closed_form_listed`] over the members of
+    /// `cells` that `keep` lets through, gathered into a small array first
+    /// (and prefetched); more than fit are searched one at a time.
+    #[inline(always)]
+    pub(super) fn earliest_closed_form_in_cells<'a>(
+        &self,
+        i: usize,
+        cells: impl Iterator<Item = &'a [u32]> + Clone,
+        keep: impl Fn(usize) -> bool,
+        horizon: f64,
+    ) -> Option<(f64, usize)> {
+        let mut near = [0u32; GATHERED];
+        match gather(cells.clone(), &mut near) {
+            Some(count) => {
+                prefetch_bodies(&self.bodies, &near[..count]);
+                self.earliest_closed_form_listed(i, &near[..count], keep, horizon)
+            }
+            None => {
+                let near = cells.flatten().map(|&j| j as usize);
+                self.earliest_closed_form(i, near.filter(|&j| keep(j)), horizon)
+            }
+        }
+    }
+
+    /// [`Dynamics::closed_form_contact`] of body `i` with each of `others`,
+    /// to the bit, computed side by side.
+    #[inline(always)]
+    pub(super) fn closed_form_contacts(&self, i: usize, others: &[usize; LANES]) -> [f64; LANES] {
+        let bi = &self.bodies[i];
+        // Structure of arrays, one lane per partner, so that the compiler
+        // computes the lanes in vector registers.
+        let mut d = [[0.0; LANES]; 3];
+        let mut dv = [[0.0; LANES]; 3];
+        let mut t0 = [0.0; LANES];
+        let mut sigma = [0.0; LANES];
+        for (k, &j) in others.iter().enumerate() {
+            let bj = &self.bodies[j];
+            // A species pair that never touches: NaN, which meets nothing.
+            sigma[k] = self.contact_sums[self.pair_index(i, j)].unwrap_or(f64::NAN);
+            // Both bodies brought to the later of their times (the one
+            // already there moves by zero: the same bits as moving only the
+            // other, as `closed_form_contact` does).
+            t0[k] = bi.time.max(bj.time);
+            let ri = position_after(&bi.position, &bi.velocity, t0[k] - bi.time);
+            let rj = position_after(&bj.position, &bj.velocity, t0[k] - bj.time);
+            for a in 0..3 {
+                d[a][k] = rj[a] - ri[a];
+                dv[a][k] = bj.velocity[a] - bi.velocity[a];
+            }
+        }
+        let mut times = [0.0; LANES];
+        for k in 0..LANES {
+            // The image nearest now (as `closed_form_contact`), and the
+            // products in the order of nalgebra's (from zero, x, y, z).
+            let dt = self.now - t0[k];
+            let (mut b, mut dd, mut v2) = (0.0, 0.0, 0.0);
+            for a in 0..3 {
+                let x = d[a][k] + self.box_.image_shift_along(a, d[a][k] + dv[a][k] * dt);
+                b += x * dv[a][k];
+                dd += x * x;
+                v2 += dv[a][k] * dv[a][k];
+            }
+            let t = crate::geometry::pair::sphere_contact_time_from_products(b, dd, v2, sigma[k]);
+            times[k] = (t0[k] + t).max(self.now); // t0 + ∞ stays ∞
+        }
+        times
+    }
+
+    /// Schedules the contact found by [`Dynamics::earliest_closed_form`],
+    /// which becomes body `i`'s horizon.
+    pub(super) fn schedule_earliest(&mut self, i: usize, earliest: Option<(f64, usize)>) {
+        if let Some((t, j)) = earliest {
+            self.bodies[i].horizon = t;
+            self.calendar.schedule(t, EventKind::Collision, i, j);
+        }
+    }
+
+    /// Where the species pair of bodies `i` and `j` sits in
+    /// `contact_sums`.
+    #[inline]
+    pub(super) fn pair_index(&self, i: usize, j: usize) -> usize {
+        self.species_of(i) * self.kinds.len() + self.species_of(j)
+    }
+
+    /// Body `k`'s species; with one species, without reading the body's
+    /// second cache line, which spheres need for nothing else.
+    #[inline]
+    pub(super) fn species_of(&self, k: usize) -> usize {
+        if self.kinds.len() == 1 {
+            0
+        } else {
+            self.bodies[k].species as usize
+        }
+    }
+
+    /// The contact time of two spheres, `i` at the current time (absolute,
+    /// +∞ if they never touch).
+    #[inline(always)]
+    pub(super) fn closed_form_contact(&self, i: usize, j: usize) -> f64 {
+        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+        let Some(sigma) = self.contact_sums[self.pair_index(i, j)] else {
+            return f64::INFINITY;
+        };
+        // From the later of the two stored poses, whenever the search runs:
+        // the same bits for the same poses (see `closed_form`).
+        // The image is the one nearest now (bodies that have flown far
+        // since t0 may have been nearer in another then); neighbours are
+        // far closer than half a box, so every search picks the same one.
+        let dv = bj.velocity - bi.velocity;
+        let (t0, raw) = if bi.time >= bj.time {
+            let rj = position_after(&bj.position, &bj.velocity, bi.time - bj.time);
+            (bi.time, rj - bi.position)
+        } else {
+            let ri = position_after(&bi.position, &bi.velocity, bj.time - bi.time);
+            (bj.time, bj.position - ri)
+        };
+        let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
+        (t0 + crate::geometry::pair::sphere_contact_time_or_never(&d, &dv, sigma)).max(self.now)
+    }
+
+    /// The contact time of bodies `i` and `j` if it comes before
+    /// `horizon`, with about `budget` steps (else how far the search got,
+    /// to resume it from there with `resume`). Canonical (see
+    /// `closed_form`): searched from the later of the two stored poses, the
+    /// body of lower index as A, on a step grid the horizon does not cut,
+    /// and resumed with its solver state; so the time found is a function
+    /// of the two stored poses alone, whenever and from whichever body the
+    /// search runs.
+    pub(super) fn predict_pair(
+        &self,
+        i: usize,
+        j: usize,
+        horizon: f64,
+        budget: u32,
+        resume: Option<&Progress>,
+        stopped: &mut Option<Progress>,
+    ) -> Result<PairSearch, EdmdError> {
+        let (a, b) = (i.min(j), i.max(j));
+        let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
+        let t0 = ba.time.max(bb.time);
+        let ra = position_after(&ba.position, &ba.velocity, t0 - ba.time);
+        let rb = position_after(&bb.position, &bb.velocity, t0 - bb.time);
+        let dv = bb.velocity - ba.velocity;
+        // The image nearest now (as for closed-form pairs).
+        let raw = rb - ra;
+        let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
+        let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
+        let found = if let Some(sigma) = self.contact_sums[pair] {
+            match crate::geometry::pair::sphere_contact_time(&d, &dv, sigma) {
+                Some(t) => Found::Contact(t),
+                None => Found::Apart,
+            }
+        } else {
+            let (ka, kb) = (
+                &self.kinds[ba.species as usize],
+                &self.kinds[bb.species as usize],
+            );
+            // A free rotation's two parts are constants of the motion.
+            let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
+            // The stored orientations, each turned on from its own time
+            // inside the search (one rotation per step, none to bring it
+            // to t0 first).
+            self.predictor
+                .search_into(
+                    (&ka.shape, &ba.orientation, &spin_a),
+                    (&kb.shape, &bb.orientation, &spin_b),
+                    (t0 - ba.time, t0 - bb.time),
+                    &d,
+                    &dv,
+                    resume,
+                    horizon - t0,
+                    budget,
+                    stopped,
+                )
+                .map_err(|why| EdmdError::Solver {
+                    i,
+                    j,
+                    time: self.time(),
+                    why,
+                })?
+        };
+        let warm = self.predictor.take_found();
+        Ok(match found {
+            // Not before now (rounding at a contact found right now).
+            Found::Contact(t) if t0 + t < horizon => {
+                PairSearch::Contact((t0 + t).max(self.now), warm)
+            }
+            Found::Contact(_) | Found::Apart => PairSearch::Apart,
+            Found::Stopped(t) => PairSearch::Unfinished(t0 + t),
+        })
+    }
+}
+
+/// Schedules the collision of `i` and `j` at `t`, keeping the solver state
+/// at the predicted contact for it.
+pub(super) fn schedule_collision(
+    calendar: &mut Calendar,
+    found: &mut std::collections::HashMap<(u32, u32), WarmStart>,
+    t: f64,
+    i: usize,
+    j: usize,
+    warm: Option<WarmStart>,
+) {
+    calendar.schedule(t, EventKind::Collision, i, j);
+    if let Some(w) = warm {
+        // Found with the body of lower index as A (see `predict_pair`).
+        found.insert((i.min(j) as u32, i.max(j) as u32), w);
+    }
+}
+
+/// Asks for the first cache line of each listed body (all a sphere search
+/// reads of it) at once, before the search reads them one after another.
+#[inline]
+pub(super) fn prefetch_bodies(bodies: &[Body], list: &[u32]) {
+    for &j in list {
+        prefetch_body(bodies, j as usize);
+    }
+}
+
+/// Asks for body `j`'s first cache line (see [`prefetch_bodies`]).
+#[inline(always)]
+pub(super) fn prefetch_body(bodies: &[Body], j: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(b) = bodies.get(j) {
+        // SAFETY: SSE is part of the x86_64 baseline, and a prefetch is a
+        // hint that reads and writes no memory (of a valid reference here
+        // in any case).
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                (b as *const Body).cast::<i8>(),
+            );
+        }
+    }
+}
+
+/// Partners whose closed-form contact times are computed side by side.
+pub(super) const LANES: usize = 4;
+
+/// Candidates gathered from the cells around a sphere at most (dense
+/// spheres have about 27; more fall back to one at a time).
+pub(super) const GATHERED: usize = 64;
+
+/// The members of `cells` one after another in `into`, and how many;
+/// `None` if they do not fit.
+#[inline]
+pub(super) fn gather<'a>(
+    cells: impl Iterator<Item = &'a [u32]>,
+    into: &mut [u32],
+) -> Option<usize> {
+    let mut count = 0;
+    for members in cells {
+        // One by one (a cell holds a few: a library copy per cell cost
+        // a tenth of a dense sphere run).
+        for &j in members {
+            *into.get_mut(count)? = j;
+            count += 1;
+        }
+    }
+    Some(count)
+}
