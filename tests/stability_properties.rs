@@ -145,7 +145,7 @@ fn contact_time_check(c: &Case) -> Result<(), TestCaseError> {
     let horizon = 4.0;
     let predicted = predictor
         .contact_time((&c.a, &c.qa, &sa), (&c.b, &c.qb, &sb), &c.d, &c.dv, horizon)
-        .map_err(TestCaseError::fail)?;
+        .map_err(|e| TestCaseError::fail(e.to_string()))?;
     // Fine stepping with the MC overlap test.
     let steps = 4000;
     let h = horizon / steps as f64;

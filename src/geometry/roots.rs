@@ -181,7 +181,7 @@ mod tests {
 /// parabolic steps; Brent 1973, ch. 5): returns (x, f(x)) with x located to
 /// about `tol` (absolute) and the number of evaluations.
 pub fn brent_minimize(
-    f: impl Fn(f64) -> f64,
+    mut f: impl FnMut(f64) -> f64,
     lo: f64,
     hi: f64,
     tol: f64,

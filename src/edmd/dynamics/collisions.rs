@@ -148,7 +148,10 @@ impl Dynamics {
                 i,
                 j,
                 time: self.time(),
-                why: format!("{:?}", contact.status),
+                why: SearchError::Solver {
+                    status: contact.status,
+                    at: 0.0,
+                },
             });
         }
         let scale = ki.shape.min_half_extent().min(kj.shape.min_half_extent());

@@ -28,7 +28,9 @@ use scheduling::*;
 
 use crate::edmd::calendar::Calendar;
 use crate::edmd::motion::{Spin, position_after};
-use crate::edmd::predict::{Predictor, PredictorOptions, Progress};
+use crate::edmd::predict::{Predictor, PredictorOptions};
+use crate::edmd::search::Progress;
+use crate::edmd::search::SearchError;
 use crate::geometry::{Shape, WarmStart};
 use crate::space::{CellList, NeighbourLists, PeriodicBox};
 use crate::state::{Species, StateError};
@@ -122,7 +124,7 @@ pub enum EdmdError {
         /// Simulated time.
         time: f64,
         /// The solver's report.
-        why: String,
+        why: SearchError,
     },
 }
 

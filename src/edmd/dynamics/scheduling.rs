@@ -6,7 +6,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::edmd::calendar::{Calendar, EventKind};
 use crate::edmd::motion::position_after;
-use crate::edmd::predict::{Found, Progress};
+use crate::edmd::search::{Found, Progress};
 use crate::geometry::WarmStart;
 
 type V3 = Vector3<f64>;
