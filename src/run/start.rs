@@ -1,0 +1,179 @@
+//! The first state of a run: a lattice, layers, random insertion, or the
+//! last state of another log, checked against the scene.
+
+use std::path::Path;
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand_pcg::Pcg64;
+
+use crate::log::StateRecord;
+use crate::log::read::read_log;
+use crate::scene::plan::Plan;
+use crate::scene::{Scene, Start};
+use crate::space::PeriodicBox;
+use crate::state::start::{lattice, random_insertion};
+use crate::state::{Particle, StateError, System};
+
+use super::*;
+
+/// The first state of a scene.
+pub(super) fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result<System, RunError> {
+    let species = plan.mc_species();
+    let counts: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
+    match &scene.start {
+        Start::Lattice => Ok(lattice(scene.periodic_box(), species, &counts, rng)?),
+        Start::Layered(axis) => layered(
+            lattice(scene.periodic_box(), species, &counts, rng)?,
+            *axis as usize,
+        )
+        .map_err(|e| RunError::Start(e.into())),
+        Start::Random => {
+            let n: usize = counts.iter().sum();
+            Ok(random_insertion(
+                scene.periodic_box(),
+                species,
+                &counts,
+                1000 * n as u64,
+                rng,
+            )?)
+        }
+        Start::Resume(path) => resumed_start(path, plan),
+    }
+}
+
+/// The species of a lattice start put in layers along `axis`: the sites
+/// sorted by that coordinate, the first species on the lowest.
+pub(super) fn layered(system: System, axis: usize) -> Result<System, StateError> {
+    let mut sites: Vec<Particle> = system.particles().to_vec();
+    sites.sort_by(|a, b| a.position[axis].total_cmp(&b.position[axis]));
+    let mut kinds: Vec<u16> = system.particles().iter().map(|p| p.species).collect();
+    kinds.sort_unstable();
+    // Aligned bodies stay aligned (the lattice chose the orientations for
+    // its spacing); a body takes the orientation of its new site's species
+    // only when orientations are random, which any site allows.
+    for (p, k) in sites.iter_mut().zip(kinds) {
+        p.species = k;
+    }
+    System::new(*system.periodic_box(), system.species().to_vec(), sites)
+}
+
+/// Whether the scene's start can be made before anything runs: a
+/// `Resume` start's log is read and its last state checked against the
+/// scene (what `run` would refuse, `check` refuses too).
+pub fn check_start(scene: &Scene) -> Result<(), RunError> {
+    if let Start::Resume(path) = &scene.start {
+        let plan = Plan::of(scene);
+        resumed_start(path, &plan)?;
+    }
+    Ok(())
+}
+
+/// The system of the last intact state of the log at `path`.
+pub(super) fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError> {
+    let contents = read_log(Path::new(path), false).map_err(|e| RunError::Resume(e.to_string()))?;
+    let (_, record) = contents.last_state.ok_or_else(|| {
+        RunError::Resume(match &contents.damage {
+            Some(d) => format!("{path} holds no complete state before its damage ({d})"),
+            None => format!("{path} holds no complete state"),
+        })
+    })?;
+    system_from_record(&record, plan).map_err(|e| RunError::Resume(format!("{path}: {e}")))
+}
+
+/// A system from a logged state, checked against the scene's species.
+pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, String> {
+    let species = plan.mc_species();
+    let same = record.species.len() == species.len()
+        && record
+            .species
+            .iter()
+            .zip(&species)
+            .all(|(r, s)| r.name == s.name && r.shape == s.shape);
+    if !same {
+        return Err(format!(
+            "the logged species ({}) differ from the scene's ({})",
+            record
+                .species
+                .iter()
+                .map(|s| format!("{} {}", s.name, s.shape))
+                .collect::<Vec<_>>()
+                .join(", "),
+            species
+                .iter()
+                .map(|s| format!("{} {}", s.name, s.shape))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let logged: Vec<usize> = (0..plan.species.len())
+        .map(|k| {
+            record
+                .species_of
+                .iter()
+                .filter(|&&x| x as usize == k)
+                .count()
+        })
+        .collect();
+    let wanted: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
+    if logged != wanted {
+        return Err(format!(
+            "the logged particle counts per species {logged:?} differ from the scene's {wanted:?}"
+        ));
+    }
+    let n = record.species_of.len();
+    if record.positions.len() != n || record.orientations.len() != n {
+        return Err(format!(
+            "the logged state has {} positions and {} orientations for {n} particles",
+            record.positions.len(),
+            record.orientations.len()
+        ));
+    }
+    let box_ = PeriodicBox::new(Vector3::from(record.box_lengths))
+        .map_err(|e| format!("logged box: {e}"))?
+        .with_walls(plan.walls);
+    let particles = record
+        .positions
+        .iter()
+        .zip(&record.orientations)
+        .zip(&record.species_of)
+        .map(|((p, q), &s)| Particle {
+            position: Vector3::from(*p),
+            orientation: UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+                q[0], q[1], q[2], q[3],
+            )),
+            species: s,
+        })
+        .collect();
+    System::new(box_, species, particles).map_err(|e: StateError| format!("logged state: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_layered_start_puts_the_species_in_order_along_the_axis() {
+        let scene = Scene::parse(
+            r#"Scene(box: (20.0, 6.0, 6.0), walls: [X],
+                species: [Species(name: "a", shape: Sphere(radius: 0.4), count: 60),
+                          Species(name: "b", shape: Ellipsoid(a: 0.4, b: 0.3, c: 0.3), count: 40)],
+                start: Layered(X), stages: [Dynamics(duration: 1.0)])"#,
+        )
+        .unwrap();
+        let plan = Plan::of(&scene);
+        let system = start_state(&scene, &plan, &mut Pcg64::seed_from_u64(1)).unwrap();
+        let x = |k: u16| {
+            system
+                .particles()
+                .iter()
+                .filter(move |p| p.species == k)
+                .map(|p| p.position.x)
+        };
+        let a_max = x(0).fold(f64::NEG_INFINITY, f64::max);
+        let b_min = x(1).fold(f64::INFINITY, f64::min);
+        assert!(a_max <= b_min, "{a_max} > {b_min}");
+        assert_eq!(x(0).count(), 60);
+        assert_eq!(system.periodic_box().walls(), [true, false, false]);
+        assert_eq!(system.first_wall_overlap(), None);
+    }
+}
