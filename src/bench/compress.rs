@@ -179,3 +179,23 @@ pub fn plot(rows: &[CompressRow], dir: &Path) -> Result<Vec<PathBuf>, String> {
     )?;
     Ok(vec![path])
 }
+
+/// The suite's table in Markdown.
+pub fn table(rows: &[CompressRow]) -> String {
+    let mut out = String::from(
+        "| table | shape | N | phi reached | sweeps | seconds | microseconds per particle |\n|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        out += &format!(
+            "| {} | {} | {} | {:.3} | {} | {:.2} | {:.1} |\n",
+            r.table,
+            r.shape,
+            r.n,
+            r.packing_fraction,
+            r.sweeps,
+            r.seconds,
+            r.seconds_per_particle * 1e6
+        );
+    }
+    out
+}

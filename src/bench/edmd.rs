@@ -384,3 +384,41 @@ pub fn plot(
     }
     Ok(paths)
 }
+
+/// The tolerance suite's table in Markdown, and the loosest safe ε_d per
+/// aspect.
+pub fn tolerance_table(rows: &[ToleranceRow]) -> String {
+    let mut out = String::from(
+        "| aspect | N | phi | eps_d | Newton tol | collisions | us/collision, median of 10 stretches (range) | energy drift/collision | max contact-time error (first 100) | follows reference for | missed |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        out += &format!(
+            "| {} | {} | {} | {:.0e} | {:.0e} | {} | {:.0} ({:.0}-{:.0}) | {:.1e} | {:.1e} | {} | {} |\n",
+            r.aspect,
+            r.n,
+            r.packing_fraction,
+            r.grazing_threshold,
+            r.newton_tolerance,
+            r.collisions,
+            r.us_per_collision,
+            r.us_per_collision_range.0,
+            r.us_per_collision_range.1,
+            r.energy_drift_per_collision,
+            r.max_contact_time_error,
+            if r.reference {
+                "(reference)".to_string()
+            } else {
+                format!("{} collisions", r.departure_collisions)
+            },
+            r.missed.as_deref().unwrap_or("none")
+        );
+    }
+    for (aspect, eps) in loosest_safe_grazing(rows) {
+        out += &format!(
+            "aspect {aspect}: loosest eps_d with no missed collision: {}\n",
+            eps.map(|e| format!("{e:.0e}"))
+                .unwrap_or_else(|| "none".into())
+        );
+    }
+    out
+}

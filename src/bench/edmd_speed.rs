@@ -787,3 +787,37 @@ pub fn plot_superellipsoid(
     )?;
     Ok(vec![time, iterations])
 }
+
+/// The rows of a time-per-collision suite as a Markdown table.
+pub fn table(rows: &[SpeedRow]) -> String {
+    let mut out = String::from(
+        "| system | N | phi | neighbours | us/collision, median (range) | distances/collision | iterations/distance | target | published |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        out += &format!(
+            "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | {:.1} | {:.2} | {} | {} |\n",
+            r.system,
+            r.n,
+            r.packing_fraction,
+            r.neighbours,
+            r.median_us_per_collision,
+            r.min_us_per_collision,
+            r.max_us_per_collision,
+            r.repeats,
+            r.collisions_per_repeat,
+            r.distances_per_collision,
+            r.iterations_per_distance,
+            if r.target_us_per_collision.is_finite() {
+                format!("<= {}", r.target_us_per_collision)
+            } else {
+                "-".into()
+            },
+            if r.reference.is_empty() {
+                "-"
+            } else {
+                &r.reference
+            }
+        );
+    }
+    out
+}

@@ -292,3 +292,17 @@ pub fn plot(rows: &[EffectRow], dir: &std::path::Path) -> Result<Vec<std::path::
     )?;
     Ok(vec![path])
 }
+
+/// The suite's table in Markdown.
+pub fn table(rows: &[EffectRow]) -> String {
+    let mut out = String::from(
+        "| driver | effect | off | on | on / off | unit |\n|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        out += &format!(
+            "| {} | {} | {:.3} | {:.3} | {:.2} | {} |\n",
+            r.driver, r.effect, r.off_us, r.on_us, r.ratio, r.unit
+        );
+    }
+    out
+}

@@ -502,3 +502,37 @@ pub fn plot(
     )?;
     Ok(vec![speed_path, acceptance_path])
 }
+
+/// The suite's tables in Markdown: speed and density rows, then the
+/// move-size rows.
+pub fn table(moves: &[McRow], density: &[McRow], sizes: &[AcceptanceRow]) -> String {
+    let mut out = String::from(
+        "| shape | N | phi | threads | sweep | trial moves/s (median) | translate acceptance |\n|---|---|---|---|---|---|---|\n",
+    );
+    for r in moves.iter().chain(density) {
+        out += &format!(
+            "| {} | {} | {:.3} | {} | {} | {:.3e} | {:.2} |\n",
+            r.shape,
+            r.n,
+            r.packing_fraction,
+            r.threads,
+            r.sweep,
+            r.trial_moves_per_s,
+            r.acceptance_translate
+        );
+    }
+    out += "\n| shape | phi | translation (thicknesses) | rotation (rad) | translate acceptance | rotate acceptance | trial moves/s |\n|---|---|---|---|---|---|---|\n";
+    for r in sizes {
+        out += &format!(
+            "| {} | {:.3} | {} | {} | {:.3} | {:.3} | {:.3e} |\n",
+            r.shape,
+            r.packing_fraction,
+            r.translate,
+            r.rotate,
+            r.acceptance_translate,
+            r.acceptance_rotate,
+            r.trial_moves_per_s
+        );
+    }
+    out
+}

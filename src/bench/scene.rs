@@ -130,3 +130,23 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
     };
     Ok(vec![row("direct", d, counts.0), row("scene", s, counts.1)])
 }
+
+/// The suite's table in Markdown.
+pub fn table(rows: &[SceneRow]) -> String {
+    let mut out = String::from(
+        "| path | shape | N | phi | collisions | us/collision (median) | ratio to direct |\n|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        out += &format!(
+            "| {} | {} | {} | {:.2} | {} | {:.3} | {:.3} |\n",
+            r.algorithm,
+            r.shape,
+            r.n,
+            r.packing_fraction,
+            r.collisions,
+            r.us_per_collision,
+            r.ratio_to_direct
+        );
+    }
+    out
+}

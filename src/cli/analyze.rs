@@ -1,0 +1,423 @@
+//! The commands that read logs: `analyze`, `inspect`, `export`; and
+//! `virial`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use hardbody::analysis::virial::excluded_volume;
+use hardbody::geometry::Shape;
+use hardbody::log::file::check_output;
+use hardbody::log::read::read_log;
+use hardbody::scene::Scene;
+
+use super::*;
+
+/// A log's contents for `analyze`: refused with exit 2 if unreadable;
+/// damage is said and what precedes it analysed.
+pub(super) fn log_to_analyze(
+    path: &std::path::Path,
+) -> Result<hardbody::log::read::LogContents, ExitCode> {
+    let contents = read_log(path, false).map_err(bad_input)?;
+    if let Some(d) = &contents.damage {
+        esay(&format!(
+            "hardbody: {}: {d}; analysing the /stats before it",
+            path.display()
+        ));
+    }
+    Ok(contents)
+}
+
+pub(super) fn analyze(
+    path: &std::path::Path,
+    json: bool,
+    plot: Option<&std::path::Path>,
+) -> ExitCode {
+    use hardbody::analysis::series::FEW_EFFECTIVE_SAMPLES;
+    use hardbody::log::averages::stage_averages;
+    let contents = match log_to_analyze(path) {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
+    let stats: Vec<_> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
+    let stages = stage_averages(&stats);
+    if let Some(dir) = plot {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            return bad_input(format!("--plot {}: {e}", dir.display()));
+        }
+        for stage in &stages {
+            if let Err(e) = plot_stage(dir, &stats, stage) {
+                return bad_input(e);
+            }
+        }
+    }
+    if json {
+        print_json(&serde_json::json!({
+            "log": path.display().to_string(),
+            "stages": stages,
+        }));
+    } else {
+        say(&format!("{}:", path.display()));
+        for stage in &stages {
+            let unit = if stage.stage == "dynamics" {
+                "t"
+            } else {
+                "sweep"
+            };
+            let verdict = if stage.stage == "compress" {
+                "compression (not an equilibrium stage: no averages)".to_string()
+            } else if stage.equilibrated {
+                "equilibrated".to_string()
+            } else {
+                format!(
+                    "NOT EQUILIBRATED ({}): run it longer",
+                    stage.not_equilibrated.join(", ")
+                )
+            };
+            say(&format!(
+                "stage {} ({}), {} stats messages, {unit} {}-{}: {verdict}",
+                stage.stage_index, stage.stage, stage.samples, stage.span[0], stage.span[1]
+            ));
+            if let Some(strains) = stage.solver.and_then(|w| w.strains_in_words()) {
+                say(&format!("  solver strains: {strains}"));
+            }
+            if stage.observables.is_empty() {
+                continue;
+            }
+            say(&format!(
+                "  {:<22} {:>26} {:>16} {:>8} {:>8}",
+                "observable",
+                "mean +- error",
+                format!("from {unit}"),
+                "g",
+                "N_eff"
+            ));
+            for (name, o) in &stage.observables {
+                let e = &o.estimate;
+                let value = if o.constant {
+                    format!("{} (constant)", e.mean)
+                } else {
+                    format!("{:.6} +- {:.6}", e.mean, e.error)
+                };
+                say(&format!(
+                    "  {:<22} {:>26} {:>16} {:>8.2} {:>8.1}{}",
+                    name,
+                    value,
+                    o.equilibrated_from,
+                    e.statistical_inefficiency,
+                    e.effective_samples,
+                    if !e.equilibrated {
+                        "  not equilibrated"
+                    } else if e.effective_samples < FEW_EFFECTIVE_SAMPLES && !o.constant {
+                        "  few effective samples: the error is uncertain"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+        }
+    }
+    let never: Vec<String> = stages
+        .iter()
+        .filter(|s| s.stage != "compress" && !s.equilibrated)
+        .map(|s| s.stage_index.to_string())
+        .collect();
+    if !never.is_empty() {
+        esay(&format!(
+            "hardbody: warning: stage {} never equilibrated: its averages are not equilibrium values",
+            never.join(", ")
+        ));
+    }
+    ExitCode::SUCCESS
+}
+
+/// Averages over replicas: each log analysed as `analyze` does, then
+/// every stage's observables averaged over the logs, with an error that
+/// is the larger of the runs' errors combined and their spread.
+pub(super) fn analyze_replicas(
+    paths: &[PathBuf],
+    json: bool,
+    plot: Option<&std::path::Path>,
+) -> ExitCode {
+    use hardbody::log::averages::{stage_averages, stages_over_replicas};
+    let mut runs = Vec::new();
+    let mut first_scene: Option<Scene> = None;
+    for (k, path) in paths.iter().enumerate() {
+        let contents = match log_to_analyze(path) {
+            Ok(c) => c,
+            Err(code) => return code,
+        };
+        // Replicas: the same scene but for the seed and the log's path.
+        let scene = contents
+            .metadata
+            .get("scene_resolved")
+            .and_then(|t| Scene::parse(t).ok())
+            .map(|s| Scene {
+                seed: 0,
+                log: Default::default(),
+                ..s
+            });
+        match (&first_scene, scene) {
+            (_, None) => {
+                return bad_input(format!(
+                    "{}: no readable scene in its metadata",
+                    path.display()
+                ));
+            }
+            (None, Some(s)) => first_scene = Some(s),
+            (Some(f), Some(s)) if *f != s => {
+                return bad_input(format!(
+                    "{}: its scene differs from that of {} other than in the seed: not a replica",
+                    path.display(),
+                    paths[0].display()
+                ));
+            }
+            _ => {}
+        }
+        let stats: Vec<_> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
+        let stages = stage_averages(&stats);
+        if let Some(dir) = plot {
+            let dir = dir.join(format!("replica{}", k + 1));
+            if let Err(e) = std::fs::create_dir_all(&dir) {
+                return bad_input(format!("--plot {}: {e}", dir.display()));
+            }
+            for stage in &stages {
+                if let Err(e) = plot_stage(&dir, &stats, stage) {
+                    return bad_input(e);
+                }
+            }
+        }
+        runs.push(stages);
+    }
+    let combined = match stages_over_replicas(&runs) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    if json {
+        print_json(&serde_json::json!({
+            "logs": paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "stages": combined,
+        }));
+    } else {
+        say(&format!("{} replicas:", paths.len()));
+        for stage in &combined {
+            if stage.stage == "compress" {
+                continue;
+            }
+            say(&format!(
+                "stage {} ({}): {}",
+                stage.stage_index,
+                stage.stage,
+                if stage.equilibrated {
+                    "equilibrated in every replica"
+                } else {
+                    "NOT EQUILIBRATED in some replica: run it longer"
+                }
+            ));
+            say(&format!(
+                "  {:<22} {:>26} {:>12}",
+                "observable", "mean +- error", "spread"
+            ));
+            for (name, a) in &stage.observables {
+                say(&format!(
+                    "  {:<22} {:>26} {:>12.6}",
+                    name,
+                    format!("{:.6} +- {:.6}", a.mean, a.error),
+                    a.spread
+                ));
+            }
+        }
+    }
+    if combined
+        .iter()
+        .any(|s| s.stage != "compress" && !s.equilibrated)
+    {
+        esay(
+            "hardbody: warning: a stage never equilibrated in some replica: its averages are not equilibrium values",
+        );
+    }
+    ExitCode::SUCCESS
+}
+
+/// One SVG per observable of `stage`: the series, the mean of its
+/// equilibrated part, and where that part begins.
+pub(super) fn plot_stage(
+    dir: &std::path::Path,
+    stats: &[hardbody::log::Stats],
+    stage: &hardbody::log::averages::StageAverages,
+) -> Result<(), String> {
+    use hardbody::bench::plot::{Figure, Series, line_plot};
+    let dynamics = stage.stage == "dynamics";
+    for (name, o) in &stage.observables {
+        if o.constant {
+            continue;
+        }
+        let points: Vec<(f64, f64)> = stats
+            .iter()
+            .filter(|s| s.stage_index == stage.stage_index)
+            .filter_map(|s| {
+                let x = s.sweep.map(|w| w as f64).or(s.time)?;
+                let v = serde_json::to_value(s).ok()?.get(name)?.as_f64()?;
+                Some((x, v))
+            })
+            .collect();
+        let (lo, hi) = points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.1), b.max(p.1))
+            });
+        let from = o.equilibrated_from;
+        let end = points.last().map_or(from, |p| p.0);
+        let series = [
+            Series {
+                name: name.clone(),
+                points,
+            },
+            Series {
+                name: format!("mean {:.5} +- {:.5}", o.estimate.mean, o.estimate.error),
+                points: vec![(from, o.estimate.mean), (end, o.estimate.mean)],
+            },
+            Series {
+                name: "equilibrated from here".into(),
+                points: vec![(from, lo), (from, hi)],
+            },
+        ];
+        let title = format!("stage {} ({}): {name}", stage.stage_index, stage.stage);
+        let figure = Figure {
+            title: &title,
+            x_label: if dynamics { "time" } else { "sweeps" },
+            y_label: name,
+            log_x: false,
+            log_y: false,
+        };
+        let path = dir.join(format!("stage{}-{name}.svg", stage.stage_index));
+        line_plot(&path, &figure, &series)?;
+    }
+    Ok(())
+}
+
+pub(super) fn inspect(path: &std::path::Path) -> ExitCode {
+    let contents = match read_log(path, false) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    say(&format!(
+        "{}: hardbody {} log{}",
+        path.display(),
+        contents
+            .metadata
+            .get("version")
+            .map(String::as_str)
+            .unwrap_or("?"),
+        if contents.truncated {
+            " (cut off: read up to its last complete record)"
+        } else {
+            ""
+        }
+    ));
+    say("channels:");
+    for (topic, count) in &contents.counts {
+        say(&format!("  {topic}: {count} messages"));
+    }
+    say("stages:");
+    let mut stages: Vec<(usize, String, usize, String)> = Vec::new();
+    for (_, s) in &contents.stats {
+        let progress = match (s.sweep, s.time) {
+            (Some(sweep), _) => format!("sweep {sweep}"),
+            (_, Some(t)) => format!("t = {t}"),
+            _ => String::new(),
+        };
+        match stages.last_mut() {
+            Some(last) if last.0 == s.stage_index => {
+                last.2 += 1;
+                last.3 = progress;
+            }
+            _ => stages.push((s.stage_index, s.stage.clone(), 1, progress)),
+        }
+    }
+    for (index, kind, count, progress) in &stages {
+        say(&format!(
+            "  {index} {kind}: {count} stats messages, last at {progress}"
+        ));
+    }
+    if let Some((_, last)) = contents.stats.last() {
+        say("last stats:");
+        say(&serde_json::to_string_pretty(last).expect("stats serialise"));
+    }
+    if let Some((_, failure)) = &contents.failure {
+        say(&format!(
+            "failed in stage {}: {}{}",
+            failure.stage_index,
+            failure.message,
+            if failure.dump.is_some() {
+                " (the dynamics' stored state at the failure is in /failure)"
+            } else {
+                ""
+            }
+        ));
+    }
+    match &contents.damage {
+        Some(d) => bad_input(format!(
+            "{}: {d}; shown above is what precedes it (`hardbody run --resume` continues from its last intact frame)",
+            path.display()
+        )),
+        None => ExitCode::SUCCESS,
+    }
+}
+
+pub(super) fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> ExitCode {
+    let (sa, sb) = match (a.parse::<Shape>(), b.parse::<Shape>()) {
+        (Ok(x), Ok(y)) => (x, y),
+        (Err(e), _) | (_, Err(e)) => return bad_input(e),
+    };
+    if samples == 0 {
+        return bad_input("--samples must be at least 1");
+    }
+    let e = excluded_volume(&sa, &sb, samples, seed);
+    if json {
+        print_json(&e);
+    } else {
+        say(&format!("shapes:          {sa} / {sb}"));
+        say(&format!(
+            "excluded volume: {:.6} ± {:.6}",
+            e.excluded_volume, e.excluded_volume_error
+        ));
+        say(&format!(
+            "B2:              {:.6} ± {:.6}",
+            e.b2,
+            e.excluded_volume_error / 2.0
+        ));
+        say(&format!("samples:         {}", e.samples));
+    }
+    ExitCode::SUCCESS
+}
+
+pub(super) fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
+    let contents = match read_log(log, true) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    if let Err(e) = check_output(out, true, &[log]) {
+        return bad_input(e);
+    }
+    if let (Some(d), true) = (&contents.damage, contents.states.is_empty()) {
+        return bad_input(format!(
+            "{}: {d}; no intact frame before it to export",
+            log.display()
+        ));
+    }
+    match hardbody::log::gsd::export(&contents.states, out) {
+        Ok(frames) => match &contents.damage {
+            // The intact frames are exported; the damage is an error.
+            Some(d) => bad_input(format!(
+                "{}: {d}; the {frames} frames before it were written to {}",
+                log.display(),
+                out.display()
+            )),
+            None => {
+                say(&format!("{frames} frames written to {}", out.display()));
+                ExitCode::SUCCESS
+            }
+        },
+        Err(e) => bad_input(e),
+    }
+}

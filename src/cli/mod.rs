@@ -1,0 +1,211 @@
+//! The `hardbody` command line: the commands and their flags (clap), and
+//! how they print and exit.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod analyze;
+mod bench;
+mod progress;
+mod run;
+
+use analyze::*;
+use bench::*;
+use run::*;
+
+/// Exit code for bad input (flags, shapes, scenes, logs).
+const EXIT_BAD_INPUT: u8 = 2;
+
+/// Exit code for a computation that failed.
+const EXIT_FAILED: u8 = 1;
+
+#[derive(Parser)]
+#[command(
+    name = "hardbody",
+    version,
+    about = "Dense packings and dynamics of hard ellipsoids, superellipsoids, cuboids and spheres"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run every stage of a scene (without SCENE: the built-in default scene,
+    /// data/scenes/default.ron). Ctrl-C ends the run cleanly with a final frame.
+    Run {
+        /// Scene file (RON).
+        scene: Option<PathBuf>,
+        /// Log file to write (overrides the scene's log.path).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Random seed (overrides the scene's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Continue the run logged in LOG (stopped, or cut off by a crash)
+        /// from its last frame: the rest of its stage and the stages after it,
+        /// bit for bit as if never interrupted. With SCENE, run that scene's
+        /// stages from that frame instead. The log goes to --out, else to LOG
+        /// (without a .partial suffix).
+        #[arg(long, value_name = "LOG")]
+        resume: Option<PathBuf>,
+    },
+    /// Validate a scene and print the plan: stages, pair kernels, effects and why.
+    Check {
+        /// Scene file (RON).
+        scene: PathBuf,
+    },
+    /// Export a log's frames to another format (GSD for OVITO, freud, HOOMD-blue).
+    Export {
+        /// MCAP log written by `hardbody run`.
+        log: PathBuf,
+        /// Write the frames as a GSD file in HOOMD's schema, with particle shapes.
+        #[arg(long, value_name = "OUT.gsd")]
+        gsd: PathBuf,
+    },
+    /// Equilibrium averages of a log, stage by stage: for every /stats
+    /// observable where it equilibrated, its mean and standard error from
+    /// there (correlation included), and whether the stage equilibrated.
+    Analyze {
+        /// MCAP log written by `hardbody run` (complete or partial); several
+        /// logs of one scene run with other seeds are averaged as replicas.
+        #[arg(required = true, num_args = 1..)]
+        log: Vec<PathBuf>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Write one plot (SVG) per stage and observable into this
+        /// directory: the series, its mean and where it equilibrated.
+        #[arg(long, value_name = "DIR")]
+        plot: Option<PathBuf>,
+    },
+    /// Print a log's channels, message counts, stages and last stats.
+    Inspect {
+        /// MCAP log written by `hardbody run`.
+        log: PathBuf,
+    },
+    /// Orientation-averaged excluded volume and second virial coefficient of two shapes.
+    Virial {
+        /// First shape, in the scene spelling, e.g. "Cuboid(a: 0.5, b: 1.0, c: 1.5)".
+        shape_a: String,
+        /// Second shape, in the scene spelling, e.g. "Sphere(radius: 0.5)".
+        shape_b: String,
+        /// Monte Carlo samples.
+        #[arg(long, default_value_t = 1_000_000)]
+        samples: u64,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Run a benchmark suite.
+    Bench {
+        /// Suite to run.
+        #[arg(value_enum)]
+        suite: Suite,
+        /// A short run (CI smoke test).
+        #[arg(long)]
+        quick: bool,
+        /// Print a JSON array of rows instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Write the suite's plots (SVG) into this directory
+        /// (all but scene and edmd, which are tables).
+        #[arg(long, value_name = "DIR")]
+        plot: Option<std::path::PathBuf>,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Suite {
+    /// Cuboid–sphere overlap: OCSI against Arvo, QRI, QRF, SSE (Tonti & Patti).
+    Ocsi,
+    /// Monte Carlo trial moves per second by shape at packing fraction 0.5.
+    Mc,
+    /// Compression from a dilute fluid: seconds and sweeps by shape, and against N.
+    Compress,
+    /// Hard-sphere dynamics through the full scene path against the library directly.
+    Scene,
+    /// Event-driven dynamics: time per collision for spheres, ellipsoids and cubes.
+    Edmd,
+    /// Time per collision against the neighbour shell; the fastest shell against phi.
+    EdmdShell,
+    /// Time per collision against phi for ellipsoids of aspect 2 and 0.5, cells and lists.
+    EdmdDensity,
+    /// Time per collision against aspect ratio 0.1-10 at phi 0.3, 0.4, 0.5, cells and lists.
+    EdmdElongation,
+    /// Time per collision and Newton iterations against the superellipsoid exponent p from 2 to 10.
+    Superellipsoid,
+    /// The cost of each optional effect (rotation, walls, lists, observables), on and off.
+    Effects,
+    /// What the grazing threshold and the Newton tolerance buy and cost (ellipsoids, aspect 2 and 5).
+    EdmdTolerance,
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Run {
+            scene,
+            out,
+            seed,
+            resume,
+        } => run(scene, out, seed, resume),
+        Command::Check { scene } => check(&scene),
+        Command::Inspect { log } => inspect(&log),
+        Command::Analyze { log, json, plot } => match log.as_slice() {
+            [one] => analyze(one, json, plot.as_deref()),
+            many => analyze_replicas(many, json, plot.as_deref()),
+        },
+        Command::Export { log, gsd } => export(&log, &gsd),
+        Command::Virial {
+            shape_a,
+            shape_b,
+            samples,
+            seed,
+            json,
+        } => virial(&shape_a, &shape_b, samples, seed, json),
+        Command::Bench {
+            suite,
+            quick,
+            json,
+            plot,
+        } => bench(suite, quick, json, plot.as_deref()),
+    }
+}
+
+/// Pretty JSON on standard output (the `--json` of every command).
+fn print_json(value: &impl serde::Serialize) {
+    say(&serde_json::to_string_pretty(value).expect("plain numbers serialise"));
+}
+
+fn bad_input(message: impl std::fmt::Display) -> ExitCode {
+    esay(&format!("hardbody: {message}"));
+    ExitCode::from(EXIT_BAD_INPUT)
+}
+
+/// Exit code of a run stopped by Ctrl-C (its log is complete up to there).
+const EXIT_INTERRUPTED: u8 = 130;
+
+/// Prints a line on standard output, ignoring a closed pipe (`| head`).
+fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout(), "{line}");
+}
+
+/// Prints text that already ends its lines, ignoring a closed pipe.
+fn print_block(text: &str) {
+    use std::io::Write;
+    let _ = write!(std::io::stdout(), "{text}");
+}
+
+/// Prints a line on standard error, ignoring a closed stream.
+fn esay(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
+}

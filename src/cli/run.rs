@@ -1,0 +1,215 @@
+//! `run`, `run --resume` and `check`: a scene from file to log, Ctrl-C
+//! handled, and the same refusals before anything runs.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use hardbody::log::file::check_output;
+use hardbody::run::{Progress, RunError, RunSummary, check_start, resume_run, run_scene};
+use hardbody::scene::Scene;
+use hardbody::scene::plan::{Plan, Report};
+
+use super::*;
+
+/// The built-in default scene.
+pub(super) const DEFAULT_SCENE: &str = include_str!("../../data/scenes/default.ron");
+
+/// Reads and validates a scene file; the error names the file, the line
+/// and the field.
+pub(super) fn load_scene(path: &std::path::Path) -> Result<(Scene, String), String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
+    let scene = Scene::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok((scene, text))
+}
+
+pub(super) fn run(
+    scene_path: Option<PathBuf>,
+    out: Option<PathBuf>,
+    seed: Option<u64>,
+    resume: Option<PathBuf>,
+) -> ExitCode {
+    if let (Some(log), None) = (&resume, &scene_path) {
+        return resume_log(log, out, seed);
+    }
+    let (mut scene, text) = match &scene_path {
+        Some(p) => match load_scene(p) {
+            Ok(s) => s,
+            Err(e) => return bad_input(e),
+        },
+        None => (
+            Scene::parse(DEFAULT_SCENE).expect("the default scene is valid"),
+            DEFAULT_SCENE.to_string(),
+        ),
+    };
+    if let Some(seed) = seed {
+        scene.seed = seed;
+    }
+    if let Some(log) = &resume {
+        scene.start = hardbody::scene::Start::Resume(log.display().to_string());
+    }
+    if let Some(p) = &scene_path
+        && let Err(e) = preflight(p, &text, &scene, out.is_some())
+    {
+        return bad_input(e);
+    }
+    let log_path = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));
+    let inputs: Vec<&std::path::Path> = scene_path
+        .iter()
+        .chain(&resume)
+        .map(|p| p.as_path())
+        .collect();
+    if let Err(e) = check_output(&log_path, true, &inputs) {
+        return bad_input(e);
+    }
+    handle_ctrl_c();
+    let name = scene_path
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| "the default scene".into());
+    esay(&format!(
+        "hardbody {}: running {name} ({} particles, {} stages, seed {}), log {}",
+        env!("CARGO_PKG_VERSION"),
+        scene.particle_count(),
+        scene.stages.len(),
+        scene.seed,
+        log_path.display()
+    ));
+    let mut progress = progress_display();
+    finish_run(run_scene(
+        &scene,
+        &text,
+        &log_path,
+        progress.as_mut(),
+        &STOP,
+    ))
+}
+
+pub(super) static STOP: AtomicBool = AtomicBool::new(false);
+
+/// A first Ctrl-C ends the run cleanly at the next sweep or output event;
+/// a second one exits at once.
+pub(super) fn handle_ctrl_c() {
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED as i32);
+        }
+    });
+}
+
+pub(super) fn progress_display() -> Box<dyn Progress> {
+    if std::io::stderr().is_terminal() {
+        Box::new(progress::Bars::default())
+    } else {
+        Box::new(progress::Lines::default())
+    }
+}
+
+pub(super) fn resume_log(
+    log: &std::path::Path,
+    out: Option<PathBuf>,
+    seed: Option<u64>,
+) -> ExitCode {
+    if seed.is_some() {
+        return bad_input("--seed: a resumed run keeps the seed of the run it continues");
+    }
+    let out = out.unwrap_or_else(|| {
+        let text = log.display().to_string();
+        PathBuf::from(text.strip_suffix(".partial").unwrap_or(&text))
+    });
+    // The log resumed from may be the output's partial log: it is
+    // replaced only once the new log holds as much.
+    if let Err(e) = check_output(&out, true, &[]) {
+        return bad_input(e);
+    }
+    handle_ctrl_c();
+    esay(&format!(
+        "hardbody {}: resuming {} from its last frame, log {}",
+        env!("CARGO_PKG_VERSION"),
+        log.display(),
+        out.display()
+    ));
+    let mut progress = progress_display();
+    finish_run(resume_run(log, &out, progress.as_mut(), &STOP))
+}
+
+pub(super) fn finish_run(result: Result<RunSummary, RunError>) -> ExitCode {
+    match result {
+        Ok(summary) => {
+            for note in &summary.notes {
+                esay(&format!("hardbody: {note}"));
+            }
+            for line in &summary.stages {
+                say(line);
+            }
+            say(&format!("log written: {}", summary.log.display()));
+            if summary.interrupted {
+                esay("hardbody: interrupted; the log is complete up to the last frame");
+                ExitCode::from(EXIT_INTERRUPTED)
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Err(e) if e.is_bad_input() => bad_input(e),
+        Err(e) => {
+            esay(&format!("hardbody: {e}"));
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
+}
+
+/// A refusal of the scene file `path` (text `text`) at `field`, with the
+/// line the field is on.
+pub(super) fn scene_refusal(
+    path: &std::path::Path,
+    text: &str,
+    field: &str,
+    e: impl std::fmt::Display,
+) -> String {
+    let line = hardbody::scene::outline::Outline::of(text)
+        .line_of(field)
+        .map(|l| format!("line {l}: "))
+        .unwrap_or_default();
+    format!("{}: {line}{field}: {e}", path.display())
+}
+
+/// What a scene file needs besides parsing to run: a start that can be
+/// made (a `Resume` log that holds a state of these species) and, unless
+/// `--out` replaces it, a log path that may be written. `run` and `check`
+/// refuse the same scenes.
+pub(super) fn preflight(
+    path: &std::path::Path,
+    text: &str,
+    scene: &Scene,
+    out_given: bool,
+) -> Result<(), String> {
+    if let Err(e) = check_start(scene) {
+        return Err(scene_refusal(path, text, "start", e));
+    }
+    if !out_given && let Err(e) = check_output(std::path::Path::new(&scene.log.path), true, &[path])
+    {
+        return Err(scene_refusal(path, text, "log.path", e));
+    }
+    Ok(())
+}
+
+pub(super) fn check(path: &std::path::Path) -> ExitCode {
+    let (scene, text) = match load_scene(path) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    if let Err(e) = preflight(path, &text, &scene, false) {
+        return bad_input(e);
+    }
+    let plan = Plan::of(&scene);
+    say(&format!("{}: valid", path.display()));
+    say(&Report {
+        scene: &scene,
+        plan: &plan,
+    }
+    .to_string());
+    ExitCode::SUCCESS
+}
