@@ -13,9 +13,11 @@ pub mod ocsi;
 pub mod pair;
 pub mod roots;
 pub mod shape;
+pub mod spec;
 
 pub use contact::{Contact, Failure, Method, Relative, Status, WarmStart};
 pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent};
 pub use obb::Obb;
 pub use pair::{DistanceOptions, Placed, distance, overlap, placed_overlap};
-pub use shape::{Cuboid, Ellipsoid, Shape, ShapeError, ShapeSpec, Sphere, Superellipsoid};
+pub use shape::{Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Superellipsoid};
+pub use spec::{ShapeParseError, ShapeSpec};

@@ -1,0 +1,142 @@
+//! How a shape is written: its spelling in a scene (`ShapeSpec`, in RON),
+//! the conversion to a validated [`Shape`], and the text form
+//! `Ellipsoid(a: 1.0, b: 0.5, c: 0.5)` the command line reads and prints.
+
+use serde::{Deserialize, Serialize};
+
+use super::shape::{Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Superellipsoid};
+
+/// The scene spelling of a shape (docs/CONVENTIONS.md), before validation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// `Sphere(radius: r)`
+    Sphere {
+        /// Radius.
+        radius: f64,
+    },
+    /// `Ellipsoid(a: , b: , c: )`
+    Ellipsoid {
+        /// Semi-axis along body x.
+        a: f64,
+        /// Semi-axis along body y.
+        b: f64,
+        /// Semi-axis along body z.
+        c: f64,
+    },
+    /// `Superellipsoid(a: , b: , c: , exponents: (n, m, p))`
+    Superellipsoid {
+        /// Semi-axis along body x.
+        a: f64,
+        /// Semi-axis along body y.
+        b: f64,
+        /// Semi-axis along body z.
+        c: f64,
+        /// Exponents (n, m, p), each ≥ 2.
+        exponents: (f64, f64, f64),
+    },
+    /// `Cuboid(a: , b: , c: )`, half-lengths.
+    Cuboid {
+        /// Half-length along body x.
+        a: f64,
+        /// Half-length along body y.
+        b: f64,
+        /// Half-length along body z.
+        c: f64,
+    },
+}
+
+impl TryFrom<ShapeSpec> for Shape {
+    type Error = ShapeError;
+    fn try_from(spec: ShapeSpec) -> Result<Self, ShapeError> {
+        Ok(match spec {
+            ShapeSpec::Sphere { radius } => Shape::Sphere(Sphere::new(radius)?),
+            ShapeSpec::Ellipsoid { a, b, c } => Shape::Ellipsoid(Ellipsoid::new(a, b, c)?),
+            ShapeSpec::Superellipsoid { a, b, c, exponents } => {
+                Shape::Superellipsoid(Superellipsoid::new(a, b, c, exponents)?)
+            }
+            ShapeSpec::Cuboid { a, b, c } => Shape::Cuboid(Cuboid::new(a, b, c)?),
+        })
+    }
+}
+
+impl From<Shape> for ShapeSpec {
+    fn from(shape: Shape) -> Self {
+        match shape {
+            Shape::Sphere(s) => ShapeSpec::Sphere { radius: s.radius() },
+            Shape::Ellipsoid(e) => {
+                let [a, b, c] = e.semi_axes().into();
+                ShapeSpec::Ellipsoid { a, b, c }
+            }
+            Shape::Superellipsoid(s) => {
+                let [a, b, c] = s.semi_axes().into();
+                let [n, m, p] = s.exponents().into();
+                ShapeSpec::Superellipsoid {
+                    a,
+                    b,
+                    c,
+                    exponents: (n, m, p),
+                }
+            }
+            Shape::Cuboid(q) => {
+                let [a, b, c] = q.half_extents().into();
+                ShapeSpec::Cuboid { a, b, c }
+            }
+        }
+    }
+}
+
+/// A shape given on the command line or in a scene could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ShapeParseError {
+    /// Not valid RON for a shape.
+    #[error("cannot read shape {text:?}: {source}")]
+    Syntax {
+        /// The text given.
+        text: String,
+        /// What the RON parser said.
+        source: ron::error::SpannedError,
+    },
+    /// Well-formed but invalid parameters.
+    #[error("invalid shape {text:?}: {source}")]
+    Invalid {
+        /// The text given.
+        text: String,
+        /// What is wrong with it.
+        source: ShapeError,
+    },
+}
+
+impl std::str::FromStr for Shape {
+    type Err = ShapeParseError;
+    /// Reads the scene spelling, e.g. `Cuboid(a: 0.5, b: 1.0, c: 1.5)`.
+    fn from_str(text: &str) -> Result<Self, ShapeParseError> {
+        let spec: ShapeSpec = ron::from_str(text).map_err(|source| ShapeParseError::Syntax {
+            text: text.to_owned(),
+            source,
+        })?;
+        Shape::try_from(spec).map_err(|source| ShapeParseError::Invalid {
+            text: text.to_owned(),
+            source,
+        })
+    }
+}
+
+impl std::fmt::Display for Shape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = ron::to_string(&ShapeSpec::from(*self)).map_err(|_| std::fmt::Error)?;
+        f.write_str(&text)
+    }
+}
+
+impl Serialize for Shape {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        ShapeSpec::from(*self).serialize(serializer)
+    }
+}
+
+impl<'de> Deserialize<'de> for Shape {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        Shape::try_from(ShapeSpec::deserialize(deserializer)?).map_err(serde::de::Error::custom)
+    }
+}

@@ -1,0 +1,381 @@
+//! The checks a scene passes before anything runs: every value in range,
+//! every target reachable, every stage possible with the species and
+//! walls given; each refusal names its field.
+
+use super::*;
+
+impl Scene {
+    /// Checks every field; on failure the field path and what is wrong.
+    /// Whether `sweeps` sweeps of Monte Carlo stage `i` write at most
+    /// [`MAX_STATS_PER_STAGE`] `/stats` messages and
+    /// [`MAX_FRAMES_PER_STAGE`] frames.
+    pub(super) fn check_messages(&self, i: usize, sweeps: u64) -> Result<(), (String, String)> {
+        for (name, every, most) in [
+            ("log.stats_every", self.log.stats_every, MAX_STATS_PER_STAGE),
+            (
+                "log.frames_every",
+                self.log.frames_every,
+                MAX_FRAMES_PER_STAGE,
+            ),
+        ] {
+            let messages = sweeps as f64 / every.max(1) as f64;
+            if messages > most {
+                return Err((
+                    name.to_string(),
+                    format!(
+                        "every {every} sweeps would write {messages:.3e} messages in the {sweeps} sweeps of stages[{i}]: at most {most:e} per stage"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn validate(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, message: String| Err((field.to_string(), message));
+        let (x, y, z) = self.box_lengths;
+        if ![x, y, z].iter().all(|l| l.is_finite() && *l > 0.0) {
+            return bad(
+                "box",
+                format!("edges must be finite and > 0, got ({x}, {y}, {z})"),
+            );
+        }
+        for (i, a) in self.walls.iter().enumerate() {
+            if self.walls[..i].contains(a) {
+                return bad("walls", format!("{a:?} is listed twice"));
+            }
+        }
+        if self.species.is_empty() {
+            return bad("species", "at least one species is needed".into());
+        }
+        for (i, s) in self.species.iter().enumerate() {
+            let f = |name: &str| format!("species[{i}].{name}");
+            if s.name.trim().is_empty() {
+                return bad(&f("name"), "must not be empty".into());
+            }
+            if self.species[..i].iter().any(|t| t.name == s.name) {
+                return bad(&f("name"), format!("\"{}\" is used twice", s.name));
+            }
+            if s.count == 0 {
+                return bad(&f("count"), "must be at least 1".into());
+            }
+            let so_far: usize = self.species[..i].iter().map(|t| t.count).sum();
+            if s.count > MAX_PARTICLES - so_far {
+                return bad(
+                    &f("count"),
+                    format!(
+                        "{} particles with those before: at most {MAX_PARTICLES} in all (about 1 kB of memory each)",
+                        (so_far as u128) + s.count as u128
+                    ),
+                );
+            }
+            let (low, high) = VALUE_RANGE;
+            if !(s.mass >= low && s.mass <= high) {
+                return bad(
+                    &f("mass"),
+                    format!("must lie in [{low:e}, {high:e}], got {:e}", s.mass),
+                );
+            }
+        }
+        if self.species.len() > u16::MAX as usize {
+            return bad("species", format!("at most {} species", u16::MAX));
+        }
+        let n = self.particle_count();
+        if n < 2 {
+            return bad(
+                "species",
+                "at least 2 particles are needed in all (counts sum to 1)".into(),
+            );
+        }
+        let diameter = 2.0 * self.largest_bounding_radius();
+        let shortest = x.min(y).min(z);
+        if shortest < 2.0 * diameter {
+            return bad(
+                "box",
+                format!(
+                    "the shortest edge {shortest} must be at least twice the largest bounding diameter {diameter} (minimum image)"
+                ),
+            );
+        }
+        let phi0 = self.particle_volume() / (x * y * z);
+        match &self.start {
+            Start::Lattice | Start::Layered(_) => {
+                let plan =
+                    crate::state::start::lattice_plan(&self.box_vector(), &self.mc_species(), n);
+                if plan.sites.iter().product::<usize>() < n {
+                    let w = plan.spacing;
+                    return bad(
+                        "start",
+                        format!(
+                            "a lattice in this box holds {} particles (sites {:.4} x {:.4} x {:.4} apart, the bodies aligned), the species have {n}: enlarge the box",
+                            plan.capacity, w.x, w.y, w.z
+                        ),
+                    );
+                }
+            }
+            Start::Random => {
+                if phi0 > 0.25 {
+                    return bad(
+                        "start",
+                        format!(
+                            "random insertion at packing fraction {phi0:.3} would rarely succeed (at most 0.25): enlarge the box and compress"
+                        ),
+                    );
+                }
+            }
+            Start::Resume(path) => {
+                if path.trim().is_empty() {
+                    return bad("start", "Resume needs the path of a log".into());
+                }
+            }
+        }
+        if self.stages.iter().any(|st| {
+            matches!(
+                st,
+                Stage::MonteCarlo {
+                    ensemble: Ensemble::Npt {
+                        anisotropic: true,
+                        ..
+                    },
+                    ..
+                }
+            )
+        }) && self.walls.len() == 3
+        {
+            return bad(
+                "walls",
+                "a box closed by walls on every axis has no periodic direction for per-axis box moves".into(),
+            );
+        }
+        if self.stages.is_empty() {
+            return bad("stages", "at least one stage is needed".into());
+        }
+        let densest = self.densest_packing_fraction();
+        // The packing fraction as far as it is known before running: the
+        // start's, until a stage at fixed pressure makes it unknown.
+        let mut known_phi = match self.start {
+            Start::Resume(_) => None,
+            _ => Some(phi0),
+        };
+        for (i, st) in self.stages.iter().enumerate() {
+            let f = |name: &str| format!("stages[{i}].{name}");
+            match st {
+                Stage::Compress {
+                    packing_fraction,
+                    pressure,
+                    max_sweeps,
+                    until_jammed,
+                } => {
+                    if *max_sweeps == Some(0) {
+                        return bad(&f("max_sweeps"), "must be at least 1".into());
+                    }
+                    self.check_messages(i, max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS))?;
+                    let target = match (packing_fraction, pressure) {
+                        (Some(_), Some(_)) | (None, None) => {
+                            return bad(
+                                &f("packing_fraction"),
+                                "give exactly one of packing_fraction and pressure".into(),
+                            );
+                        }
+                        (None, Some(p)) => {
+                            let (low, high) = VALUE_RANGE;
+                            if !(*p >= low && *p <= high) {
+                                return bad(
+                                    &f("pressure"),
+                                    format!("must lie in [{low:e}, {high:e}]; got {p}"),
+                                );
+                            }
+                            if *until_jammed {
+                                return bad(
+                                    &f("until_jammed"),
+                                    "applies to a packing_fraction target, not a pressure".into(),
+                                );
+                            }
+                            known_phi = None;
+                            continue;
+                        }
+                        (Some(target), None) => target,
+                    };
+                    if !(target.is_finite() && *target > 0.0 && *target < densest) {
+                        return bad(
+                            &f("packing_fraction"),
+                            format!(
+                                "must lie in (0, {densest:.4}), the densest packing of these shapes; got {target}"
+                            ),
+                        );
+                    }
+                    if let Some(phi) = known_phi
+                        && *target < phi
+                    {
+                        return bad(
+                            &f("packing_fraction"),
+                            format!(
+                                "{target} is below the packing fraction {phi:.4} the stage starts from: nothing to compress"
+                            ),
+                        );
+                    }
+                    // The box edge at the target must still allow the minimum image.
+                    let scale = (phi0 / target).cbrt();
+                    if shortest * scale < 2.0 * diameter {
+                        return bad(
+                            &f("packing_fraction"),
+                            format!(
+                                "at {target} the shortest box edge would be {:.4}, below twice the largest bounding diameter {diameter:.4}: use more particles",
+                                shortest * scale
+                            ),
+                        );
+                    }
+                    known_phi = Some(*target);
+                }
+                Stage::MonteCarlo {
+                    ensemble,
+                    sweeps,
+                    tune_sweeps,
+                } => {
+                    if *sweeps == 0 {
+                        return bad(&f("sweeps"), "must be at least 1".into());
+                    }
+                    self.check_messages(i, *sweeps)?;
+                    if let Some(t) = tune_sweeps
+                        && t > sweeps
+                    {
+                        return bad(
+                            &f("tune_sweeps"),
+                            format!("{t} is more than the stage's {sweeps} sweeps"),
+                        );
+                    }
+                    if let Ensemble::Npt { pressure, .. } = ensemble {
+                        let (low, high) = VALUE_RANGE;
+                        if !(*pressure >= low && *pressure <= high) {
+                            return bad(
+                                &f("ensemble.pressure"),
+                                format!("must lie in [{low:e}, {high:e}], got {pressure:e}"),
+                            );
+                        }
+                        known_phi = None;
+                    }
+                }
+                Stage::Dynamics {
+                    duration,
+                    temperature,
+                    stats_every,
+                    frames_every,
+                    true_inertia,
+                    ..
+                } => {
+                    if !(duration.is_finite() && *duration > 0.0) {
+                        return bad(
+                            &f("duration"),
+                            format!("must be finite and > 0, got {duration}"),
+                        );
+                    }
+                    let (low, high) = VALUE_RANGE;
+                    if !(*temperature >= low && *temperature <= high) {
+                        return bad(
+                            &f("temperature"),
+                            format!("must lie in [{low:e}, {high:e}], got {temperature:e}"),
+                        );
+                    }
+                    for (name, v, most) in [
+                        ("stats_every", stats_every, MAX_STATS_PER_STAGE),
+                        ("frames_every", frames_every, MAX_FRAMES_PER_STAGE),
+                    ] {
+                        if let Some(v) = v {
+                            if !(v.is_finite() && *v > 0.0) {
+                                return bad(&f(name), format!("must be finite and > 0, got {v}"));
+                            }
+                            if duration / v > most {
+                                return bad(
+                                    &f(name),
+                                    format!(
+                                        "{v:e} would write {:.3e} messages over the duration {duration}: at most {most:e} per stage",
+                                        duration / v
+                                    ),
+                                );
+                            }
+                        }
+                    }
+                    // The fastest thermal speed against the smallest body.
+                    let lightest = self.species.iter().map(|s| s.mass).fold(f64::MAX, f64::min);
+                    let smallest = self
+                        .species
+                        .iter()
+                        .map(|s| s.shape.volume().cbrt())
+                        .fold(f64::MAX, f64::min);
+                    let travelled = duration * (temperature / lightest).sqrt() / smallest;
+                    if travelled.is_nan() || travelled > MAX_SIZES_TRAVELLED {
+                        return bad(
+                            &f("duration"),
+                            format!(
+                                "at kT = {temperature:e} the lightest body (mass {lightest:e}) would travel {travelled:.3e} times the smallest body size {smallest:e} (cube root of its volume): at most {MAX_SIZES_TRAVELLED:e} in one stage"
+                            ),
+                        );
+                    }
+                    if *true_inertia
+                        && let Some(s) = self
+                            .species
+                            .iter()
+                            .find(|s| s.rotation && s.shape.symmetric_top_axis().is_none())
+                    {
+                        return bad(
+                            &f("true_inertia"),
+                            format!(
+                                "species \"{}\" ({}) has three different principal moments; true inertia is available for bodies of revolution only",
+                                s.name, s.shape
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+        if self.log.path.trim().is_empty() {
+            return bad("log.path", "must not be empty".into());
+        }
+        if self.log.path.ends_with('/') || self.log.path.ends_with(std::path::MAIN_SEPARATOR) {
+            return bad(
+                "log.path",
+                format!(
+                    "\"{}\" ends in a separator: a log path names a file",
+                    self.log.path
+                ),
+            );
+        }
+        if self.log.stats_every == 0 {
+            return bad("log.stats_every", "must be at least 1 sweep".into());
+        }
+        if self.log.frames_every == 0 {
+            return bad("log.frames_every", "must be at least 1 sweep".into());
+        }
+        let a = &self.accuracy;
+        if !(a.grazing_threshold > 0.0 && a.grazing_threshold < 1.0) {
+            return bad(
+                "accuracy.grazing_threshold",
+                format!("must lie in (0, 1), got {}", a.grazing_threshold),
+            );
+        }
+        if !(a.contact_tolerance > 0.0 && a.contact_tolerance < a.grazing_threshold) {
+            return bad(
+                "accuracy.contact_tolerance",
+                format!(
+                    "must lie in (0, grazing_threshold = {}), got {}",
+                    a.grazing_threshold, a.contact_tolerance
+                ),
+            );
+        }
+        if !(a.newton_tolerance > 0.0 && a.newton_tolerance < 1e-3) {
+            return bad(
+                "accuracy.newton_tolerance",
+                format!("must lie in (0, 1e-3), got {}", a.newton_tolerance),
+            );
+        }
+        if let Neighbours::Lists { shell } = a.neighbours
+            && !(shell.is_finite() && shell > 0.0)
+        {
+            return bad(
+                "accuracy.neighbours",
+                format!("the neighbour shell must be a length > 0, got {shell}"),
+            );
+        }
+        Ok(())
+    }
+}
