@@ -264,3 +264,56 @@ fn the_reader_finds_imports_and_circles() {
     let tree: BTreeMap<u8, BTreeSet<u8>> = [(1, [2, 3].into()), (2, [3].into())].into();
     assert_eq!(find_circle(&tree), None);
 }
+
+/// The top-level modules from the bottom up: each imports only modules
+/// listed before it, and the two drivers (`mc`, `edmd`, on one floor)
+/// never import each other.
+const FLOORS: &[&[&str]] = &[
+    &["geometry"],
+    &["space"],
+    &["analysis"],
+    &["state"],
+    &["mc", "edmd"],
+    &["scene"],
+    &["log"],
+    &["run"],
+    &["bench"],
+];
+
+#[test]
+fn each_module_imports_only_the_floors_below_it() {
+    let floor_of = |name: &str| FLOORS.iter().position(|floor| floor.contains(&name));
+    let mut wrong = Vec::new();
+    for (module, targets) in file_imports() {
+        let Some(top) = module.first() else { continue };
+        let Some(from) = floor_of(top) else {
+            wrong.push(format!("{top} is on no floor"));
+            continue;
+        };
+        for target in targets.iter().filter_map(|t| t.first()) {
+            if target == top {
+                continue;
+            }
+            match floor_of(target) {
+                Some(to) if to < from => {}
+                _ => wrong.push(format!("{} imports {target}", module.join("::"))),
+            }
+        }
+    }
+    wrong.sort();
+    wrong.dedup();
+    assert!(wrong.is_empty(), "imports against the floors: {wrong:#?}");
+}
+
+/// No library file is long enough to hold more than one job: about 800
+/// lines at most.
+#[test]
+fn no_source_file_is_over_about_800_lines() {
+    let long: Vec<String> = library_files()
+        .values()
+        .map(|(path, _)| (path, std::fs::read_to_string(path).unwrap().lines().count()))
+        .filter(|(_, lines)| *lines > 830)
+        .map(|(path, lines)| format!("{} ({lines} lines)", path.display()))
+        .collect();
+    assert!(long.is_empty(), "split these by job: {long:?}");
+}
