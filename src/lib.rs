@@ -1,9 +1,22 @@
 //! hardbody: dense packings and dynamics of hard ellipsoids,
 //! superellipsoids, cuboids and spheres.
 //!
-//! Layers, bottom to top: [`geometry`] (shapes, overlap, distance), [`space`]
-//! (the periodic box), [`analysis`] (observables built on the geometry), and
-//! the command line at the edge (`src/main.rs`).
+//! Layers, bottom to top (each imports only those below it;
+//! `tests/architecture.rs` checks it):
+//!
+//! 1. [`geometry`]: shapes, overlap tests, signed distances, bounds;
+//! 2. [`space`]: the periodic box, cells and neighbour lists;
+//! 3. [`analysis`]: observables of a configuration, statistics of series;
+//! 4. [`state`]: species, particles and the validated configuration both
+//!    drivers share;
+//! 5. the drivers, side by side and independent: [`mc`] (Metropolis Monte
+//!    Carlo, compression) and [`edmd`] (event-driven dynamics);
+//! 6. [`scene`]: the scene file and the plan it implies;
+//! 7. [`log`]: MCAP logs, their reading and their averages;
+//! 8. [`run`]: a scene run stage by stage into its log;
+//! 9. [`bench`](mod@bench): the benchmark suites.
+//!
+//! The command line (`src/cli/`) is at the edge, outside the library.
 #![warn(missing_docs)]
 
 pub mod analysis;

@@ -84,9 +84,8 @@ pub fn gjk_distance(
     let mut simplex = Simplex::new(first);
     let mut v = first.w;
     // The best bound −h_M(−v̂) ≤ signed distance so far: negative until a
-    // plane separates (it was clamped at 0 from the start, which took a
-    // pair overlapping by 1e-10, with v within the tolerance of the
-    // origin, for touching and apart).
+    // plane separates (not clamped at 0: a pair overlapping by 1e-10, with
+    // v within the tolerance of the origin, must not pass for apart).
     let mut lower = f64::NEG_INFINITY;
     for it in 1..=max_iterations {
         let vv = v.norm_squared();

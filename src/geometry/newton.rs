@@ -454,8 +454,8 @@ fn solve_blocked(j: &SMatrix<f64, 5, 5>, b: &SVector<f64, 5>) -> Option<SVector<
 }
 
 /// x with J x = b by Gaussian elimination with partial pivoting, on the
-/// stack and unrolled for the small Newton systems (nalgebra's general LU
-/// was a sixth of the time of a body collision); `None` when a pivot is
+/// stack and unrolled for the small Newton systems (a general LU costs a
+/// sizeable share of a body collision); `None` when a pivot is
 /// exactly zero, as for the general LU.
 #[inline]
 fn solve_pivoted<const N: usize>(

@@ -5,8 +5,8 @@ use nalgebra::Vector3;
 /// x^p for x ≥ 0, by multiplications where p is a small integer and by
 /// square and cube roots for ±1/2, ±1/4 and 1/3 (the superellipsoid
 /// exponents users give are nearly always integers: 4, 6, 8, 10), else by
-/// `powf`. The superellipsoid kernels spent over 40 % of their time in
-/// libm's `pow` before.
+/// `powf`, which is far slower (the superellipsoid kernels call this in
+/// their innermost loops).
 #[inline]
 pub fn power(x: f64, p: f64) -> f64 {
     // (p as i32) as f64 == p rather than p.trunc() == p: without SSE4.1
@@ -168,8 +168,8 @@ mod tests {
         let t = solve_power_sum(&c, &q);
         let sum: f64 = (0..3).map(|i| c[i] * t.powf(q[i])).sum();
         assert!((sum - 1.0).abs() < 1e-14);
-        // A direction almost along an axis: one c underflows towards 0
-        // (regression: the start used to follow the tiny c far out).
+        // A direction almost along an axis: one c underflows towards 0, and
+        // the start must not follow the tiny c far out.
         let c = Vector3::new(1.3e-65, 0.4, 1e-300);
         let q = Vector3::new(4.0, 4.0, 6.0);
         let t = solve_power_sum(&c, &q);

@@ -1,4 +1,4 @@
-//! MCAP logs (DESIGN.md contract): `/stats` (JSON), `/scene`
+//! MCAP logs (the README's "Logs" is their reference): `/stats` (JSON), `/scene`
 //! (`foxglove.SceneUpdate`, protobuf, for the 3D panel) and `/state` (JSON,
 //! full precision), with the scene text and the program version in the
 //! metadata, in zstd chunks. A run that fails in a dynamics stage adds one

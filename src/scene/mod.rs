@@ -1,4 +1,4 @@
-//! The RON scene (DESIGN.md contract): typed by serde, unknown fields
+//! The RON scene (the README's "Scenes" is its reference): typed by serde, unknown fields
 //! rejected, then validated field by field; every error names the field
 //! path and its line in the text.
 

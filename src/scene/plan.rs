@@ -62,7 +62,7 @@ pub struct Plan {
     /// The dynamics' neighbour structure, as the scene asks.
     pub neighbours: Neighbours,
     /// Its shell where lists are used (`None`: cells), for a dense
-    /// system (automatic choice: spheres below φ = 0.4 get cells).
+    /// system (automatic choice: spheres below φ = 0.45 get cells, see `edmd::automatic_neighbour_shell`).
     pub neighbour_shell: Option<f64>,
 }
 

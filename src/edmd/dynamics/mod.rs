@@ -177,19 +177,8 @@ pub const SPHERE_LISTS_FROM: f64 = 0.45;
 /// times the square root of the largest elongation (longest over shortest
 /// half-extent): long and flat bodies rebuild their boxes often, and
 /// since the support-plane searches made each pair cheap, a wider shell
-/// pays for them.
-/// Measured (`hardbody bench edmd-shell`, `edmd-density`,
-/// `edmd-elongation`, one core; docs/ACCURACY.md): hard spheres N = 4000
-/// at φ = 0.5, 2.48–2.50 µs per collision at shells 0.2–0.3 against 3.39
-/// with cells; at φ = 0.4 no better than cells within the noise; at
-/// φ = 0.3 cells win (2.98 against 3.96 at best). Bodies at φ = 0.5 with
-/// box lists (`bench edmd`, 2026-11-21 after the support-plane searches),
-/// thickness 1: prolate 2:1 38.7 µs at 0.1, 45.6 at 0.2, 54.8 at 0.5;
-/// oblate 1:2 35.8 at 0.1, 41.0 at 0.05, 49.0 at 0.25; cubes 72.5 at 0.087,
-/// 81.2 at 0.17. Aligned needles and plates (side by side, one core):
-/// needles 10:1 at φ = 0.3 86 µs at shell 0.1 and 71 at 0.25, at φ = 0.5
-/// 71 and 69; plates 1:10 (thickness 0.1) at φ = 0.3 54 at 0.01 and 44 at
-/// 0.025; prolate 2:1 at φ = 0.5 39 at 0.1 and 40 at 0.25.
+/// pays for them. Chosen from `hardbody bench edmd-shell`, `edmd-density`
+/// and `edmd-elongation`; the measurements are in docs/ACCURACY.md.
 pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
     if species.iter().all(|s| s.shape.is_sphere()) {
         let diameter = species
