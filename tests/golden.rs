@@ -139,3 +139,77 @@ fn every_shipped_scene_writes_the_reference_states() {
         "states differ from the reference (now, then): {differing:?}"
     );
 }
+
+/// `hardbody check` tells the truth: on every shipped scene, what the
+/// plan says of the start's orientations, of each dynamics stage's
+/// neighbour structure and of the nematic order is what the run then did.
+#[test]
+fn the_plan_says_what_the_run_does() {
+    use hardbody::log::read::read_log;
+    use hardbody::scene::plan::Plan;
+    let dir = std::env::temp_dir().join(format!("hardbody-plan-truth-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (mut aligned, mut cells, mut lists) = (0, 0, 0);
+    for file in scene_files("data/scenes") {
+        let name = file.file_stem().unwrap().to_string_lossy().to_string();
+        let text = std::fs::read_to_string(&file).unwrap();
+        let scene = shortened(Scene::parse(&text).unwrap());
+        let plan = Plan::of(&scene);
+        let out = dir.join(format!("{name}.mcap"));
+        run_scene(&scene, &text, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let log = read_log(&out, true).unwrap();
+        let volumes: Vec<f64> = plan
+            .species
+            .iter()
+            .map(|s| s.species.shape.volume())
+            .collect();
+
+        let first = &log.states[0].1;
+        let identity = |q: &[f64; 4]| (q[0].abs() - 1.0).abs() < 1e-12;
+        let turns = plan.species.iter().any(|s| !s.species.shape.is_sphere());
+        match plan.random_orientations {
+            Some(false) => {
+                aligned += 1;
+                assert!(
+                    first.orientations.iter().all(identity),
+                    "{name}: aligned start"
+                );
+            }
+            Some(true) if turns => assert!(
+                !first.orientations.iter().all(identity),
+                "{name}: random orientations"
+            ),
+            _ => {}
+        }
+
+        for (index, shell) in &plan.dynamics_shells {
+            let Some(shell) = shell else { continue };
+            let (_, start) = log
+                .states
+                .iter()
+                .find(|(_, s)| s.stage_index == *index)
+                .unwrap();
+            let volume: f64 = start.species_of.iter().map(|&k| volumes[k as usize]).sum();
+            let phi = volume / start.box_lengths.iter().product::<f64>();
+            // What the dynamics stage was built with (run/dynamics.rs).
+            assert_eq!(
+                scene.neighbour_shell(phi),
+                *shell,
+                "{name}: stage {index} starts at phi {phi}"
+            );
+            match shell {
+                None => cells += 1,
+                Some(_) => lists += 1,
+            }
+        }
+
+        let measured = log.stats.iter().any(|(_, s)| s.nematic_order.is_some());
+        assert_eq!(measured, plan.nematic_order, "{name}: nematic order");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        aligned > 0 && cells > 0 && lists > 0,
+        "{aligned} {cells} {lists}"
+    );
+}

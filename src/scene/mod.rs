@@ -428,6 +428,34 @@ impl Scene {
         nalgebra::Vector3::new(x, y, z)
     }
 
+    /// The packing fraction stage `index` starts at, where it is known
+    /// before running: the start's (not a resumed state's), then each
+    /// compression's target; unknown after an NPT stage, or after a
+    /// compression that may end elsewhere (to a pressure, or to the jam).
+    pub fn packing_fraction_before(&self, index: usize) -> Option<f64> {
+        let (x, y, z) = self.box_lengths;
+        let mut phi = match self.start {
+            Start::Resume(_) => None,
+            _ => Some(self.particle_volume() / (x * y * z)),
+        };
+        for stage in &self.stages[..index.min(self.stages.len())] {
+            phi = match stage {
+                Stage::Compress {
+                    packing_fraction: Some(target),
+                    until_jammed: false,
+                    ..
+                } => Some(*target),
+                Stage::Compress { .. } => None,
+                Stage::MonteCarlo {
+                    ensemble: Ensemble::Npt { .. },
+                    ..
+                } => None,
+                Stage::MonteCarlo { .. } | Stage::Dynamics { .. } => phi,
+            };
+        }
+        phi
+    }
+
     /// The dynamics' neighbour shell (`None`: cells), as
     /// `accuracy.neighbours` asks, for a dynamics stage that starts at
     /// `packing_fraction`.

@@ -10,6 +10,7 @@ use super::{Ensemble, Neighbours, Scene, Stage, Start};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
 use crate::mc::tuning::TuningSpan;
+use crate::state::start::lattice_plan;
 use crate::state::{NeighbourPlan, Species};
 
 /// One species as simulated.
@@ -61,9 +62,16 @@ pub struct Plan {
     pub walls: [bool; 3],
     /// The dynamics' neighbour structure, as the scene asks.
     pub neighbours: Neighbours,
-    /// Its shell where lists are used (`None`: cells), for a dense
-    /// system (automatic choice: spheres below φ = 0.45 get cells, see `edmd::automatic_neighbour_shell`).
-    pub neighbour_shell: Option<f64>,
+    /// Per dynamics stage (its index): the shell of its neighbour lists
+    /// (`Some(None)`: cells), where the packing fraction it starts at is
+    /// known before running; `None` where it is not (after an NPT stage,
+    /// or from a resumed state) and the choice depends on it (spheres get
+    /// cells below φ = [`crate::edmd::dynamics::SPHERE_LISTS_FROM`]).
+    pub dynamics_shells: Vec<(usize, Option<Option<f64>>)>,
+    /// Whether a lattice start orients the bodies at random (`Some(true)`)
+    /// or aligns them with the box because its sites are closer than a
+    /// bounding diameter (`Some(false)`); `None` for other starts.
+    pub random_orientations: Option<bool>,
 }
 
 impl Plan {
@@ -131,7 +139,29 @@ impl Plan {
             c2: asks(|s| matches!(s, Stage::Dynamics { c2: true, .. })),
             walls: scene.wall_axes(),
             neighbours: scene.accuracy.neighbours,
-            neighbour_shell: scene.neighbour_shell(1.0),
+            dynamics_shells: scene
+                .stages
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| matches!(s, Stage::Dynamics { .. }))
+                .map(|(i, _)| {
+                    let shell = match scene.packing_fraction_before(i) {
+                        Some(phi) => Some(scene.neighbour_shell(phi)),
+                        // Only the automatic choice for spheres depends on it.
+                        None => Some(scene.neighbour_shell(1.0))
+                            .filter(|_| scene.neighbour_shell(0.0) == scene.neighbour_shell(1.0)),
+                    };
+                    (i, shell)
+                })
+                .collect(),
+            random_orientations: match scene.start {
+                Start::Lattice | Start::Layered(_) => Some(
+                    lattice_plan(&scene.box_vector(), &mc_species, scene.particle_count())
+                        .random_orientations,
+                ),
+                Start::Random => Some(true),
+                Start::Resume(_) => None,
+            },
         }
     }
 
@@ -160,9 +190,25 @@ impl fmt::Display for Report<'_> {
         let (x, y, z) = scene.box_lengths;
         writeln!(
             f,
-            "scene: {} particles of {} species in a periodic box {x} x {y} x {z} (packing fraction {:.4}), seed {}",
+            "scene: {} particles of {} species in a box {x} x {y} x {z} {} (packing fraction {:.4}), seed {}",
             scene.particle_count(),
             scene.species.len(),
+            match plan.walls {
+                [false, false, false] => "periodic in x, y, z".to_string(),
+                [true, true, true] => "closed by hard walls in x, y, z".to_string(),
+                w => {
+                    let axes = |walled: bool| {
+                        ["x", "y", "z"]
+                            .iter()
+                            .zip(w)
+                            .filter(|(_, x)| *x == walled)
+                            .map(|(a, _)| *a)
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    };
+                    format!("periodic in {}, walled in {}", axes(false), axes(true))
+                }
+            },
             scene.particle_volume() / (x * y * z),
             scene.seed
         )?;
@@ -265,29 +311,27 @@ impl fmt::Display for Report<'_> {
             }
         }
         if plan.has_dynamics {
-            match (plan.neighbours, plan.neighbour_shell) {
-                (Neighbours::Cells, _) | (_, None) => writeln!(
-                    f,
-                    "  dynamics neighbours: linked cells with cell-crossing events (accuracy.neighbours: Cells)"
-                )?,
-                (how, Some(shell)) => writeln!(
-                    f,
-                    "  dynamics neighbours: {} ({})",
-                    if plan.species.iter().all(|s| s.species.shape.is_sphere()) {
-                        format!(
-                            "lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4}"
-                        )
-                    } else {
-                        format!(
-                            "lists of the bodies whose oriented bounding boxes grown by {shell:.4} overlap, rebuilt when a body is about to leave its box"
-                        )
-                    },
-                    if how == Neighbours::Auto {
-                        "automatic: oriented boxes grown by a tenth of the thinnest body's thickness times the square root of the largest elongation; for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the dynamics starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
-                    } else {
-                        "accuracy.neighbours"
-                    }
-                )?,
+            let spheres = plan.species.iter().all(|s| s.species.shape.is_sphere());
+            let why = if plan.neighbours == Neighbours::Auto {
+                "automatic: oriented boxes grown by a tenth of the thinnest body's thickness times the square root of the largest elongation; for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the stage starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+            } else {
+                "accuracy.neighbours"
+            };
+            for (index, shell) in &plan.dynamics_shells {
+                let what = match shell {
+                    Some(None) => "linked cells with cell-crossing events".to_string(),
+                    Some(Some(shell)) if spheres => format!(
+                        "lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4}"
+                    ),
+                    Some(Some(shell)) => format!(
+                        "lists of the bodies whose oriented bounding boxes grown by {shell:.4} overlap, rebuilt when a body is about to leave its box"
+                    ),
+                    None => format!(
+                        "decided when the stage starts: linked cells below phi = {}, above it lists of the bodies whose bounding spheres grown by a quarter of the diameter overlap (the packing fraction it starts at is not known before running)",
+                        crate::edmd::dynamics::SPHERE_LISTS_FROM
+                    ),
+                };
+                writeln!(f, "  dynamics neighbours, stage {index}: {what} ({why})")?;
             }
             let turning = plan.species.iter().any(|s| s.species.rotation);
             writeln!(
@@ -304,9 +348,11 @@ impl fmt::Display for Report<'_> {
             f,
             "  nematic order S2: {}",
             if plan.nematic_order {
-                "on (an anisotropic species turns)"
+                "on (a species with a molecular axis turns)"
+            } else if plan.species.iter().any(|s| s.species.rotation) {
+                "off (no turning species has a molecular axis: spheres, cubes and bodies with three equal extents have none)"
             } else {
-                "off (no anisotropic species turns)"
+                "off (no species turns)"
             }
         )?;
         writeln!(
@@ -319,15 +365,22 @@ impl fmt::Display for Report<'_> {
             },
             if plan.c2 { "on" } else { "off (c2: true asks)" }
         )?;
+        let orientations = match plan.random_orientations {
+            Some(false) => {
+                "bodies aligned with the box axes (the sites are closer than a bounding diameter)"
+            }
+            _ => "random orientations",
+        };
         writeln!(
             f,
             "start: {}",
             match &scene.start {
-                Start::Lattice => "lattice filling the box, random orientations".to_string(),
+                Start::Lattice => format!("lattice filling the box, {orientations}"),
                 Start::Random => "random insertion, random orientations".to_string(),
                 Start::Resume(p) => format!("the last state in {p}"),
-                Start::Layered(a) =>
-                    format!("lattice filling the box, species in layers along {a:?} in scene order"),
+                Start::Layered(a) => format!(
+                    "lattice filling the box, species in layers along {a:?} in scene order, {orientations}"
+                ),
             }
         )?;
         writeln!(f, "stages:")?;
