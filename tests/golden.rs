@@ -1,6 +1,6 @@
 //! Behaviour pinned: every shipped scene, shortened, writes the same
-//! `/state` messages byte for byte as the reference recorded in
-//! `tests/golden/states.txt`. A change that alters any trajectory, start,
+//! `/state` and `/stats` messages byte for byte as the reference recorded
+//! in `tests/golden/states.txt`. A change that alters any trajectory, start,
 //! compression or hand-off fails here.
 //!
 //! After a deliberate change of behaviour, record the new reference with
@@ -58,8 +58,9 @@ fn fnv1a(hash: &mut u64, bytes: &[u8]) {
     }
 }
 
-/// Number of `/state` messages and the digest of their log times and bytes.
-fn state_digest(path: &Path) -> (usize, u64) {
+/// Number of `/state` messages and the digest of their log times and
+/// bytes, and the same of the `/stats` messages.
+fn state_digest(path: &Path) -> (usize, u64, usize, u64) {
     let log = read_log_with(
         path,
         ReadOptions {
@@ -74,19 +75,24 @@ fn state_digest(path: &Path) -> (usize, u64) {
         path.display(),
         log.failure
     );
-    let mut hash = 0xcbf2_9ce4_8422_2325;
-    let mut count = 0;
-    for (topic, time, data) in &log.messages {
-        if topic == "/state" {
-            fnv1a(&mut hash, &time.to_le_bytes());
-            fnv1a(&mut hash, data);
-            count += 1;
+    let digest = |wanted: &str| {
+        let mut hash = 0xcbf2_9ce4_8422_2325;
+        let mut count = 0;
+        for (topic, time, data) in &log.messages {
+            if topic == wanted {
+                fnv1a(&mut hash, &time.to_le_bytes());
+                fnv1a(&mut hash, data);
+                count += 1;
+            }
         }
-    }
-    (count, hash)
+        (count, hash)
+    };
+    let (states, state_hash) = digest("/state");
+    let (stats, stats_hash) = digest("/stats");
+    (states, state_hash, stats, stats_hash)
 }
 
-fn run_shortened(file: &Path, dir: &Path) -> (usize, u64) {
+fn run_shortened(file: &Path, dir: &Path) -> (usize, u64, usize, u64) {
     let text = std::fs::read_to_string(file).unwrap();
     let scene = shortened(Scene::parse(&text).unwrap());
     let name = file.file_stem().unwrap().to_string_lossy();
@@ -103,7 +109,7 @@ fn every_shipped_scene_writes_the_reference_states() {
     std::fs::create_dir_all(&dir).unwrap();
     let reference_path = Path::new(env!("CARGO_MANIFEST_DIR")).join(REFERENCE);
 
-    let measured: BTreeMap<String, (usize, u64)> = scene_files("data/scenes")
+    let measured: BTreeMap<String, (usize, u64, usize, u64)> = scene_files("data/scenes")
         .iter()
         .map(|file| {
             let name = file.file_stem().unwrap().to_string_lossy().to_string();
@@ -114,7 +120,9 @@ fn every_shipped_scene_writes_the_reference_states() {
 
     let lines: String = measured
         .iter()
-        .map(|(name, (count, hash))| format!("{name} {count} {hash:016x}\n"))
+        .map(|(name, (count, hash, stats, stats_hash))| {
+            format!("{name} {count} {hash:016x} {stats} {stats_hash:016x}\n")
+        })
         .collect();
     if std::env::var_os("HARDBODY_BLESS").is_some() {
         std::fs::write(&reference_path, &lines).unwrap();
@@ -126,7 +134,7 @@ fn every_shipped_scene_writes_the_reference_states() {
             reference_path.display()
         )
     });
-    for (name, (count, _)) in &measured {
+    for (name, (count, ..)) in &measured {
         assert!(*count >= 2, "{name}: only {count} frames");
     }
     let differing: Vec<_> = lines
