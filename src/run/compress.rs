@@ -3,26 +3,46 @@
 
 use rand_pcg::Pcg64;
 
-use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo};
-use crate::mc::compress::{CompressOptions, Compressor};
+use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
+use crate::mc::compress::{CompressOptions, CompressReport, Compressor};
 use crate::mc::moves::Counts;
 use crate::state::System;
 
+use super::cadence::{Mark, StageRun};
 use super::*;
 
-impl Runner<'_> {
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn compress(
-        &mut self,
+/// A compression under way.
+pub(super) struct CompressStage<'a> {
+    index: usize,
+    system: System,
+    rng: &'a mut Pcg64,
+    compressor: Compressor,
+    /// The counts of the stats interval under way.
+    window: Counts,
+    /// The compressor's counts and sweeps at the last advance.
+    last_counts: Counts,
+    last_sweeps: u64,
+    /// Frames are written only where no body overlaps: a frame due waits
+    /// for the shrink's overlaps to clear.
+    frame_due: bool,
+    stats_every: u64,
+    frames_every: u64,
+    report: Option<CompressReport>,
+}
+
+impl<'a> CompressStage<'a> {
+    /// The stage from its start (its first frame written) or from the
+    /// frame `resume`.
+    pub(super) fn start(
+        runner: &mut Runner,
         index: usize,
-        mut system: System,
+        system: System,
         opts: &CompressOptions,
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
-        progress: &mut dyn Progress,
-        rng: &mut Pcg64,
-    ) -> StageResult {
-        let (mut compressor, mut window) = match resume {
+        rng: &'a mut Pcg64,
+    ) -> Result<Self, StageError> {
+        let (compressor, window) = match resume {
             Some(ResumeInfo {
                 compress: Some(state),
                 window,
@@ -30,117 +50,138 @@ impl Runner<'_> {
             }) => (Compressor::resume(opts, state), window),
             Some(_) => return Err(StageError::NoCompressorState),
             None => {
-                let c = Compressor::new(&system, self.sizes, opts)?;
-                let info = self.mc_resume(
+                let c = Compressor::new(&system, runner.sizes, opts)?;
+                let info = runner.mc_resume(
                     rng,
                     0,
-                    Counts::default(),
-                    Counts::default(),
+                    (Counts::default(), Counts::default()),
                     Some(c.state().clone()),
                     0.0,
                     false,
                 );
-                self.start_frame(log, &self.record_system(&system, index, 0, info))?;
+                runner.start_frame(log, &runner.record_system(&system, index, 0, info))?;
                 (c, Counts::default())
             }
         };
-        let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
-        let mut last_counts = compressor.state().counts;
-        let mut last_sweeps = compressor.state().sweeps;
-        // Frames are written only where no body overlaps: a frame due
-        // waits for the shrink's overlaps to clear.
-        let mut frame_due = false;
-        let outcome = loop {
-            let step = compressor.sweep(&mut system, rng);
-            let state = compressor.state();
-            window += state.counts - last_counts;
-            last_counts = state.counts;
-            let s = state.sweeps;
-            let time = self.clock + s * NS_PER_SWEEP;
-            match step {
-                Ok(None) => {}
-                Ok(Some(report)) => break Ok(report),
-                Err(e) => break Err(e),
-            }
-            if s != last_sweeps {
-                last_sweeps = s;
-                if s.is_multiple_of(stats_every) {
-                    log.stats(time, &self.mc_stats(index, &system, s, &window, None))?;
-                    progress.tick(s, &format!("phi {:.4}", system.packing_fraction()));
-                    window = Counts::default();
-                }
-                frame_due |= s.is_multiple_of(frames_every);
-            }
-            let stop = self.stopped();
-            if (frame_due || stop) && compressor.is_valid() {
-                frame_due = false;
-                let state = compressor.state().clone();
-                let info =
-                    self.mc_resume(rng, s, window, Counts::default(), Some(state), 0.0, false);
-                log.frame(time, &self.record_system(&system, index, s, info))?;
-            }
-            if stop && compressor.is_valid() {
-                self.sizes = compressor.state().sizes;
-                self.clock = time;
-                let line = format!(
-                    "interrupted at packing fraction {:.4} after {s} sweeps",
-                    system.packing_fraction()
-                );
-                return Ok((Phase::Mc(system), line, true));
-            }
-        };
-        match outcome {
-            Ok(report) => {
-                self.sizes = report.sizes;
-                let state = compressor.state().clone();
-                let info = self.mc_resume(
-                    rng,
-                    state.sweeps,
-                    window,
-                    Counts::default(),
-                    Some(state),
-                    0.0,
-                    true,
-                );
-                self.end_mc_stage(index, &system, report.sweeps, &window, None, info, log)?;
-                let line = if report.jammed {
-                    let pressure = report
-                        .compressibility
-                        .map(|z| format!(", betaP/rho = {z:.3e} from the last state"))
-                        .unwrap_or_default();
-                    format!(
-                        "jammed at packing fraction {:.4} after {} sweeps{pressure}",
-                        report.packing_fraction, report.sweeps
-                    )
-                } else {
-                    format!(
-                        "reached packing fraction {:.4} in {} sweeps",
-                        report.packing_fraction, report.sweeps
-                    )
-                };
-                Ok((Phase::Mc(system), line, false))
-            }
-            Err(e) => {
-                // Log the state reached (overlap-free) before failing.
-                let s = compressor.state().sweeps;
-                let info = self.mc_resume(
-                    rng,
-                    s,
-                    window,
-                    Counts::default(),
-                    Some(compressor.state().clone()),
-                    0.0,
-                    false,
-                );
-                let _ = log.frame(
-                    self.clock + s * NS_PER_SWEEP,
-                    &self.record_system(&system, index, s, info),
-                );
-                Err(e.into())
-            }
+        Ok(Self {
+            index,
+            system,
+            rng,
+            last_counts: compressor.state().counts,
+            last_sweeps: compressor.state().sweeps,
+            compressor,
+            window,
+            frame_due: false,
+            stats_every: runner.scene.log.stats_every,
+            frames_every: runner.scene.log.frames_every,
+            report: None,
+        })
+    }
+}
+
+impl StageRun for CompressStage<'_> {
+    fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
+        let step = self.compressor.sweep(&mut self.system, self.rng);
+        let state = self.compressor.state();
+        self.window += state.counts - self.last_counts;
+        self.last_counts = state.counts;
+        let s = state.sweeps;
+        let time = runner.clock + s * NS_PER_SWEEP;
+        if let Some(report) = step? {
+            self.report = Some(report);
+            // The stats of the last sweep come with the final frame, unless
+            // its interval ended there.
+            return Ok(Mark {
+                time,
+                stats: !s.is_multiple_of(self.stats_every),
+                frame: true,
+                end: true,
+            });
         }
+        let mut stats = false;
+        if s != self.last_sweeps {
+            self.last_sweeps = s;
+            stats = s.is_multiple_of(self.stats_every);
+            self.frame_due |= s.is_multiple_of(self.frames_every);
+        }
+        Ok(Mark {
+            time,
+            stats,
+            frame: self.frame_due,
+            end: false,
+        })
     }
 
+    fn stats(&mut self, runner: &Runner) -> Stats {
+        let s = self.compressor.state().sweeps;
+        let stats = runner.mc_stats(self.index, &self.system, s, &self.window, None);
+        if self.report.is_none() {
+            self.window = Counts::default();
+        }
+        stats
+    }
+
+    fn progress(&self) -> (u64, String) {
+        (
+            self.compressor.state().sweeps,
+            format!("phi {:.4}", self.system.packing_fraction()),
+        )
+    }
+
+    fn frame_ready(&mut self) -> Result<bool, StageError> {
+        Ok(self.compressor.is_valid())
+    }
+
+    fn frame(&mut self, runner: &Runner, complete: bool) -> StateRecord {
+        self.frame_due = false;
+        let state = self.compressor.state().clone();
+        let s = state.sweeps;
+        let info = runner.mc_resume(
+            self.rng,
+            s,
+            (self.window, Counts::default()),
+            Some(state),
+            0.0,
+            complete,
+        );
+        runner.record_system(&self.system, self.index, s, info)
+    }
+
+    fn failed(&mut self, runner: &mut Runner, log: &mut LogWriter) {
+        // The state reached (overlap-free) before the failure.
+        let time = runner.clock + self.compressor.state().sweeps * NS_PER_SWEEP;
+        let _ = log.frame(time, &self.frame(runner, false));
+    }
+
+    fn finish(self, runner: &mut Runner, _stopped: bool) -> (Phase, String) {
+        let s = self.compressor.state().sweeps;
+        runner.sizes = self.compressor.state().sizes;
+        runner.clock += s * NS_PER_SWEEP;
+        let line = match self.report {
+            None => format!(
+                "interrupted at packing fraction {:.4} after {s} sweeps",
+                self.system.packing_fraction()
+            ),
+            Some(report) if report.jammed => {
+                let pressure = report
+                    .compressibility
+                    .map(|z| format!(", betaP/rho = {z:.3e} from the last state"))
+                    .unwrap_or_default();
+                format!(
+                    "jammed at packing fraction {:.4} after {} sweeps{pressure}",
+                    report.packing_fraction, report.sweeps
+                )
+            }
+            Some(report) => format!(
+                "reached packing fraction {:.4} in {} sweeps",
+                report.packing_fraction, report.sweeps
+            ),
+        };
+        (Phase::Mc(self.system), line)
+    }
+}
+
+impl Runner<'_> {
     /// Before an NPT stage at `pressure` from a fresh start: compression
     /// (or expansion) to the packing fraction whose measured βP is within
     /// 3 % of it, so that the box moves start near the equilibrium density

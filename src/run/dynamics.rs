@@ -11,6 +11,8 @@ use crate::mc::moves::Counts;
 use crate::scene::Stage;
 use crate::state::System;
 
+use super::cadence::{Mark, StageRun};
+use super::records::Interval;
 use super::*;
 
 impl Runner<'_> {
@@ -48,207 +50,6 @@ impl Runner<'_> {
             temperature: d.temperature,
             true_inertia: *true_inertia,
         })
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn dynamics(
-        &mut self,
-        index: usize,
-        stage: &Stage,
-        phase: Phase,
-        resume: Option<ResumeInfo>,
-        log: &mut LogWriter,
-        progress: &mut dyn Progress,
-        rng: &mut Pcg64,
-    ) -> StageResult {
-        let Stage::Dynamics {
-            duration,
-            temperature,
-            stats_every,
-            frames_every,
-            true_inertia,
-            msd,
-            c2,
-        } = *stage
-        else {
-            unreachable!("called for dynamics stages")
-        };
-        // A dynamics built here from the system is already as a resumed
-        // run would rebuild it; one carried over from another stage is
-        // resynchronized at its start frame.
-        let mut fresh = false;
-        let mut dynamics = match phase {
-            Phase::Dynamics {
-                mut dynamics,
-                temperature: previous,
-                true_inertia: same_tops,
-            } if same_tops == true_inertia => {
-                if previous != temperature {
-                    let scale = (temperature / previous).sqrt();
-                    let v: Vec<_> = dynamics
-                        .velocities()
-                        .iter()
-                        .map(|(v, w)| (v * scale, w * scale))
-                        .collect();
-                    dynamics.set_velocities(&v)?;
-                }
-                dynamics
-            }
-            other => {
-                let system = self.to_system(other)?;
-                let options =
-                    self.dynamics_options(temperature, true_inertia, system.packing_fraction());
-                fresh = true;
-                Box::new(Dynamics::from_state(&system, &options, rng)?)
-            }
-        };
-        let progress_at = match resume.as_ref().and_then(|r| r.dynamics) {
-            Some(p) => p,
-            None => {
-                let p = DynamicsProgress {
-                    time: dynamics.time(),
-                    start_time: dynamics.time(),
-                    collisions: dynamics.collisions(),
-                    start_collisions: dynamics.collisions(),
-                    next_stats: 1,
-                    next_frame: 1,
-                    temperature,
-                    interval: None,
-                    solver_work: None,
-                };
-                if !fresh {
-                    dynamics.resynchronize()?;
-                }
-                self.start_frame(log, &self.record_dynamics(&dynamics, index, p, false))?;
-                p
-            }
-        };
-        let (t0, c0) = (progress_at.start_time, progress_at.start_collisions);
-        let (mut k_stats, mut k_frames) = (progress_at.next_stats, progress_at.next_frame);
-        match progress_at.interval {
-            // Resumed: the interval goes on from the frame's sums.
-            Some(interval) => dynamics.continue_interval(interval),
-            None => {
-                dynamics.sample();
-            }
-        }
-        // The stage's solver counts, from zero or from the frame resumed.
-        dynamics.continue_solver_work(progress_at.solver_work.unwrap_or_default());
-        if msd || c2 {
-            // After a resume the references restart at the resumed frame.
-            dynamics.set_reference();
-        }
-        let stats_dt = stats_every.unwrap_or(duration / 100.0);
-        let frames_dt = frames_every.unwrap_or(duration / 20.0);
-        let mut stopped;
-        let mut last_pressure = None;
-        loop {
-            let next_stats = (k_stats as f64 * stats_dt).min(duration);
-            let next_frame = (k_frames as f64 * frames_dt).min(duration);
-            let next = next_stats.min(next_frame);
-            if let Err(e) = dynamics.run_until(t0 + next) {
-                // The stored state at the failure goes to the log's
-                // `/failure`, to replay the failing event from.
-                let at = self.clock + ((dynamics.time() - t0) * NS_PER_TIME_UNIT).round() as u64;
-                self.failure = Some((at, dynamics.dump()));
-                return Err(e.into());
-            }
-            let time = self.clock + (next * NS_PER_TIME_UNIT).round() as u64;
-            let end = next >= duration;
-            if next_stats <= next || end {
-                let sample = dynamics.sample();
-                last_pressure = sample.pressure.or(last_pressure);
-                let stats = Stats {
-                    stage: "dynamics".into(),
-                    stage_index: index,
-                    sweep: None,
-                    time: Some(next),
-                    packing_fraction: sample.packing_fraction,
-                    pressure: sample.pressure,
-                    box_lengths: dynamics.periodic_box().lengths().into(),
-                    acceptance_translate: None,
-                    acceptance_rotate: None,
-                    acceptance_volume: None,
-                    collisions: Some(sample.collisions - c0),
-                    temperature: Some(sample.temperature),
-                    nematic_order: if self.plan.nematic_order {
-                        sample.nematic_order
-                    } else {
-                        None
-                    },
-                    msd: msd.then(|| dynamics.mean_squared_displacement()),
-                    c2: if c2 {
-                        dynamics.orientational_correlation()
-                    } else {
-                        None
-                    },
-                    solver: Some(dynamics.solver_work()),
-                };
-                log.stats(time, &stats)?;
-                progress.tick(
-                    (next * 1000.0) as u64,
-                    &format!(
-                        "{} collisions, betaP {}",
-                        sample.collisions - c0,
-                        sample
-                            .pressure
-                            .map(|p| format!("{p:.3}"))
-                            .unwrap_or_else(|| "-".into())
-                    ),
-                );
-                k_stats += 1;
-            }
-            stopped = !end && self.stopped();
-            if next_frame <= next || end || stopped {
-                if next_frame <= next {
-                    k_frames += 1;
-                }
-                // Every frame is a point the run can be resumed from bit
-                // for bit: predictions restart from it in both runs.
-                dynamics.resynchronize()?;
-                let p = DynamicsProgress {
-                    time: dynamics.time(),
-                    collisions: dynamics.collisions(),
-                    next_stats: k_stats,
-                    next_frame: k_frames,
-                    interval: Some(dynamics.interval()),
-                    solver_work: Some(dynamics.solver_work()),
-                    ..progress_at
-                };
-                log.frame(time, &self.record_dynamics(&dynamics, index, p, end))?;
-            }
-            if end || stopped {
-                self.clock = if end {
-                    self.clock + (duration * NS_PER_TIME_UNIT).round() as u64
-                } else {
-                    time
-                };
-                break;
-            }
-        }
-        if let Some(strains) = dynamics.solver_work().strains_in_words() {
-            self.notes.push(format!(
-                "stage {index} (dynamics): {strains} (counted in /stats.solver; each answer was certified, but the numerics were strained)"
-            ));
-        }
-        let collisions = dynamics.collisions() - c0;
-        let line = format!(
-            "{collisions} collisions over t = {:.4}{}{}",
-            dynamics.time() - t0,
-            last_pressure
-                .map(|p| format!(", last betaP {p:.4}"))
-                .unwrap_or_default(),
-            if stopped { ", interrupted" } else { "" }
-        );
-        Ok((
-            Phase::Dynamics {
-                dynamics,
-                temperature,
-                true_inertia,
-            },
-            line,
-            stopped,
-        ))
     }
 
     pub(super) fn dynamics_options(
@@ -308,5 +109,266 @@ impl Runner<'_> {
             )
             .with_velocities(&dynamics.velocities())
         }
+    }
+}
+
+/// A dynamics stage under way.
+pub(super) struct DynamicsStage {
+    index: usize,
+    dynamics: Box<Dynamics>,
+    temperature: f64,
+    true_inertia: bool,
+    duration: f64,
+    msd: bool,
+    c2: bool,
+    stats_dt: f64,
+    frames_dt: f64,
+    /// The stage's progress at its start or at the frame resumed from.
+    progress_at: DynamicsProgress,
+    /// The next stats and frame, counted from the stage's start.
+    k_stats: u64,
+    k_frames: u64,
+    /// Where the stage stands: simulated time since its start, log time,
+    /// and whether a frame is due there.
+    next: f64,
+    time: u64,
+    frame_hit: bool,
+    /// The last sample's collisions and pressure (progress), and the last
+    /// pressure measured (the stage's line).
+    collisions: u64,
+    pressure: Option<f64>,
+    last_pressure: Option<f64>,
+}
+
+impl DynamicsStage {
+    /// The stage from `phase` (a state, or the previous dynamics stage
+    /// carried on) with its first frame written, or from the frame
+    /// `resume`.
+    pub(super) fn start(
+        runner: &mut Runner,
+        index: usize,
+        phase: Phase,
+        resume: Option<ResumeInfo>,
+        log: &mut LogWriter,
+        rng: &mut Pcg64,
+    ) -> Result<Self, StageError> {
+        let Stage::Dynamics {
+            duration,
+            temperature,
+            stats_every,
+            frames_every,
+            true_inertia,
+            msd,
+            c2,
+        } = runner.scene.stages[index]
+        else {
+            unreachable!("called for dynamics stages")
+        };
+        // A dynamics built here from the system is already as a resumed
+        // run would rebuild it; one carried over from another stage is
+        // resynchronized at its start frame.
+        let mut fresh = false;
+        let mut dynamics = match phase {
+            Phase::Dynamics {
+                mut dynamics,
+                temperature: previous,
+                true_inertia: same_tops,
+            } if same_tops == true_inertia => {
+                if previous != temperature {
+                    let scale = (temperature / previous).sqrt();
+                    let v: Vec<_> = dynamics
+                        .velocities()
+                        .iter()
+                        .map(|(v, w)| (v * scale, w * scale))
+                        .collect();
+                    dynamics.set_velocities(&v)?;
+                }
+                dynamics
+            }
+            other => {
+                let system = runner.to_system(other)?;
+                let options =
+                    runner.dynamics_options(temperature, true_inertia, system.packing_fraction());
+                fresh = true;
+                Box::new(Dynamics::from_state(&system, &options, rng)?)
+            }
+        };
+        let progress_at = match resume.as_ref().and_then(|r| r.dynamics) {
+            Some(p) => p,
+            None => {
+                let p = DynamicsProgress {
+                    time: dynamics.time(),
+                    start_time: dynamics.time(),
+                    collisions: dynamics.collisions(),
+                    start_collisions: dynamics.collisions(),
+                    next_stats: 1,
+                    next_frame: 1,
+                    temperature,
+                    interval: None,
+                    solver_work: None,
+                };
+                if !fresh {
+                    dynamics.resynchronize()?;
+                }
+                runner.start_frame(log, &runner.record_dynamics(&dynamics, index, p, false))?;
+                p
+            }
+        };
+        match progress_at.interval {
+            // Resumed: the interval goes on from the frame's sums.
+            Some(interval) => dynamics.continue_interval(interval),
+            None => {
+                dynamics.sample();
+            }
+        }
+        // The stage's solver counts, from zero or from the frame resumed.
+        dynamics.continue_solver_work(progress_at.solver_work.unwrap_or_default());
+        if msd || c2 {
+            // After a resume the references restart at the resumed frame.
+            dynamics.set_reference();
+        }
+        Ok(Self {
+            index,
+            dynamics,
+            temperature,
+            true_inertia,
+            duration,
+            msd,
+            c2,
+            stats_dt: stats_every.unwrap_or(duration / 100.0),
+            frames_dt: frames_every.unwrap_or(duration / 20.0),
+            k_stats: progress_at.next_stats,
+            k_frames: progress_at.next_frame,
+            progress_at,
+            next: 0.0,
+            time: runner.clock,
+            frame_hit: false,
+            collisions: 0,
+            pressure: None,
+            last_pressure: None,
+        })
+    }
+}
+
+impl StageRun for DynamicsStage {
+    fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
+        let next_stats = (self.k_stats as f64 * self.stats_dt).min(self.duration);
+        let next_frame = (self.k_frames as f64 * self.frames_dt).min(self.duration);
+        let next = next_stats.min(next_frame);
+        self.dynamics
+            .run_until(self.progress_at.start_time + next)?;
+        self.next = next;
+        self.time = runner.clock + (next * NS_PER_TIME_UNIT).round() as u64;
+        self.frame_hit = next_frame <= next;
+        let end = next >= self.duration;
+        Ok(Mark {
+            time: self.time,
+            stats: next_stats <= next || end,
+            frame: self.frame_hit,
+            end,
+        })
+    }
+
+    fn stats(&mut self, runner: &Runner) -> Stats {
+        let sample = self.dynamics.sample();
+        self.last_pressure = sample.pressure.or(self.last_pressure);
+        self.pressure = sample.pressure;
+        self.collisions = sample.collisions - self.progress_at.start_collisions;
+        self.k_stats += 1;
+        runner.stats(
+            self.index,
+            Interval {
+                time: Some(self.next),
+                packing_fraction: sample.packing_fraction,
+                pressure: sample.pressure,
+                box_lengths: self.dynamics.periodic_box().lengths().into(),
+                collisions: Some(self.collisions),
+                temperature: Some(sample.temperature),
+                nematic_order: sample.nematic_order,
+                msd: self.msd.then(|| self.dynamics.mean_squared_displacement()),
+                c2: if self.c2 {
+                    self.dynamics.orientational_correlation()
+                } else {
+                    None
+                },
+                solver: Some(self.dynamics.solver_work()),
+                ..Interval::default()
+            },
+        )
+    }
+
+    fn progress(&self) -> (u64, String) {
+        (
+            (self.next * 1000.0) as u64,
+            format!(
+                "{} collisions, betaP {}",
+                self.collisions,
+                self.pressure
+                    .map(|p| format!("{p:.3}"))
+                    .unwrap_or_else(|| "-".into())
+            ),
+        )
+    }
+
+    fn frame_ready(&mut self) -> Result<bool, StageError> {
+        // Every frame is a point the run can be resumed from bit for bit:
+        // predictions restart from it in both runs.
+        self.dynamics.resynchronize()?;
+        Ok(true)
+    }
+
+    fn frame(&mut self, runner: &Runner, complete: bool) -> StateRecord {
+        if self.frame_hit {
+            self.k_frames += 1;
+        }
+        let p = DynamicsProgress {
+            time: self.dynamics.time(),
+            collisions: self.dynamics.collisions(),
+            next_stats: self.k_stats,
+            next_frame: self.k_frames,
+            interval: Some(self.dynamics.interval()),
+            solver_work: Some(self.dynamics.solver_work()),
+            ..self.progress_at
+        };
+        runner.record_dynamics(&self.dynamics, self.index, p, complete)
+    }
+
+    fn failed(&mut self, runner: &mut Runner, _: &mut LogWriter) {
+        // The stored state at the failure goes to the log's `/failure`, to
+        // replay the failing event from.
+        let since = self.dynamics.time() - self.progress_at.start_time;
+        let at = runner.clock + (since * NS_PER_TIME_UNIT).round() as u64;
+        runner.failure = Some((at, self.dynamics.dump()));
+    }
+
+    fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String) {
+        runner.clock = if stopped {
+            self.time
+        } else {
+            runner.clock + (self.duration * NS_PER_TIME_UNIT).round() as u64
+        };
+        let index = self.index;
+        if let Some(strains) = self.dynamics.solver_work().strains_in_words() {
+            runner.notes.push(format!(
+                "stage {index} (dynamics): {strains} (counted in /stats.solver; each answer was certified, but the numerics were strained)"
+            ));
+        }
+        let line = format!(
+            "{} collisions over t = {:.4}{}{}",
+            self.dynamics.collisions() - self.progress_at.start_collisions,
+            self.dynamics.time() - self.progress_at.start_time,
+            self.last_pressure
+                .map(|p| format!(", last betaP {p:.4}"))
+                .unwrap_or_default(),
+            if stopped { ", interrupted" } else { "" }
+        );
+        (
+            Phase::Dynamics {
+                dynamics: self.dynamics,
+                temperature: self.temperature,
+                true_inertia: self.true_inertia,
+            },
+            line,
+        )
     }
 }

@@ -9,16 +9,22 @@
 //!
 //! - `mod.rs`: running and resuming a scene, the stage loop, errors;
 //! - `start.rs`: the first state (or the last of another log);
+//! - `cadence.rs`: the rhythm of stats, frames, stops and ends every
+//!   stage keeps, and the seam (`StageRun`) each stage kind implements;
 //! - `compress.rs`, `monte_carlo.rs`, `dynamics.rs`: one stage kind each;
 //! - `records.rs`: the stats, frames and resume information of Monte
 //!   Carlo stages.
 
+mod cadence;
 mod compress;
 mod dynamics;
 mod monte_carlo;
 mod records;
 mod start;
 
+use compress::CompressStage;
+use dynamics::DynamicsStage;
+use monte_carlo::MonteCarloStage;
 use start::start_state;
 pub use start::{check_start, system_from_record};
 
@@ -42,10 +48,6 @@ use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage};
 use crate::state::StateError;
 use crate::state::System;
 use crate::state::start::StartError;
-
-/// Sweeps between move-size updates while tuning (50: a window of 20
-/// holds only 20 box moves, too few to steer the volume step by).
-const TUNE_WINDOW: u64 = 50;
 
 /// Told how a run goes (the command line draws progress bars or lines).
 pub trait Progress {
@@ -342,15 +344,7 @@ fn run_with(
         progress.stage(index, scene.stages.len(), &describe(stage), ticks(stage));
         let mut rng = stage_rng(scene.seed, index);
         let started = Instant::now();
-        let outcome = runner.run_stage(
-            index,
-            stage,
-            phase,
-            resume.take(),
-            &mut log,
-            progress,
-            &mut rng,
-        );
+        let outcome = runner.run_stage(index, phase, resume.take(), &mut log, progress, &mut rng);
         match outcome {
             Ok((next, line, stopped)) => {
                 let line = format!("{line} ({:.1} s)", started.elapsed().as_secs_f64());
@@ -494,11 +488,9 @@ impl Runner<'_> {
         self.stop.load(Ordering::Relaxed)
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn run_stage(
         &mut self,
         index: usize,
-        stage: &Stage,
         phase: Phase,
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
@@ -510,6 +502,7 @@ impl Runner<'_> {
         {
             *rng = saved.clone();
         }
+        let stage = &self.scene.stages[index];
         match stage {
             Stage::Compress {
                 packing_fraction,
@@ -531,19 +524,28 @@ impl Runner<'_> {
                     max_sweeps: max_sweeps.unwrap_or(DEFAULT_COMPRESS_SWEEPS),
                     ..defaults
                 };
-                self.compress(index, system, &opts, resume, log, progress, rng)
+                let stage = CompressStage::start(self, index, system, &opts, resume, log, rng)?;
+                self.drive(stage, log, progress)
             }
             Stage::MonteCarlo {
                 ensemble, sweeps, ..
             } => {
                 let system = self.to_system(phase)?;
                 let span = stage.tuning_span().expect("a Monte Carlo stage tunes");
-                self.monte_carlo(
-                    index, system, ensemble, *sweeps, span, resume, log, progress, rng,
-                )
+                let stage = MonteCarloStage::start(
+                    self,
+                    index,
+                    system,
+                    (*ensemble, *sweeps, span),
+                    resume,
+                    log,
+                    rng,
+                )?;
+                self.drive(stage, log, progress)
             }
             Stage::Dynamics { .. } => {
-                self.dynamics(index, stage, phase, resume, log, progress, rng)
+                let stage = DynamicsStage::start(self, index, phase, resume, log, rng)?;
+                self.drive(stage, log, progress)
             }
         }
     }

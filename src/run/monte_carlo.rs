@@ -4,7 +4,7 @@
 use rand::RngCore;
 use rand_pcg::Pcg64;
 
-use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo};
+use crate::log::{NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::Sdf;
@@ -12,23 +12,63 @@ use crate::mc::tuning::{Tuner, TuningSpan};
 use crate::scene::Ensemble;
 use crate::state::System;
 
+use super::cadence::{Mark, StageRun};
 use super::*;
 
-impl Runner<'_> {
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn monte_carlo(
-        &mut self,
+/// Sweeps between move-size updates while tuning (50: a window of 20
+/// holds only 20 box moves, too few to steer the volume step by).
+const TUNE_WINDOW: u64 = 50;
+
+/// A Monte Carlo stage under way.
+pub(super) struct MonteCarloStage<'a> {
+    index: usize,
+    system: System,
+    rng: &'a mut Pcg64,
+    ensemble: Ensemble,
+    mc_ensemble: McEnsemble,
+    sweeps: u64,
+    span: TuningSpan,
+    /// Its cap is fixed by the box the stage starts in.
+    tuner: Tuner,
+    stats_every: u64,
+    frames_every: u64,
+    /// NVT: pressure from the scale distribution function, sampled ten
+    /// times per stats interval (not with walls: it assumes a periodic
+    /// box).
+    sdf: Option<Sdf>,
+    sdf_every: u64,
+    /// Sweeps after which the SDF samples (the end of tuning).
+    sampled_after: u64,
+    /// Large systems sweep on slabs, on every core rayon has, the same
+    /// trajectory on one or two; each sweep's streams are keyed on a seed
+    /// drawn from the stage's generator, so that a resumed stage draws the
+    /// same ones.
+    slabs: Option<ParallelSweeps>,
+    seeds: Vec<u64>,
+    /// Sweeps done.
+    sweep: u64,
+    window: Counts,
+    tune_window: Counts,
+    /// The translation acceptance of the last stats interval.
+    acceptance: f64,
+    pressure: Option<f64>,
+    /// What the approach to an NPT stage's pressure did.
+    approach: Option<String>,
+}
+
+impl<'a> MonteCarloStage<'a> {
+    /// The stage from its start (its first frame written) or from the
+    /// frame `resume`.
+    pub(super) fn start(
+        runner: &mut Runner,
         index: usize,
         mut system: System,
-        ensemble: &Ensemble,
-        sweeps: u64,
-        span: TuningSpan,
+        (ensemble, sweeps, span): (Ensemble, u64, TuningSpan),
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
-        progress: &mut dyn Progress,
-        rng: &mut Pcg64,
-    ) -> StageResult {
-        let mc_ensemble = match *ensemble {
+        rng: &'a mut Pcg64,
+    ) -> Result<Self, StageError> {
+        let mc_ensemble = match ensemble {
             Ensemble::Nvt => McEnsemble::Nvt,
             Ensemble::Npt {
                 pressure,
@@ -38,153 +78,203 @@ impl Runner<'_> {
                 anisotropic,
             },
         };
-        let (stats_every, frames_every) = (self.scene.log.stats_every, self.scene.log.frames_every);
-        self.drift = resume
+        runner.drift = resume
             .as_ref()
             .and_then(|r| r.drift.clone())
             .unwrap_or_default();
         let mut approach = None;
-        let (first, mut window, mut tune_window, max_translate) = match &resume {
+        let (first, window, tune_window, max_translate) = match &resume {
             Some(r) => (r.sweep, r.window, r.tune_window, r.max_translate),
             None => {
                 if let Ensemble::Npt { pressure, .. } = ensemble {
-                    approach = self.approach_pressure(&mut system, *pressure, rng);
+                    approach = runner.approach_pressure(&mut system, pressure, rng);
                 }
                 let max_translate = system.periodic_box().lengths().min() / 2.0;
-                let info = self.mc_resume(
+                let info = runner.mc_resume(
                     rng,
                     0,
-                    Counts::default(),
-                    Counts::default(),
+                    (Counts::default(), Counts::default()),
                     None,
                     max_translate,
                     false,
                 );
-                self.start_frame(log, &self.record_system(&system, index, 0, info))?;
+                runner.start_frame(log, &runner.record_system(&system, index, 0, info))?;
                 (0, Counts::default(), Counts::default(), max_translate)
             }
         };
-        // The tuner's cap is fixed by the box the stage starts in.
-        let tuner = Tuner {
-            target: 0.3,
-            max_translate,
-        };
-        // NVT: pressure from the scale distribution function, sampled ten
-        // times per stats interval.
-        let sdf_every = (stats_every / 10).max(1);
-        // (Not with walls: the scale distribution assumes a periodic box.)
-        let mut sdf = (matches!(ensemble, Ensemble::Nvt) && !system.periodic_box().has_walls())
+        let stats_every = runner.scene.log.stats_every;
+        let sdf = (matches!(ensemble, Ensemble::Nvt) && !system.periodic_box().has_walls())
             .then(|| Sdf::new(0.02, 200));
-        let mut done = first;
-        let mut stopped = false;
-        let mut pressure = None;
-        // Large systems sweep on slabs, on every core rayon has (set
-        // RAYON_NUM_THREADS to choose), the same trajectory on one or two;
-        // each sweep's streams are keyed on a seed drawn from the stage's
-        // generator, so that a resumed stage draws the same ones.
-        let mut slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
-        // What happens after sweep s (the loop below does it), and so
-        // where the slabs' run of sweeps handed to their team at once ends.
-        // (Given whether the density has settled, which only a tuning
-        // window's end changes.)
-        let tunes_at =
-            |s: u64, settled: bool| s.is_multiple_of(TUNE_WINDOW) && span.tunes_at(s, settled);
-        let sampled_after = match span {
-            TuningSpan::Fixed(t) => t,
-            TuningSpan::UntilSettled { at_least, .. } => at_least,
-        };
-        let samples_at = |s: u64| s > sampled_after && s.is_multiple_of(sdf_every);
-        let sampling = sdf.is_some();
-        let eventful = |s: u64, settled: bool| {
-            s == sweeps
-                || s.is_multiple_of(stats_every)
-                || s.is_multiple_of(frames_every)
-                || tunes_at(s, settled)
-                || (sampling && samples_at(s))
-        };
-        let mut seeds = Vec::with_capacity(MAX_CHUNK);
-        let mut s = first;
-        while s < sweeps {
-            let c = match &mut slabs {
-                Some(slabs) => {
-                    seeds.clear();
-                    loop {
-                        s += 1;
-                        seeds.push(rng.next_u64());
-                        if eventful(s, self.drift.settled) || seeds.len() == MAX_CHUNK {
-                            break;
-                        }
-                    }
-                    let first_index = s + 1 - seeds.len() as u64;
-                    slabs.sweeps(&mut system, &self.sizes, &mc_ensemble, &seeds, first_index)
-                }
-                None => {
-                    s += 1;
-                    sweep(&mut system, &self.sizes, &mc_ensemble, rng)
-                }
-            };
-            window += c;
-            tune_window += c;
-            if tunes_at(s, self.drift.settled) {
-                tuner.update(&mut self.sizes, &tune_window);
-                tune_window = Counts::default();
-                if matches!(span, TuningSpan::UntilSettled { .. }) {
-                    self.drift.observe(system.packing_fraction());
-                }
-            }
-            if let Some(sdf) = sdf.as_mut()
-                && samples_at(s)
-            {
-                sdf.add(&system);
-            }
-            done = s;
-            let time = self.clock + s * NS_PER_SWEEP;
-            if s.is_multiple_of(stats_every) {
-                pressure = self.interval_pressure(ensemble, &mut sdf);
-                log.stats(time, &self.mc_stats(index, &system, s, &window, pressure))?;
-                progress.tick(
-                    s,
-                    &format!(
-                        "phi {:.4}, acceptance {:.2}",
-                        system.packing_fraction(),
-                        window.translate.rate()
-                    ),
-                );
-                window = Counts::default();
-            }
-            stopped = self.stopped();
-            if s == sweeps {
-                break;
-            }
-            if s.is_multiple_of(frames_every) || stopped {
-                let info = self.mc_resume(rng, s, window, tune_window, None, max_translate, false);
-                log.frame(time, &self.record_system(&system, index, s, info))?;
-            }
-            if stopped {
+        let slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
+        Ok(Self {
+            index,
+            system,
+            rng,
+            ensemble,
+            mc_ensemble,
+            sweeps,
+            span,
+            tuner: Tuner {
+                target: 0.3,
+                max_translate,
+            },
+            stats_every,
+            frames_every: runner.scene.log.frames_every,
+            sdf,
+            sdf_every: (stats_every / 10).max(1),
+            sampled_after: match span {
+                TuningSpan::Fixed(t) => t,
+                TuningSpan::UntilSettled { at_least, .. } => at_least,
+            },
+            slabs,
+            seeds: Vec::with_capacity(MAX_CHUNK),
+            sweep: first,
+            window,
+            tune_window,
+            acceptance: f64::NAN,
+            pressure: None,
+            approach,
+        })
+    }
+
+    /// Whether move sizes are tuned after sweep `s` (given whether the
+    /// density has settled, which only a tuning window's end changes).
+    fn tunes_at(&self, s: u64, settled: bool) -> bool {
+        s.is_multiple_of(TUNE_WINDOW) && self.span.tunes_at(s, settled)
+    }
+
+    fn samples_at(&self, s: u64) -> bool {
+        s > self.sampled_after && s.is_multiple_of(self.sdf_every)
+    }
+
+    /// Draws the seeds of the sweeps the slabs' team is handed at once, up
+    /// to the next sweep after which something happens; moves the sweep
+    /// count past them and returns the index of the first.
+    fn draw_chunk(&mut self, settled: bool) -> u64 {
+        self.seeds.clear();
+        let mut s = self.sweep;
+        loop {
+            s += 1;
+            self.seeds.push(self.rng.next_u64());
+            if self.eventful(s, settled) || self.seeds.len() == MAX_CHUNK {
                 break;
             }
         }
-        if stopped && done < sweeps {
-            self.clock += done * NS_PER_SWEEP;
-        } else {
-            if !done.is_multiple_of(stats_every) {
-                pressure = self.interval_pressure(ensemble, &mut sdf);
+        self.sweep = s;
+        s + 1 - self.seeds.len() as u64
+    }
+
+    /// Whether anything happens after sweep `s`: where a run of sweeps
+    /// handed to the slabs' team at once ends.
+    fn eventful(&self, s: u64, settled: bool) -> bool {
+        s == self.sweeps
+            || s.is_multiple_of(self.stats_every)
+            || s.is_multiple_of(self.frames_every)
+            || self.tunes_at(s, settled)
+            || (self.sdf.is_some() && self.samples_at(s))
+    }
+}
+
+impl StageRun for MonteCarloStage<'_> {
+    fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
+        let settled = runner.drift.settled;
+        let chunk = self.slabs.is_some().then(|| self.draw_chunk(settled));
+        let counts = match (&mut self.slabs, chunk) {
+            (Some(slabs), Some(first_index)) => slabs.sweeps(
+                &mut self.system,
+                &runner.sizes,
+                &self.mc_ensemble,
+                &self.seeds,
+                first_index,
+            ),
+            _ => {
+                self.sweep += 1;
+                sweep(&mut self.system, &runner.sizes, &self.mc_ensemble, self.rng)
             }
-            let info = self.mc_resume(rng, done, window, tune_window, None, max_translate, true);
-            self.end_mc_stage(index, &system, done, &window, pressure, info, log)?;
+        };
+        let s = self.sweep;
+        self.window += counts;
+        self.tune_window += counts;
+        if self.tunes_at(s, runner.drift.settled) {
+            self.tuner.update(&mut runner.sizes, &self.tune_window);
+            self.tune_window = Counts::default();
+            if matches!(self.span, TuningSpan::UntilSettled { .. }) {
+                runner.drift.observe(self.system.packing_fraction());
+            }
         }
+        if self.samples_at(s)
+            && let Some(sdf) = &mut self.sdf
+        {
+            sdf.add(&self.system);
+        }
+        let end = s == self.sweeps;
+        Ok(Mark {
+            time: runner.clock + s * NS_PER_SWEEP,
+            stats: s.is_multiple_of(self.stats_every) || end,
+            frame: s.is_multiple_of(self.frames_every),
+            end,
+        })
+    }
+
+    fn stats(&mut self, runner: &Runner) -> Stats {
+        let s = self.sweep;
+        self.pressure = runner.interval_pressure(&self.ensemble, &mut self.sdf);
+        let stats = runner.mc_stats(self.index, &self.system, s, &self.window, self.pressure);
+        self.acceptance = self.window.translate.rate();
+        // The counts restart with each interval (a stage's last, shorter
+        // interval keeps them in its final frame).
+        if s.is_multiple_of(self.stats_every) {
+            self.window = Counts::default();
+        }
+        stats
+    }
+
+    fn progress(&self) -> (u64, String) {
+        (
+            self.sweep,
+            format!(
+                "phi {:.4}, acceptance {:.2}",
+                self.system.packing_fraction(),
+                self.acceptance
+            ),
+        )
+    }
+
+    fn frame_ready(&mut self) -> Result<bool, StageError> {
+        Ok(true)
+    }
+
+    fn frame(&mut self, runner: &Runner, complete: bool) -> StateRecord {
+        let info = runner.mc_resume(
+            self.rng,
+            self.sweep,
+            (self.window, self.tune_window),
+            None,
+            self.tuner.max_translate,
+            complete,
+        );
+        runner.record_system(&self.system, self.index, self.sweep, info)
+    }
+
+    fn failed(&mut self, _: &mut Runner, _: &mut LogWriter) {}
+
+    fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String) {
+        runner.clock += self.sweep * NS_PER_SWEEP;
         let line = format!(
-            "{}{done} sweeps, packing fraction {:.4}{}{}",
-            approach.unwrap_or_default(),
-            system.packing_fraction(),
-            pressure
+            "{}{} sweeps, packing fraction {:.4}{}{}",
+            self.approach.unwrap_or_default(),
+            self.sweep,
+            self.system.packing_fraction(),
+            self.pressure
                 .map(|p| format!(", last betaP {p:.4}"))
                 .unwrap_or_default(),
             if stopped { ", interrupted" } else { "" }
         );
-        Ok((Phase::Mc(system), line, stopped && done < sweeps))
+        (Phase::Mc(self.system), line)
     }
+}
 
+impl Runner<'_> {
     /// βP over the interval: the imposed value in NPT, the SDF estimate in
     /// NVT (then the accumulator restarts).
     pub(super) fn interval_pressure(

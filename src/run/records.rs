@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 use rand_pcg::Pcg64;
 
 use crate::analysis::order::nematic_order;
-use crate::log::{LogError, LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
+use crate::log::{ResumeInfo, StateRecord, Stats};
 use crate::mc::compress::CompressorState;
 use crate::mc::moves::{Count, Counts};
 use crate::state::{Species, System};
@@ -47,13 +47,14 @@ impl Runner<'_> {
     }
 
     /// Resume information of a Monte Carlo stage.
-    #[allow(clippy::too_many_arguments)]
+    /// Resume information of a Monte Carlo or compression frame at
+    /// `sweep`, with the counts of the stats interval and of the tuning
+    /// window under way.
     pub(super) fn mc_resume(
         &self,
         rng: &Pcg64,
         sweep: u64,
-        window: Counts,
-        tune_window: Counts,
+        (window, tune_window): (Counts, Counts),
         compress: Option<CompressorState>,
         max_translate: f64,
         complete: bool,
@@ -74,6 +75,8 @@ impl Runner<'_> {
         }
     }
 
+    /// The `/stats` message of a Monte Carlo or compression interval
+    /// ending at `sweep`.
     pub(super) fn mc_stats(
         &self,
         index: usize,
@@ -83,52 +86,69 @@ impl Runner<'_> {
         pressure: Option<f64>,
     ) -> Stats {
         let rate = |c: &Count| (c.tried > 0).then(|| c.rate());
+        self.stats(
+            index,
+            Interval {
+                sweep: Some(sweep),
+                packing_fraction: system.packing_fraction(),
+                pressure,
+                box_lengths: system.periodic_box().lengths().into(),
+                acceptance: [
+                    rate(&window.translate),
+                    rate(&window.rotate),
+                    rate(&window.volume),
+                ],
+                nematic_order: self.system_nematic_order(system),
+                ..Interval::default()
+            },
+        )
+    }
+
+    /// The `/stats` message of stage `index` over `interval`: every stage
+    /// kind's messages are made here, the nematic order kept only where
+    /// the plan measures it.
+    pub(super) fn stats(&self, index: usize, interval: Interval) -> Stats {
+        let [acceptance_translate, acceptance_rotate, acceptance_volume] = interval.acceptance;
         Stats {
             stage: self.scene.stages[index].kind().into(),
             stage_index: index,
-            sweep: Some(sweep),
-            time: None,
-            packing_fraction: system.packing_fraction(),
-            pressure,
-            box_lengths: system.periodic_box().lengths().into(),
-            acceptance_translate: rate(&window.translate),
-            acceptance_rotate: rate(&window.rotate),
-            acceptance_volume: rate(&window.volume),
-            collisions: None,
-            temperature: None,
-            nematic_order: self.system_nematic_order(system),
-            msd: None,
-            c2: None,
-            solver: None,
+            sweep: interval.sweep,
+            time: interval.time,
+            packing_fraction: interval.packing_fraction,
+            pressure: interval.pressure,
+            box_lengths: interval.box_lengths,
+            acceptance_translate,
+            acceptance_rotate,
+            acceptance_volume,
+            collisions: interval.collisions,
+            temperature: interval.temperature,
+            nematic_order: interval.nematic_order.filter(|_| self.plan.nematic_order),
+            msd: interval.msd,
+            c2: interval.c2,
+            solver: interval.solver,
         }
     }
+}
 
-    /// The last stats and frame of a Monte Carlo stage, and the clock
-    /// moved past it.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn end_mc_stage(
-        &mut self,
-        index: usize,
-        system: &System,
-        sweeps: u64,
-        window: &Counts,
-        pressure: Option<f64>,
-        info: ResumeInfo,
-        log: &mut LogWriter,
-    ) -> Result<(), StageError> {
-        let time = self.clock + sweeps * NS_PER_SWEEP;
-        let write = |log: &mut LogWriter| -> Result<(), LogError> {
-            if !sweeps.is_multiple_of(self.scene.log.stats_every) {
-                log.stats(
-                    time,
-                    &self.mc_stats(index, system, sweeps, window, pressure),
-                )?;
-            }
-            // Always: this frame says the stage is complete.
-            log.frame(time, &self.record_system(system, index, sweeps, info))
-        };
-        write(log)?;
-        self.clock = time;
-        Ok(())
-    }
+/// What a stage measured over one stats interval (what it does not
+/// measure stays `None`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Interval {
+    /// Monte Carlo: the sweep it ends at.
+    pub(super) sweep: Option<u64>,
+    /// Dynamics: the time since the stage began.
+    pub(super) time: Option<f64>,
+    pub(super) packing_fraction: f64,
+    /// βP over the interval.
+    pub(super) pressure: Option<f64>,
+    pub(super) box_lengths: [f64; 3],
+    /// Translation, rotation and volume acceptance (Monte Carlo).
+    pub(super) acceptance: [Option<f64>; 3],
+    /// Dynamics: collisions since the stage began, kT.
+    pub(super) collisions: Option<u64>,
+    pub(super) temperature: Option<f64>,
+    pub(super) nematic_order: Option<f64>,
+    pub(super) msd: Option<f64>,
+    pub(super) c2: Option<f64>,
+    pub(super) solver: Option<crate::edmd::SolverWork>,
 }

@@ -1,0 +1,82 @@
+//! The one rhythm every stage keeps: advance to the next point where
+//! something may be due, write the `/stats` due there, write a frame where
+//! one is due (or the run is stopped, or the stage ends) and the stage can
+//! give one, and end at the stage's end or at a stop once its frame is
+//! written. Each stage kind says only how it advances and what it writes.
+
+use crate::log::{LogWriter, StateRecord, Stats};
+
+use super::{Phase, Progress, Runner, StageError, StageResult};
+
+/// What is due where a stage has advanced to.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Mark {
+    /// Log time there (ns).
+    pub(super) time: u64,
+    /// A `/stats` message is due.
+    pub(super) stats: bool,
+    /// A frame is due.
+    pub(super) frame: bool,
+    /// The stage has ended.
+    pub(super) end: bool,
+}
+
+/// One stage kind, driven by [`Runner::drive`].
+pub(super) trait StageRun {
+    /// Runs on to the next point where something may be due.
+    fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError>;
+    /// The `/stats` message due at the mark reached.
+    fn stats(&mut self, runner: &Runner) -> Stats;
+    /// The progress shown with it: the tick and the latest figures.
+    fn progress(&self) -> (u64, String);
+    /// Whether a frame can be written where the stage stands (a frame is a
+    /// state to resume from: no overlaps, predictions restarted).
+    fn frame_ready(&mut self) -> Result<bool, StageError>;
+    /// The frame where the stage stands; `complete` at its end.
+    fn frame(&mut self, runner: &Runner, complete: bool) -> StateRecord;
+    /// After a failure of [`StageRun::advance`]: what the log should keep
+    /// of it (a last valid frame, or the state to replay the failure from).
+    fn failed(&mut self, runner: &mut Runner, log: &mut LogWriter);
+    /// The state handed on and the stage's line; `stopped` when the run was
+    /// stopped before the stage's end.
+    fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String);
+}
+
+impl Runner<'_> {
+    /// Runs `stage` to its end, or to a stop, at the scene's cadence.
+    pub(super) fn drive(
+        &mut self,
+        mut stage: impl StageRun,
+        log: &mut LogWriter,
+        progress: &mut dyn Progress,
+    ) -> StageResult {
+        let stopped = loop {
+            let mark = match stage.advance(self) {
+                Ok(mark) => mark,
+                Err(e) => {
+                    stage.failed(self, log);
+                    return Err(e);
+                }
+            };
+            if mark.stats {
+                log.stats(mark.time, &stage.stats(self))?;
+                let (tick, message) = stage.progress();
+                progress.tick(tick, &message);
+            }
+            let stop = !mark.end && self.stopped();
+            let mut framed = false;
+            if (mark.frame || mark.end || stop) && stage.frame_ready()? {
+                log.frame(mark.time, &stage.frame(self, mark.end))?;
+                framed = true;
+            }
+            if mark.end {
+                break false;
+            }
+            if stop && framed {
+                break true;
+            }
+        };
+        let (phase, line) = stage.finish(self, stopped);
+        Ok((phase, line, stopped))
+    }
+}
