@@ -26,7 +26,7 @@ use compress::CompressStage;
 use dynamics::DynamicsStage;
 use monte_carlo::MonteCarloStage;
 use start::start_state;
-pub use start::{check_start, system_from_record};
+pub use start::{RecordError, check_start, system_from_record};
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -300,8 +300,8 @@ fn run_with(
         }
         Some(point) => {
             let index = point.record.stage_index;
-            let system =
-                system_from_record(&point.record, &runner.plan).map_err(RunError::Resume)?;
+            let system = system_from_record(&point.record, &runner.plan)
+                .map_err(|e| RunError::Resume(e.to_string()))?;
             let phase = runner
                 .resumed_phase(system, &point.record, &point.info, index)
                 .map_err(RunError::Resume)?;

@@ -80,8 +80,47 @@ pub(super) fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError>
     system_from_record(&record, plan).map_err(|e| RunError::Resume(format!("{path}: {e}")))
 }
 
+/// Why a logged state cannot be this scene's state.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RecordError {
+    /// Other species (names or shapes) than the scene's.
+    #[error("the logged species ({logged}) differ from the scene's ({scene})")]
+    Species {
+        /// The log's, as "name shape, ...".
+        logged: String,
+        /// The scene's.
+        scene: String,
+    },
+    /// Other particle counts per species.
+    #[error("the logged particle counts per species {logged:?} differ from the scene's {scene:?}")]
+    Counts {
+        /// The log's.
+        logged: Vec<usize>,
+        /// The scene's.
+        scene: Vec<usize>,
+    },
+    /// Positions or orientations missing.
+    #[error(
+        "the logged state has {positions} positions and {orientations} orientations for {particles} particles"
+    )]
+    Lengths {
+        /// Positions given.
+        positions: usize,
+        /// Orientations given.
+        orientations: usize,
+        /// Particles.
+        particles: usize,
+    },
+    /// A box that cannot be.
+    #[error("logged box: {0}")]
+    Box(#[from] crate::space::periodic_box::BoxError),
+    /// The particles overlap, or lie outside the walls.
+    #[error("logged state: {0}")]
+    State(#[from] StateError),
+}
+
 /// A system from a logged state, checked against the scene's species.
-pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, String> {
+pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, RecordError> {
     let species = plan.mc_species();
     let same = record.species.len() == species.len()
         && record
@@ -90,20 +129,22 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, S
             .zip(&species)
             .all(|(r, s)| r.name == s.name && r.shape == s.shape);
     if !same {
-        return Err(format!(
-            "the logged species ({}) differ from the scene's ({})",
-            record
-                .species
-                .iter()
-                .map(|s| format!("{} {}", s.name, s.shape))
-                .collect::<Vec<_>>()
-                .join(", "),
-            species
-                .iter()
-                .map(|s| format!("{} {}", s.name, s.shape))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
+        let list = |named: Vec<String>| named.join(", ");
+        return Err(RecordError::Species {
+            logged: list(
+                record
+                    .species
+                    .iter()
+                    .map(|s| format!("{} {}", s.name, s.shape))
+                    .collect(),
+            ),
+            scene: list(
+                species
+                    .iter()
+                    .map(|s| format!("{} {}", s.name, s.shape))
+                    .collect(),
+            ),
+        });
     }
     let logged: Vec<usize> = (0..plan.species.len())
         .map(|k| {
@@ -116,21 +157,20 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, S
         .collect();
     let wanted: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
     if logged != wanted {
-        return Err(format!(
-            "the logged particle counts per species {logged:?} differ from the scene's {wanted:?}"
-        ));
+        return Err(RecordError::Counts {
+            logged,
+            scene: wanted,
+        });
     }
     let n = record.species_of.len();
     if record.positions.len() != n || record.orientations.len() != n {
-        return Err(format!(
-            "the logged state has {} positions and {} orientations for {n} particles",
-            record.positions.len(),
-            record.orientations.len()
-        ));
+        return Err(RecordError::Lengths {
+            positions: record.positions.len(),
+            orientations: record.orientations.len(),
+            particles: n,
+        });
     }
-    let box_ = PeriodicBox::new(Vector3::from(record.box_lengths))
-        .map_err(|e| format!("logged box: {e}"))?
-        .with_walls(plan.walls);
+    let box_ = PeriodicBox::new(Vector3::from(record.box_lengths))?.with_walls(plan.walls);
     let particles = record
         .positions
         .iter()
@@ -144,7 +184,7 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, S
             species: s,
         })
         .collect();
-    System::new(box_, species, particles).map_err(|e: StateError| format!("logged state: {e}"))
+    Ok(System::new(box_, species, particles)?)
 }
 
 #[cfg(test)]
