@@ -11,6 +11,7 @@
 //! be overlap-free through the neighbour structure, and by all pairs below
 //! 5000 bodies.
 
+use super::markdown_table;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -182,20 +183,27 @@ pub fn plot(rows: &[CompressRow], dir: &Path) -> Result<Vec<PathBuf>, String> {
 
 /// The suite's table in Markdown.
 pub fn table(rows: &[CompressRow]) -> String {
-    let mut out = String::from(
-        "| table | shape | N | phi reached | sweeps | seconds | microseconds per particle |\n|---|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        out += &format!(
-            "| {} | {} | {} | {:.3} | {} | {:.2} | {:.1} |\n",
-            r.table,
-            r.shape,
-            r.n,
-            r.packing_fraction,
-            r.sweeps,
-            r.seconds,
-            r.seconds_per_particle * 1e6
-        );
-    }
-    out
+    let columns = [
+        "table",
+        "shape",
+        "N",
+        "phi reached",
+        "sweeps",
+        "seconds",
+        "microseconds per particle",
+    ];
+    markdown_table(
+        &columns,
+        rows.iter().map(|r| {
+            vec![
+                r.table.to_string(),
+                r.shape.to_string(),
+                r.n.to_string(),
+                format!("{:.3}", r.packing_fraction),
+                r.sweeps.to_string(),
+                format!("{:.2}", r.seconds),
+                format!("{:.1}", r.seconds_per_particle * 1e6),
+            ]
+        }),
+    )
 }

@@ -13,6 +13,7 @@
 //! collision was missed (an overlap found at a frame, or the dynamics
 //! stopping on an overlap).
 
+use super::markdown_table;
 use std::time::Instant;
 
 use rand::SeedableRng;
@@ -388,31 +389,44 @@ pub fn plot(
 /// The tolerance suite's table in Markdown, and the loosest safe ε_d per
 /// aspect.
 pub fn tolerance_table(rows: &[ToleranceRow]) -> String {
-    let mut out = String::from(
-        "| aspect | N | phi | eps_d | Newton tol | collisions | us/collision, median of 10 stretches (range) | energy drift/collision | max contact-time error (first 100) | follows reference for | missed |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    let columns = [
+        "aspect",
+        "N",
+        "phi",
+        "eps_d",
+        "Newton tol",
+        "collisions",
+        "us/collision, median of 10 stretches (range)",
+        "energy drift/collision",
+        "max contact-time error (first 100)",
+        "follows reference for",
+        "missed",
+    ];
+    let mut out = markdown_table(
+        &columns,
+        rows.iter().map(|r| {
+            vec![
+                r.aspect.to_string(),
+                r.n.to_string(),
+                r.packing_fraction.to_string(),
+                format!("{:.0e}", r.grazing_threshold),
+                format!("{:.0e}", r.newton_tolerance),
+                r.collisions.to_string(),
+                format!(
+                    "{:.0} ({:.0}-{:.0})",
+                    r.us_per_collision, r.us_per_collision_range.0, r.us_per_collision_range.1
+                ),
+                format!("{:.1e}", r.energy_drift_per_collision),
+                format!("{:.1e}", r.max_contact_time_error),
+                if r.reference {
+                    "(reference)".to_string()
+                } else {
+                    format!("{} collisions", r.departure_collisions)
+                },
+                r.missed.as_deref().unwrap_or("none").to_string(),
+            ]
+        }),
     );
-    for r in rows {
-        out += &format!(
-            "| {} | {} | {} | {:.0e} | {:.0e} | {} | {:.0} ({:.0}-{:.0}) | {:.1e} | {:.1e} | {} | {} |\n",
-            r.aspect,
-            r.n,
-            r.packing_fraction,
-            r.grazing_threshold,
-            r.newton_tolerance,
-            r.collisions,
-            r.us_per_collision,
-            r.us_per_collision_range.0,
-            r.us_per_collision_range.1,
-            r.energy_drift_per_collision,
-            r.max_contact_time_error,
-            if r.reference {
-                "(reference)".to_string()
-            } else {
-                format!("{} collisions", r.departure_collisions)
-            },
-            r.missed.as_deref().unwrap_or("none")
-        );
-    }
     for (aspect, eps) in loosest_safe_grazing(rows) {
         out += &format!(
             "aspect {aspect}: loosest eps_d with no missed collision: {}\n",

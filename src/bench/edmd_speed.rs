@@ -8,6 +8,7 @@
 //! repeats of a fixed number of collisions; the table gives the median
 //! (and the range) of the repeats.
 
+use super::markdown_table;
 use std::time::Instant;
 
 use nalgebra::Vector3;
@@ -790,34 +791,46 @@ pub fn plot_superellipsoid(
 
 /// The rows of a time-per-collision suite as a Markdown table.
 pub fn table(rows: &[SpeedRow]) -> String {
-    let mut out = String::from(
-        "| system | N | phi | neighbours | us/collision, median (range) | distances/collision | iterations/distance | target | published |\n|---|---|---|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        out += &format!(
-            "| {} | {} | {} | {} | {:.2} ({:.2}-{:.2}) over {} x {} collisions | {:.1} | {:.2} | {} | {} |\n",
-            r.system,
-            r.n,
-            r.packing_fraction,
-            r.neighbours,
-            r.median_us_per_collision,
-            r.min_us_per_collision,
-            r.max_us_per_collision,
-            r.repeats,
-            r.collisions_per_repeat,
-            r.distances_per_collision,
-            r.iterations_per_distance,
-            if r.target_us_per_collision.is_finite() {
-                format!("<= {}", r.target_us_per_collision)
-            } else {
-                "-".into()
-            },
-            if r.reference.is_empty() {
-                "-"
-            } else {
-                &r.reference
-            }
-        );
-    }
-    out
+    let columns = [
+        "system",
+        "N",
+        "phi",
+        "neighbours",
+        "us/collision, median (range)",
+        "distances/collision",
+        "iterations/distance",
+        "target",
+        "published",
+    ];
+    markdown_table(
+        &columns,
+        rows.iter().map(|r| {
+            vec![
+                r.system.to_string(),
+                r.n.to_string(),
+                r.packing_fraction.to_string(),
+                r.neighbours.to_string(),
+                format!(
+                    "{:.2} ({:.2}-{:.2}) over {} x {} collisions",
+                    r.median_us_per_collision,
+                    r.min_us_per_collision,
+                    r.max_us_per_collision,
+                    r.repeats,
+                    r.collisions_per_repeat
+                ),
+                format!("{:.1}", r.distances_per_collision),
+                format!("{:.2}", r.iterations_per_distance),
+                if r.target_us_per_collision.is_finite() {
+                    format!("<= {}", r.target_us_per_collision)
+                } else {
+                    "-".into()
+                },
+                if r.reference.is_empty() {
+                    "-".into()
+                } else {
+                    r.reference.to_string()
+                },
+            ]
+        }),
+    )
 }

@@ -9,6 +9,7 @@
 //! Monte Carlo (the same ellipsoids, time per trial move): rotation moves,
 //! hard walls, and a box move per sweep (NPT against NVT).
 
+use super::markdown_table;
 use std::time::Instant;
 
 use nalgebra::Vector3;
@@ -295,14 +296,17 @@ pub fn plot(rows: &[EffectRow], dir: &std::path::Path) -> Result<Vec<std::path::
 
 /// The suite's table in Markdown.
 pub fn table(rows: &[EffectRow]) -> String {
-    let mut out = String::from(
-        "| driver | effect | off | on | on / off | unit |\n|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        out += &format!(
-            "| {} | {} | {:.3} | {:.3} | {:.2} | {} |\n",
-            r.driver, r.effect, r.off_us, r.on_us, r.ratio, r.unit
-        );
-    }
-    out
+    markdown_table(
+        &["driver", "effect", "off", "on", "on / off", "unit"],
+        rows.iter().map(|r| {
+            vec![
+                r.driver.to_string(),
+                r.effect.to_string(),
+                format!("{:.3}", r.off_us),
+                format!("{:.3}", r.on_us),
+                format!("{:.2}", r.ratio),
+                r.unit.to_string(),
+            ]
+        }),
+    )
 }

@@ -8,6 +8,7 @@
 //! superellipsoids aligned on a cubic lattice. Move sizes are tuned to 30 %
 //! acceptance first, then frozen for the timed sweeps.
 
+use super::markdown_table;
 use std::time::Instant;
 
 use nalgebra::{UnitQuaternion, Vector3};
@@ -506,33 +507,51 @@ pub fn plot(
 /// The suite's tables in Markdown: speed and density rows, then the
 /// move-size rows.
 pub fn table(moves: &[McRow], density: &[McRow], sizes: &[AcceptanceRow]) -> String {
-    let mut out = String::from(
-        "| shape | N | phi | threads | sweep | trial moves/s (median) | translate acceptance |\n|---|---|---|---|---|---|---|\n",
+    let speed_columns = [
+        "shape",
+        "N",
+        "phi",
+        "threads",
+        "sweep",
+        "trial moves/s (median)",
+        "translate acceptance",
+    ];
+    let size_columns = [
+        "shape",
+        "phi",
+        "translation (thicknesses)",
+        "rotation (rad)",
+        "translate acceptance",
+        "rotate acceptance",
+        "trial moves/s",
+    ];
+    let speed = markdown_table(
+        &speed_columns,
+        moves.iter().chain(density).map(|r| {
+            vec![
+                r.shape.to_string(),
+                r.n.to_string(),
+                format!("{:.3}", r.packing_fraction),
+                r.threads.to_string(),
+                r.sweep.to_string(),
+                format!("{:.3e}", r.trial_moves_per_s),
+                format!("{:.2}", r.acceptance_translate),
+            ]
+        }),
     );
-    for r in moves.iter().chain(density) {
-        out += &format!(
-            "| {} | {} | {:.3} | {} | {} | {:.3e} | {:.2} |\n",
-            r.shape,
-            r.n,
-            r.packing_fraction,
-            r.threads,
-            r.sweep,
-            r.trial_moves_per_s,
-            r.acceptance_translate
-        );
-    }
-    out += "\n| shape | phi | translation (thicknesses) | rotation (rad) | translate acceptance | rotate acceptance | trial moves/s |\n|---|---|---|---|---|---|---|\n";
-    for r in sizes {
-        out += &format!(
-            "| {} | {:.3} | {} | {} | {:.3} | {:.3} | {:.3e} |\n",
-            r.shape,
-            r.packing_fraction,
-            r.translate,
-            r.rotate,
-            r.acceptance_translate,
-            r.acceptance_rotate,
-            r.trial_moves_per_s
-        );
-    }
-    out
+    let acceptance = markdown_table(
+        &size_columns,
+        sizes.iter().map(|r| {
+            vec![
+                r.shape.to_string(),
+                format!("{:.3}", r.packing_fraction),
+                r.translate.to_string(),
+                r.rotate.to_string(),
+                format!("{:.3}", r.acceptance_translate),
+                format!("{:.3}", r.acceptance_rotate),
+                format!("{:.3e}", r.trial_moves_per_s),
+            ]
+        }),
+    );
+    format!("{speed}\n{acceptance}")
 }

@@ -7,6 +7,7 @@
 //! start read from a log, stats every 1/100 and frames every 1/20 of the
 //! run, the log written and renamed). Time per collision, medians.
 
+use super::markdown_table;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -133,20 +134,27 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
 
 /// The suite's table in Markdown.
 pub fn table(rows: &[SceneRow]) -> String {
-    let mut out = String::from(
-        "| path | shape | N | phi | collisions | us/collision (median) | ratio to direct |\n|---|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        out += &format!(
-            "| {} | {} | {} | {:.2} | {} | {:.3} | {:.3} |\n",
-            r.algorithm,
-            r.shape,
-            r.n,
-            r.packing_fraction,
-            r.collisions,
-            r.us_per_collision,
-            r.ratio_to_direct
-        );
-    }
-    out
+    let columns = [
+        "path",
+        "shape",
+        "N",
+        "phi",
+        "collisions",
+        "us/collision (median)",
+        "ratio to direct",
+    ];
+    markdown_table(
+        &columns,
+        rows.iter().map(|r| {
+            vec![
+                r.algorithm.to_string(),
+                r.shape.to_string(),
+                r.n.to_string(),
+                format!("{:.2}", r.packing_fraction),
+                r.collisions.to_string(),
+                format!("{:.3}", r.us_per_collision),
+                format!("{:.3}", r.ratio_to_direct),
+            ]
+        }),
+    )
 }
