@@ -153,7 +153,7 @@ fn ideal_gas_volume_moves_give_n_plus_one_over_p() {
     };
     let mut volumes = Vec::new();
     for _ in 0..200_000 {
-        hardbody::mc::moves::box_move(&mut system, beta_p, sizes.volume, false, &mut rng);
+        hardbody::mc::box_moves::box_move(&mut system, beta_p, sizes.volume, false, &mut rng);
         volumes.push(system.periodic_box().volume());
     }
     let (mean, se) = mean_and_error(&block_means(&volumes[10_000..], 9_500));

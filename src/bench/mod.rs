@@ -8,6 +8,7 @@ pub mod mc;
 pub mod ocsi;
 pub mod plot;
 pub mod scene;
+pub mod speed_plots;
 
 /// A Markdown table: a header of `columns`, its rule, and one line per
 /// row, each row given as its cells.

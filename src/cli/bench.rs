@@ -6,7 +6,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use hardbody::bench::{compress, edmd, edmd_speed, effects, mc, ocsi, scene};
+use hardbody::bench::{compress, edmd, edmd_speed, effects, mc, ocsi, scene, speed_plots};
 
 use super::{EXIT_FAILED, Suite, bad_input, esay, print_block, print_json, say};
 
@@ -40,25 +40,25 @@ pub(super) fn bench(suite: Suite, quick: bool, json: bool, plot: Option<&Path>) 
             "edmd-shell",
             edmd_speed::shell(quick),
             edmd_speed::table,
-            Some(&edmd_speed::plot_shell),
+            Some(&speed_plots::plot_shell),
         ),
         Suite::EdmdDensity => out.report(
             "edmd-density",
             edmd_speed::density(quick),
             edmd_speed::table,
-            Some(&edmd_speed::plot_density),
+            Some(&speed_plots::plot_density),
         ),
         Suite::EdmdElongation => out.report(
             "edmd-elongation",
             edmd_speed::elongation(quick),
             edmd_speed::table,
-            Some(&edmd_speed::plot_elongation),
+            Some(&speed_plots::plot_elongation),
         ),
         Suite::Superellipsoid => out.report(
             "superellipsoid",
             edmd_speed::superellipsoid(quick),
             edmd_speed::table,
-            Some(&edmd_speed::plot_superellipsoid),
+            Some(&speed_plots::plot_superellipsoid),
         ),
         Suite::EdmdTolerance => out.report(
             "edmd-tolerance",

@@ -1,12 +1,14 @@
 //! Metropolis Monte Carlo of hard particles, on the configuration of
-//! [`crate::state`]: trial moves and box moves (`moves.rs`), step-size
-//! tuning (`tuning.rs`), the parallel sweeps (`parallel.rs`), compression
-//! (`compress.rs`) and the scale-distribution pressure (`sdf.rs`).
+//! [`crate::state`]: trial moves and sweeps (`moves.rs`), box moves
+//! (`box_moves.rs`), step-size tuning (`tuning.rs`), the parallel sweeps
+//! (`parallel/`), compression (`compress.rs`) and the scale-distribution
+//! pressure (`sdf.rs`).
 //!
 //! A move is accepted iff it creates no overlap (hard-particle Metropolis);
 //! volume moves in ln V carry the NPT weight. Overlap tests go through the
 //! geometry layer's pair dispatch only.
 
+pub mod box_moves;
 pub mod compress;
 pub mod moves;
 pub mod parallel;

@@ -6,7 +6,8 @@ use rand_pcg::Pcg64;
 use std::sync::RwLock;
 
 use super::*;
-use crate::mc::moves::{Counts, Ensemble, MoveSizes, box_move, particle_moves, sweep};
+use crate::mc::box_moves::box_move;
+use crate::mc::moves::{Counts, Ensemble, MoveSizes, particle_moves, sweep};
 use crate::state::System;
 
 /// The barrier and the outboxes through which a team's members hand each

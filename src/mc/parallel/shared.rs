@@ -7,7 +7,8 @@ use rand::Rng;
 
 use super::replicas::{Scratch, colour_moves};
 use super::*;
-use crate::mc::moves::{Counts, Ensemble, box_move};
+use crate::mc::box_moves::box_move;
+use crate::mc::moves::{Counts, Ensemble};
 use crate::state::{Neighbours, SPHERE_LISTS_REVIEW, System};
 
 type V3 = Vector3<f64>;
