@@ -7,7 +7,8 @@
 //! against his cell code (`Cell`).
 //!
 //! Run with `taskset -c 0 cargo bench --bench edmd` from `benches/peers/`
-//! (one core for both; `QUICK=1`: a short run; `REPEATS=N`, default 3). His source is read from
+//! (one core for both; `QUICK=1`: a short run; `REPEATS=N`, default 3;
+//! `ONLY_OURS=1`: hardbody's list run alone, to profile). His source is read from
 //! `../shared/peers/smallenburg-edmd` beside the repository (or
 //! `SMALLENBURG_EDMD`), copied under `target/`, patched with its
 //! measurement patch (command-line run time, shell and input; the wall
@@ -170,6 +171,7 @@ fn main() {
         .unwrap_or(3);
     let duration = if quick { 10.0 } else { 75.0 };
     let peer = build_peer();
+    let only_ours = std::env::var_os("ONLY_OURS").is_some();
     run(Command::new("python3")
         .args(["gen_sc.py", "1", "init.sph"])
         .current_dir(&peer));
@@ -184,6 +186,12 @@ fn main() {
         "| pair | repeat | hardbody us/collision | peer us/collision | ratio | collisions (ours, theirs) |"
     );
     println!("|---|---|---|---|---|---|");
+    if only_ours {
+        // For a profiler: hardbody's list run alone.
+        let (ours, collisions) = our_time_per_collision(&system, Some(OUR_SHELL), duration, 1);
+        println!("hardbody alone, lists: {ours:.3} us/collision over {collisions} collisions");
+        return;
+    }
     for (name, shell, code) in [
         ("lists / Single", Some(OUR_SHELL), "Single"),
         ("cells / Cell", None, "Cell"),
