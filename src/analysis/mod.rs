@@ -3,5 +3,6 @@
 //! geometry layer only, so both drivers can measure with it.
 
 pub mod order;
+pub mod packing;
 pub mod series;
 pub mod virial;

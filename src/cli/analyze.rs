@@ -421,3 +421,105 @@ pub(super) fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
         Err(e) => bad_input(e),
     }
 }
+
+/// `analyze --packing`: the contact network of one frame of the log.
+pub(super) fn analyze_packing(
+    path: &std::path::Path,
+    frame: Option<usize>,
+    gap: f64,
+    json: bool,
+) -> ExitCode {
+    use hardbody::analysis::packing::{PackedBody, contact_network};
+    use hardbody::space::PeriodicBox;
+    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    if !(gap.is_finite() && gap >= 0.0) {
+        return bad_input(format!("--gap must be a finite number >= 0, got {gap}"));
+    }
+    let contents = match read_log(path, true) {
+        Ok(c) => c,
+        Err(e) => return bad_input(e),
+    };
+    let frames = contents.states.len();
+    let index = frame.unwrap_or(frames.saturating_sub(1));
+    let Some((_, state)) = contents.states.get(index) else {
+        return bad_input(format!(
+            "{}: --frame {index}: the log holds {frames} frames",
+            path.display()
+        ));
+    };
+    let walls = contents
+        .metadata
+        .get("scene_resolved")
+        .and_then(|text| Scene::parse(text).ok())
+        .map(|scene| scene.wall_axes())
+        .unwrap_or_default();
+    let box_ = match PeriodicBox::new(Vector3::from(state.box_lengths)) {
+        Ok(b) => b.with_walls(walls),
+        Err(e) => return bad_input(format!("{}: frame {index}: {e}", path.display())),
+    };
+    let shapes: Vec<Shape> = state.species.iter().map(|s| s.shape).collect();
+    let bodies: Vec<PackedBody> = state
+        .positions
+        .iter()
+        .zip(&state.orientations)
+        .zip(&state.species_of)
+        .map(|((p, q), &k)| PackedBody {
+            position: Vector3::from(*p),
+            orientation: UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3])),
+            shape: k as usize,
+        })
+        .collect();
+    let network = contact_network(&box_, &shapes, &bodies, gap);
+    if json {
+        print_json(&network);
+        return ExitCode::SUCCESS;
+    }
+    let at = match (state.sweep, state.time) {
+        (Some(s), _) => format!("sweep {s}"),
+        (_, Some(t)) => format!("t = {t}"),
+        _ => "its start".into(),
+    };
+    say(&format!(
+        "{}: frame {index} of {frames} (stage {}, {at}), {} bodies, packing fraction {:.6}",
+        path.display(),
+        state.stage_index,
+        network.bodies,
+        network.packing_fraction
+    ));
+    say(&format!(
+        "contacts: {} (gaps under {gap:e} of the smaller body's smallest half-extent){}",
+        network.contacts.len(),
+        if network.overlaps > 0 {
+            format!("; {} pairs OVERLAP by more than that", network.overlaps)
+        } else {
+            String::new()
+        }
+    ));
+    say(&format!(
+        "rattlers: {} ({:.1} %), removed while they had fewer than d_f + 1 contacts",
+        network.rattlers.len(),
+        100.0 * network.rattlers.len() as f64 / network.bodies.max(1) as f64
+    ));
+    if network.backbone_contact_number.is_nan() {
+        say(
+            "backbone: none (every body is a rattler at this tolerance; is --gap below the packing's gaps?)",
+        );
+    } else {
+        say(&format!(
+            "backbone: mean contact number z = {:.4}, isostatic 2 d_f = {:.4}",
+            network.backbone_contact_number, network.isostatic_contact_number
+        ));
+    }
+    let histogram: Vec<String> = network
+        .contact_number_histogram
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| **n > 0)
+        .map(|(z, n)| format!("{z}: {n}"))
+        .collect();
+    say(&format!(
+        "contact numbers (bodies): {}",
+        histogram.join(", ")
+    ));
+    ExitCode::SUCCESS
+}

@@ -81,6 +81,19 @@ enum Command {
         /// directory: the series, its mean and where it equilibrated.
         #[arg(long, value_name = "DIR")]
         plot: Option<PathBuf>,
+        /// Analyse a frame's contact network instead: contacts, rattlers,
+        /// the backbone's mean contact number against the isostatic one,
+        /// the contact-number distribution.
+        #[arg(long)]
+        packing: bool,
+        /// With --packing: the frame (0 the first; default the last).
+        #[arg(long, value_name = "K", requires = "packing")]
+        frame: Option<usize>,
+        /// With --packing: the gap below which two bodies touch, relative
+        /// to the smaller one's smallest half-extent (packings jammed by
+        /// compression keep gaps of 1e-3 to 1e-2 of the size).
+        #[arg(long, value_name = "GAP", default_value_t = 1e-2, requires = "packing")]
+        gap: f64,
     },
     /// Print a log's channels, message counts, stages and last stats.
     Inspect {
@@ -158,9 +171,21 @@ pub fn main() -> ExitCode {
         } => run(scene, out, seed, resume),
         Command::Check { scene } => check(&scene),
         Command::Inspect { log } => inspect(&log),
-        Command::Analyze { log, json, plot } => match log.as_slice() {
-            [one] => analyze(one, json, plot.as_deref()),
-            many => analyze_replicas(many, json, plot.as_deref()),
+        Command::Analyze {
+            log,
+            json,
+            plot,
+            packing,
+            frame,
+            gap,
+        } => match (log.as_slice(), packing) {
+            ([one], true) if plot.is_none() => analyze_packing(one, frame, gap, json),
+            (_, true) if plot.is_some() => {
+                bad_input("--packing: no plots yet (--plot is for the averages)")
+            }
+            (_, true) => bad_input("--packing: one log at a time"),
+            ([one], false) => analyze(one, json, plot.as_deref()),
+            (many, false) => analyze_replicas(many, json, plot.as_deref()),
         },
         Command::Export { log, gsd } => export(&log, &gsd),
         Command::Virial {

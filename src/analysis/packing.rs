@@ -1,0 +1,322 @@
+//! The contact network of a packing: which bodies touch (their exact
+//! signed distance within a gap tolerance), the rattlers (bodies with too
+//! few contacts to be held, removed one round after another), and the
+//! mean contact number of the backbone that remains, against the
+//! isostatic value 2 d_f (d_f = 3 for spheres, 5 for bodies of
+//! revolution, 6 for other bodies; Donev, Torquato & Stillinger).
+
+use nalgebra::{UnitQuaternion, Vector3};
+use serde::Serialize;
+
+use crate::geometry::{DistanceOptions, Relative, Shape, distance};
+use crate::space::PeriodicBox;
+
+type V3 = Vector3<f64>;
+
+/// One body of a packing: centre, orientation, index of its shape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PackedBody {
+    /// Centre.
+    pub position: V3,
+    /// Body → lab rotation.
+    pub orientation: UnitQuaternion<f64>,
+    /// Index into the shapes.
+    pub shape: usize,
+}
+
+/// The contact network of a packing.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ContactNetwork {
+    /// Bodies.
+    pub bodies: usize,
+    /// Σ body volume / box volume.
+    pub packing_fraction: f64,
+    /// The gap below which two bodies count as touching, relative to the
+    /// smaller of the two bodies' smallest half-extents.
+    pub gap_tolerance: f64,
+    /// The touching pairs (i < j).
+    pub contacts: Vec<(usize, usize)>,
+    /// Pairs found overlapping (by more than the tolerance): a packing
+    /// that is not valid.
+    pub overlaps: usize,
+    /// Contacts per body.
+    pub contact_numbers: Vec<usize>,
+    /// Bodies with fewer than d_f + 1 contacts among the bodies left,
+    /// removed round after round.
+    pub rattlers: Vec<usize>,
+    /// Mean contacts per body of the backbone (the bodies left), 2 C / N.
+    pub backbone_contact_number: f64,
+    /// 2 d_f averaged over the backbone: the isostatic contact number.
+    pub isostatic_contact_number: f64,
+    /// How many bodies have 0, 1, 2, ... contacts (all bodies).
+    pub contact_number_histogram: Vec<usize>,
+}
+
+/// Degrees of freedom of a rigid body of this shape whose rotations
+/// change its contacts: 3 for a sphere, 5 for a body of revolution whose
+/// axis is all that matters (a spheroid, a superellipsoid of revolution
+/// with exponent 2 about its axis), 6 otherwise.
+pub fn degrees_of_freedom(shape: &Shape) -> usize {
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * x.abs().max(y.abs());
+    // The pairs of body axes the shape is round about (equal semi-axes,
+    // and for a superellipsoid exponent 2 along both).
+    let round = |axes: V3, exponents: V3| {
+        [(0, 1), (1, 2), (0, 2)]
+            .into_iter()
+            .filter(|&(i, j)| close(axes[i], axes[j]) && exponents[i] == 2.0 && exponents[j] == 2.0)
+            .count()
+    };
+    let rounds = match shape {
+        Shape::Sphere(_) => 3,
+        Shape::Ellipsoid(e) => round(e.semi_axes(), V3::repeat(2.0)),
+        Shape::Superellipsoid(s) => round(s.semi_axes(), s.exponents()),
+        Shape::Cuboid(_) => 0,
+    };
+    match rounds {
+        3 => 3,
+        1 => 5,
+        _ => 6,
+    }
+}
+
+/// The contact network of `bodies` (shapes `shapes`) in `box_`: bodies
+/// touch where their signed distance is below `gap_tolerance` times the
+/// smaller of their smallest half-extents.
+pub fn contact_network(
+    box_: &PeriodicBox,
+    shapes: &[Shape],
+    bodies: &[PackedBody],
+    gap_tolerance: f64,
+) -> ContactNetwork {
+    let n = bodies.len();
+    let options = DistanceOptions::default();
+    let mut contacts = Vec::new();
+    let mut overlaps = 0;
+    for i in 0..n {
+        let (a, shape_a) = (&bodies[i], &shapes[bodies[i].shape]);
+        for (j, b) in bodies.iter().enumerate().skip(i + 1) {
+            let shape_b = &shapes[b.shape];
+            let d = box_.minimum_image(&(b.position - a.position));
+            let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
+            let tolerance = gap_tolerance * scale;
+            let reach = shape_a.bounding_radius() + shape_b.bounding_radius() + tolerance;
+            if d.norm_squared() > reach * reach {
+                continue;
+            }
+            let rel = Relative::new(&d, &a.orientation, &b.orientation);
+            let gap = distance(shape_a, shape_b, &rel, &options, None).distance;
+            if gap < -tolerance {
+                overlaps += 1;
+            }
+            if gap < tolerance {
+                contacts.push((i, j));
+            }
+        }
+    }
+    let mut contact_numbers = vec![0; n];
+    for &(i, j) in &contacts {
+        contact_numbers[i] += 1;
+        contact_numbers[j] += 1;
+    }
+    // Rattlers: fewer than d_f + 1 contacts among the bodies left, round
+    // after round (removing one can free its neighbours).
+    let freedom: Vec<usize> = bodies
+        .iter()
+        .map(|b| degrees_of_freedom(&shapes[b.shape]))
+        .collect();
+    let mut left = contact_numbers.clone();
+    let mut rattler = vec![false; n];
+    loop {
+        let newly: Vec<usize> = (0..n)
+            .filter(|&i| !rattler[i] && left[i] < freedom[i] + 1)
+            .collect();
+        if newly.is_empty() {
+            break;
+        }
+        for &i in &newly {
+            rattler[i] = true;
+        }
+        for &(i, j) in &contacts {
+            if newly.contains(&i) && !newly.contains(&j) {
+                left[j] -= 1;
+            } else if newly.contains(&j) && !newly.contains(&i) {
+                left[i] -= 1;
+            }
+        }
+    }
+    let backbone: Vec<usize> = (0..n).filter(|&i| !rattler[i]).collect();
+    let backbone_contacts = contacts
+        .iter()
+        .filter(|&&(i, j)| !rattler[i] && !rattler[j])
+        .count();
+    let per_body = |total: f64| {
+        if backbone.is_empty() {
+            f64::NAN
+        } else {
+            total / backbone.len() as f64
+        }
+    };
+    let mut histogram = vec![0; contact_numbers.iter().max().map_or(0, |m| m + 1)];
+    for &z in &contact_numbers {
+        histogram[z] += 1;
+    }
+    let volume: f64 = bodies.iter().map(|b| shapes[b.shape].volume()).sum();
+    ContactNetwork {
+        bodies: n,
+        packing_fraction: volume / box_.volume(),
+        gap_tolerance,
+        overlaps,
+        contact_numbers,
+        rattlers: (0..n).filter(|&i| rattler[i]).collect(),
+        backbone_contact_number: per_body(2.0 * backbone_contacts as f64),
+        isostatic_contact_number: per_body(backbone.iter().map(|&i| 2.0 * freedom[i] as f64).sum()),
+        contact_number_histogram: histogram,
+        contacts,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Cuboid, Ellipsoid, Sphere, Superellipsoid};
+
+    fn sphere(r: f64) -> Shape {
+        Shape::Sphere(Sphere::new(r).unwrap())
+    }
+
+    fn at(x: f64, y: f64, z: f64) -> PackedBody {
+        PackedBody {
+            position: V3::new(x, y, z),
+            orientation: UnitQuaternion::identity(),
+            shape: 0,
+        }
+    }
+
+    /// The close-packed fcc crystal: every sphere touches twelve, none is
+    /// a rattler, φ = π/√18.
+    #[test]
+    fn fcc_spheres_touch_twelve() {
+        let cells = 4;
+        let a = 2f64.sqrt(); // cube edge for diameter 1
+        let side = cells as f64 * a;
+        let box_ = PeriodicBox::new(V3::repeat(side)).unwrap();
+        let basis = [
+            [0.0, 0.0, 0.0],
+            [0.5, 0.5, 0.0],
+            [0.5, 0.0, 0.5],
+            [0.0, 0.5, 0.5],
+        ];
+        let mut bodies = Vec::new();
+        for (i, j, k) in (0..cells)
+            .flat_map(|i| (0..cells).flat_map(move |j| (0..cells).map(move |k| (i, j, k))))
+        {
+            for b in basis {
+                let p = (V3::new(i as f64, j as f64, k as f64) + V3::from(b)) * a;
+                bodies.push(at(p.x - side / 2.0, p.y - side / 2.0, p.z - side / 2.0));
+            }
+        }
+        let network = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
+        assert!(network.contact_numbers.iter().all(|&z| z == 12));
+        assert!(network.rattlers.is_empty());
+        assert_eq!(network.overlaps, 0);
+        assert!((network.backbone_contact_number - 12.0).abs() < 1e-12);
+        assert_eq!(network.isostatic_contact_number, 6.0);
+        assert!((network.packing_fraction - std::f64::consts::PI / 18f64.sqrt()).abs() < 1e-12);
+    }
+
+    /// Spheres on a simple-cubic lattice touch six each: too few for
+    /// nothing (six is more than d_f + 1 = 4), and a gap just over the
+    /// tolerance is no contact.
+    #[test]
+    fn simple_cubic_spheres_touch_six_and_a_gap_is_no_contact() {
+        let box_ = PeriodicBox::new(V3::repeat(4.0)).unwrap();
+        let bodies: Vec<PackedBody> = (0..64)
+            .map(|s| {
+                at(
+                    (s % 4) as f64 - 1.5,
+                    ((s / 4) % 4) as f64 - 1.5,
+                    (s / 16) as f64 - 1.5,
+                )
+            })
+            .collect();
+        let touching = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
+        assert!(touching.contact_numbers.iter().all(|&z| z == 6));
+        assert_eq!(touching.contacts.len(), 64 * 3);
+        let apart = contact_network(&box_, &[sphere(0.5 - 1e-5)], &bodies, 1e-6);
+        assert!(apart.contacts.is_empty());
+        assert_eq!(apart.rattlers.len(), 64);
+        assert!(apart.backbone_contact_number.is_nan());
+    }
+
+    /// Removing a rattler can free its neighbours: a sphere touching four
+    /// others that touch only it is held in the first round and freed in
+    /// the second.
+    #[test]
+    fn rattlers_go_round_after_round() {
+        let box_ = PeriodicBox::new(V3::repeat(20.0)).unwrap();
+        let bodies = [
+            at(0.0, 0.0, 0.0),
+            at(1.0, 0.0, 0.0),
+            at(-1.0, 0.0, 0.0),
+            at(0.0, 1.0, 0.0),
+            at(0.0, -1.0, 0.0),
+        ];
+        let network = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
+        assert_eq!(network.contact_numbers, vec![4, 1, 1, 1, 1]);
+        assert_eq!(network.rattlers, vec![0, 1, 2, 3, 4]);
+        assert_eq!(network.contact_number_histogram, vec![0, 4, 0, 0, 1]);
+        assert_eq!(network.overlaps, 0);
+    }
+
+    /// Overlapping pairs are contacts and are counted as overlaps.
+    #[test]
+    fn an_overlap_is_a_contact_and_is_counted() {
+        let box_ = PeriodicBox::new(V3::repeat(20.0)).unwrap();
+        let bodies = [at(0.0, 0.0, 0.0), at(1.0, 0.0, 0.0), at(1.9, 0.0, 0.0)];
+        let network = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
+        assert_eq!(network.contacts, vec![(0, 1), (1, 2)]);
+        assert_eq!(network.overlaps, 1);
+    }
+
+    /// Cubes face to face on a lattice touch their 26 neighbours (faces,
+    /// edges and corners all at distance zero); rotated by 45° about z
+    /// and spread they touch none.
+    #[test]
+    fn cubes_touch_by_faces_edges_and_corners() {
+        let cube = Shape::Cuboid(Cuboid::new(0.5, 0.5, 0.5).unwrap());
+        let box_ = PeriodicBox::new(V3::repeat(4.0)).unwrap();
+        let bodies: Vec<PackedBody> = (0..64)
+            .map(|s| {
+                at(
+                    (s % 4) as f64 - 1.5,
+                    ((s / 4) % 4) as f64 - 1.5,
+                    (s / 16) as f64 - 1.5,
+                )
+            })
+            .collect();
+        let network = contact_network(&box_, &[cube], &bodies, 1e-6);
+        assert!(
+            network.contact_numbers.iter().all(|&z| z == 26),
+            "{:?}",
+            &network.contact_numbers[..4]
+        );
+        assert_eq!(network.isostatic_contact_number, 12.0);
+        assert!((network.packing_fraction - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn degrees_of_freedom_by_shape() {
+        let e = |a, b, c| Shape::Ellipsoid(Ellipsoid::new(a, b, c).unwrap());
+        assert_eq!(degrees_of_freedom(&sphere(1.0)), 3);
+        assert_eq!(degrees_of_freedom(&e(1.0, 1.0, 1.0)), 3);
+        assert_eq!(degrees_of_freedom(&e(2.0, 1.0, 1.0)), 5);
+        assert_eq!(degrees_of_freedom(&e(1.25, 1.0, 0.8)), 6);
+        let sup = |x| Shape::Superellipsoid(Superellipsoid::new(1.0, 1.0, 2.0, x).unwrap());
+        assert_eq!(degrees_of_freedom(&sup((2.0, 2.0, 4.0))), 5);
+        assert_eq!(degrees_of_freedom(&sup((4.0, 4.0, 2.0))), 6);
+        assert_eq!(
+            degrees_of_freedom(&Shape::Cuboid(Cuboid::new(1.0, 1.0, 2.0).unwrap())),
+            6
+        );
+    }
+}
