@@ -5,4 +5,5 @@
 pub mod order;
 pub mod packing;
 pub mod series;
+pub mod structure;
 pub mod virial;

@@ -20,6 +20,28 @@ pub fn nematic_order(axes: impl IntoIterator<Item = Vector3<f64>>) -> Option<f64
     Some(SymmetricEigen::new(q).eigenvalues.max())
 }
 
+/// S₂ of unit vectors uᵢ with its director, the eigenvector of Q of the
+/// largest eigenvalue. `None` for no vectors.
+pub fn nematic_director(
+    axes: impl IntoIterator<Item = Vector3<f64>>,
+) -> Option<(f64, Vector3<f64>)> {
+    let mut q = Matrix3::zeros();
+    let mut n = 0usize;
+    for u in axes {
+        q += u * u.transpose() * 1.5 - Matrix3::identity() * 0.5;
+        n += 1;
+    }
+    if n == 0 {
+        return None;
+    }
+    let eigen = SymmetricEigen::new(q / n as f64);
+    let k = eigen.eigenvalues.imax();
+    Some((
+        eigen.eigenvalues[k],
+        eigen.eigenvectors.column(k).into_owned(),
+    ))
+}
+
 /// The body axis whose nematic order is meant for a shape: the one whose
 /// semi-axis (half-length) differs most from the mean of the other two (the
 /// symmetry axis of a spheroid, prolate or oblate). `None` for shapes
