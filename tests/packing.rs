@@ -72,6 +72,38 @@ fn a_jammed_sphere_packing_is_nearly_isostatic() {
         .sum();
     assert_eq!(total, 2.0 * contacts);
 
+    // S(k) from g(r): its first peak where dense spheres have it, near
+    // 2π/σ (times about 1.1 to 1.2).
+    let k = report["structure_factor"]["k"].as_array().unwrap();
+    let s_k = report["structure_factor"]["s"].as_array().unwrap();
+    let peak = (0..k.len())
+        .max_by(|&a, &b| {
+            s_k[a]
+                .as_f64()
+                .unwrap()
+                .total_cmp(&s_k[b].as_f64().unwrap())
+        })
+        .unwrap();
+    let k_peak = k[peak].as_f64().unwrap();
+    assert!(k_peak > 6.5 && k_peak < 8.0, "S(k) peaks at k = {k_peak}");
+    // The plots.
+    let plots = dir.join("plots");
+    let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .args(["analyze", "--packing", "--plot"])
+        .arg(&plots)
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for name in ["rdf.svg", "structure-factor.svg", "contact-numbers.svg"] {
+        let svg = std::fs::read_to_string(plots.join(name)).unwrap();
+        assert!(svg.contains("<svg") && svg.len() > 5000, "{name}");
+    }
+
     // A tolerance far below the compression's gaps: no backbone is held.
     let strict = analyze(&log, "1e-9");
     assert!(strict["network"]["contacts"].as_array().unwrap().len() < contacts as usize / 2);

@@ -49,6 +49,35 @@ pub fn radial_distribution(box_: &PeriodicBox, centres: &[V3], bins: usize, r_ma
     }
 }
 
+/// S(k) from g(r) (`density` the number density):
+/// S(k) = 1 + 4πρ ∫₀^{r_max} r² (g(r) − 1) sin(kr)/(kr) dr by the midpoint
+/// rule on g's bins, at `points` wave numbers up to `k_max`. Cut at r_max,
+/// it ripples with period 2π/r_max; the peaks stand.
+pub fn structure_factor(
+    rdf: &Rdf,
+    density: f64,
+    k_max: f64,
+    points: usize,
+) -> (Vec<f64>, Vec<f64>) {
+    let width = 2.0 * rdf.r.first().copied().unwrap_or(0.0);
+    let k: Vec<f64> = (1..=points)
+        .map(|i| k_max * i as f64 / points as f64)
+        .collect();
+    let s = k
+        .iter()
+        .map(|&k| {
+            let integral: f64 = rdf
+                .r
+                .iter()
+                .zip(&rdf.g)
+                .map(|(&r, &g)| r * r * (g - 1.0) * (k * r).sin() / (k * r) * width)
+                .sum();
+            1.0 + 4.0 * std::f64::consts::PI * density * integral
+        })
+        .collect();
+    (k, s)
+}
+
 /// Steinhardt's Q_l of one configuration.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Steinhardt {
@@ -296,6 +325,36 @@ mod tests {
         let first = (0.5f64.sqrt() / 0.05) as usize;
         assert!(rdf.g[..first].iter().all(|&g| g == 0.0));
         assert!(rdf.g[first] > 5.0, "{}", rdf.g[first]);
+    }
+
+    /// S(k) of a dense fluid peaks near 2π/σ and of an ideal gas stays
+    /// near 1.
+    #[test]
+    fn structure_factor_of_gas_and_of_dense_spheres() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        let box_ = PeriodicBox::new(V3::repeat(10.0)).unwrap();
+        let gas: Vec<V3> = (0..2000)
+            .map(|_| V3::new(rng.r#gen(), rng.r#gen(), rng.r#gen()) * 10.0 - V3::repeat(5.0))
+            .collect();
+        let rdf = radial_distribution(&box_, &gas, 100, 4.9);
+        let (_, s) = structure_factor(&rdf, 2.0, 20.0, 40);
+        assert!(s[10..].iter().all(|&x| (x - 1.0).abs() < 0.1), "{s:?}");
+        // Hard spheres at the fcc close packing: the first peak of S(k) near
+        // 2π/σ times √(3/2) (the (111) reflection at 2π√3/a, a = √2 σ).
+        let (box_, fcc) = lattice("fcc", 5);
+        let centres: Vec<V3> = fcc.iter().map(|c| c * 2f64.sqrt()).collect();
+        let box_ = PeriodicBox::new(box_.lengths() * 2f64.sqrt()).unwrap();
+        let rdf = radial_distribution(&box_, &centres, 400, 3.5);
+        let density = centres.len() as f64 / box_.volume();
+        let (k, s) = structure_factor(&rdf, density, 12.0, 240);
+        let peak = (0..k.len()).max_by(|&a, &b| s[a].total_cmp(&s[b])).unwrap();
+        let expected = 2.0 * std::f64::consts::PI * 3f64.sqrt() / 2f64.sqrt();
+        assert!(
+            (k[peak] - expected).abs() < 0.4,
+            "peak at {} not {expected}",
+            k[peak]
+        );
     }
 
     #[test]

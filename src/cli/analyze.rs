@@ -428,10 +428,13 @@ pub(super) fn analyze_packing(
     frame: Option<usize>,
     gap: f64,
     json: bool,
+    plot: Option<&std::path::Path>,
 ) -> ExitCode {
     use hardbody::analysis::order::{molecular_axis, nematic_director};
     use hardbody::analysis::packing::{PackedBody, contact_network};
-    use hardbody::analysis::structure::{neighbours, radial_distribution, steinhardt};
+    use hardbody::analysis::structure::{
+        neighbours, radial_distribution, steinhardt, structure_factor,
+    };
     use hardbody::space::PeriodicBox;
     use nalgebra::{Quaternion, UnitQuaternion, Vector3};
     if !(gap.is_finite() && gap >= 0.0) {
@@ -483,6 +486,19 @@ pub(super) fn analyze_packing(
         .fold(0.0, f64::max);
     let r_max = (0.49 * box_.lengths().min()).min(5.0 * diameter);
     let rdf = radial_distribution(&box_, &centres, 100, r_max);
+    // S(k) to 20 inverse diameters (the peaks of dense packings lie near
+    // 2π/σ).
+    let (k, s_k) = structure_factor(
+        &rdf,
+        centres.len() as f64 / box_.volume(),
+        20.0 * std::f64::consts::PI / diameter,
+        200,
+    );
+    if let Some(dir) = plot
+        && let Err(e) = packing_plots(dir, &rdf, (&k, &s_k), &network.contact_number_histogram)
+    {
+        return bad_input(format!("--plot {}: {e}", dir.display()));
+    }
     let cutoff = 1.4 * diameter;
     let bond_order = steinhardt(&neighbours(&box_, &centres, cutoff), &[4, 6]);
     let axes: Vec<Option<Vector3<f64>>> = shapes.iter().map(molecular_axis).collect();
@@ -496,6 +512,7 @@ pub(super) fn analyze_packing(
             "frame": index,
             "network": network,
             "rdf": rdf,
+            "structure_factor": {"k": k, "s": s_k},
             "steinhardt_cutoff": cutoff,
             "steinhardt": bond_order,
             "nematic": nematic.map(|(s2, director)| serde_json::json!({
@@ -560,6 +577,15 @@ pub(super) fn analyze_packing(
     say(&format!(
         "g(r): highest at r = {peak:.3} (g = {height:.2}), 100 bins to r = {r_max:.3} (--json for the curve)"
     ));
+    let (k_peak, s_peak) = k
+        .iter()
+        .zip(&s_k)
+        .fold((f64::NAN, f64::NEG_INFINITY), |best, (&k, &s)| {
+            if s > best.1 { (k, s) } else { best }
+        });
+    say(&format!(
+        "S(k): highest at k = {k_peak:.3} (S = {s_peak:.2}), from g(r)"
+    ));
     for q in &bond_order {
         say(&format!(
             "Q{}: mean {:.4}, locally averaged {:.4}, global {:.4} (neighbours within {cutoff:.3})",
@@ -574,4 +600,56 @@ pub(super) fn analyze_packing(
         None => say("nematic order: none (no body has a molecular axis)"),
     }
     ExitCode::SUCCESS
+}
+
+/// g(r), S(k) and the contact-number histogram of `analyze --packing
+/// --plot DIR`.
+fn packing_plots(
+    dir: &std::path::Path,
+    rdf: &hardbody::analysis::structure::Rdf,
+    (k, s): (&[f64], &[f64]),
+    histogram: &[usize],
+) -> Result<(), String> {
+    use hardbody::bench::plot::{Figure, Series, bar_plot, line_plot};
+    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    let figure = |title, x_label, y_label| Figure {
+        title,
+        x_label,
+        y_label,
+        log_x: false,
+        log_y: false,
+    };
+    let series = |name: &str, x: &[f64], y: &[f64]| Series {
+        name: name.into(),
+        points: x.iter().copied().zip(y.iter().copied()).collect(),
+    };
+    let rdf_path = dir.join("rdf.svg");
+    line_plot(
+        &rdf_path,
+        &figure("radial distribution of the centres", "r", "g(r)"),
+        &[series("g(r)", &rdf.r, &rdf.g)],
+    )?;
+    let sk_path = dir.join("structure-factor.svg");
+    line_plot(
+        &sk_path,
+        &figure("structure factor from g(r)", "k", "S(k)"),
+        &[series("S(k)", k, s)],
+    )?;
+    let bars: Vec<(String, f64)> = histogram
+        .iter()
+        .enumerate()
+        .map(|(z, &n)| (z.to_string(), n as f64))
+        .collect();
+    let histogram_path = dir.join("contact-numbers.svg");
+    bar_plot(
+        &histogram_path,
+        "bodies by contact number",
+        "contacts",
+        &bars,
+        0.0,
+    )?;
+    for p in [rdf_path, sk_path, histogram_path] {
+        esay(&format!("plot written: {}", p.display()));
+    }
+    Ok(())
 }

@@ -78,7 +78,8 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Write one plot (SVG) per stage and observable into this
-        /// directory: the series, its mean and where it equilibrated.
+        /// directory: the series, its mean and where it equilibrated (with
+        /// --packing: g(r), S(k) and the contact-number histogram).
         #[arg(long, value_name = "DIR")]
         plot: Option<PathBuf>,
         /// Analyse a frame's contact network instead: contacts, rattlers,
@@ -179,10 +180,7 @@ pub fn main() -> ExitCode {
             frame,
             gap,
         } => match (log.as_slice(), packing) {
-            ([one], true) if plot.is_none() => analyze_packing(one, frame, gap, json),
-            (_, true) if plot.is_some() => {
-                bad_input("--packing: no plots yet (--plot is for the averages)")
-            }
+            ([one], true) => analyze_packing(one, frame, gap, json, plot.as_deref()),
             (_, true) => bad_input("--packing: one log at a time"),
             ([one], false) => analyze(one, json, plot.as_deref()),
             (many, false) => analyze_replicas(many, json, plot.as_deref()),
