@@ -577,12 +577,12 @@ pub(super) fn analyze_packing(
     say(&format!(
         "g(r): highest at r = {peak:.3} (g = {height:.2}), 100 bins to r = {r_max:.3} (--json for the curve)"
     ));
-    let (k_peak, s_peak) = k
-        .iter()
-        .zip(&s_k)
-        .fold((f64::NAN, f64::NEG_INFINITY), |best, (&k, &s)| {
-            if s > best.1 { (k, s) } else { best }
-        });
+    let (k_peak, s_peak) =
+        k.iter()
+            .zip(&s_k)
+            .fold((f64::NAN, f64::NEG_INFINITY), |best, (&k, &s)| {
+                if s > best.1 { (k, s) } else { best }
+            });
     say(&format!(
         "S(k): highest at k = {k_peak:.3} (S = {s_peak:.2}), from g(r)"
     ));
