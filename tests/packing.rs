@@ -4,6 +4,7 @@
 //! a few per cent rattlers and no overlap, and a gap tolerance below the
 //! packing's own gaps finds too few contacts to hold anything.
 
+use std::path::Path;
 use std::process::Command;
 
 const JAMMED: &str = r#"Scene(
@@ -15,18 +16,43 @@ const JAMMED: &str = r#"Scene(
     log: Log(path: "jammed.mcap", stats_every: 100, frames_every: 5000),
 )"#;
 
-fn analyze(log: &std::path::Path, gap: &str) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["analyze", "--packing", "--json", "--gap", gap])
-        .arg(log)
-        .output()
-        .unwrap();
+/// Runs `command` to success; its standard output.
+fn succeed(command: &mut Command) -> Vec<u8> {
+    let out = command.output().unwrap();
     assert!(
         out.status.success(),
-        "{}",
+        "{command:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    serde_json::from_slice(&out.stdout).unwrap()
+    out.stdout
+}
+
+/// `hardbody run SCENE --out LOG`.
+fn run(scene: &Path, log: &Path) {
+    succeed(
+        Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .arg("run")
+            .arg(scene)
+            .arg("--out")
+            .arg(log),
+    );
+}
+
+/// The JSON a Python `script` prints, given `input` as its argument.
+fn python(script: &str, input: &Path) -> serde_json::Value {
+    serde_json::from_slice(&succeed(
+        Command::new("python3").args(["-c", script]).arg(input),
+    ))
+    .unwrap()
+}
+
+fn analyze(log: &Path, gap: &str) -> serde_json::Value {
+    serde_json::from_slice(&succeed(
+        Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .args(["analyze", "--packing", "--json", "--gap", gap])
+            .arg(log),
+    ))
+    .unwrap()
 }
 
 #[test]
@@ -37,18 +63,7 @@ fn a_jammed_sphere_packing_is_nearly_isostatic() {
     let scene = dir.join("jammed.ron");
     std::fs::write(&scene, JAMMED).unwrap();
     let log = dir.join("jammed.mcap");
-    let run = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    run(&scene, &log);
 
     let report = analyze(&log, "1e-2");
     let network = &report["network"];
@@ -88,16 +103,11 @@ fn a_jammed_sphere_packing_is_nearly_isostatic() {
     assert!(k_peak > 6.5 && k_peak < 8.0, "S(k) peaks at k = {k_peak}");
     // The plots.
     let plots = dir.join("plots");
-    let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["analyze", "--packing", "--plot"])
-        .arg(&plots)
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .args(["analyze", "--packing", "--plot"])
+            .arg(&plots)
+            .arg(&log),
     );
     for name in ["rdf.svg", "structure-factor.svg", "contact-numbers.svg"] {
         let svg = std::fs::read_to_string(plots.join(name)).unwrap();
@@ -107,79 +117,6 @@ fn a_jammed_sphere_packing_is_nearly_isostatic() {
     // A tolerance far below the compression's gaps: no backbone is held.
     let strict = analyze(&log, "1e-9");
     assert!(strict["network"]["contacts"].as_array().unwrap().len() < contacts as usize / 2);
-    // The nematic order of prolate ellipsoids (molecular axis: body x).
-    let rods = dir.join("rods.ron");
-    std::fs::write(
-        &rods,
-        r#"Scene(seed: 9, box: (14.0, 14.0, 14.0),
-            species: [Species(name: "rod", shape: Ellipsoid(a: 1.5, b: 0.5, c: 0.5), count: 200)],
-            start: Lattice,
-            stages: [Compress(packing_fraction: 0.3), MonteCarlo(ensemble: Nvt, sweeps: 200)],
-            log: Log(path: "rods.mcap", stats_every: 100, frames_every: 100))"#,
-    )
-    .unwrap();
-    let rods_log = dir.join("rods.mcap");
-    let run = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .arg("run")
-        .arg(&rods)
-        .arg("--out")
-        .arg(&rods_log)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let ours = analyze(&rods_log, "1e-2");
-    let (_, state) = hardbody::log::read::read_log(&rods_log, false)
-        .unwrap()
-        .last_state
-        .unwrap();
-    let frame = dir.join("rods.json");
-    std::fs::write(
-        &frame,
-        serde_json::json!({"q": state.orientations}).to_string(),
-    )
-    .unwrap();
-    let script = r#"
-import json, sys, numpy as np, freud
-q = np.array(json.load(open(sys.argv[1]))["q"])
-w, x, y, z = q.T
-# The body x axis turned by each quaternion [w, x, y, z].
-axes = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
-nematic = freud.order.Nematic().compute(axes)
-print(json.dumps({"order": float(nematic.order), "director": [float(v) for v in nematic.director]}))
-"#;
-    let out = Command::new("python3")
-        .args(["-c", script])
-        .arg(&frame)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let theirs: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let (a, b) = (
-        ours["nematic"]["order"].as_f64().unwrap(),
-        theirs["order"].as_f64().unwrap(),
-    );
-    assert!((a - b).abs() < 1e-5, "S2 {a} vs freud {b}");
-    let director = |v: &serde_json::Value| -> Vec<f64> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
-    let (d, e) = (
-        director(&ours["nematic"]["director"]),
-        director(&theirs["director"]),
-    );
-    let cosine: f64 = d.iter().zip(&e).map(|(x, y)| x * y).sum();
-    assert!(cosine.abs() > 0.999, "directors {d:?} and {e:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -206,18 +143,7 @@ fn structure_agrees_with_freud() {
     let scene = dir.join("jammed.ron");
     std::fs::write(&scene, JAMMED.replace("0.74, until_jammed: true", "0.55")).unwrap();
     let log = dir.join("jammed.mcap");
-    let run = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    run(&scene, &log);
     let ours = analyze(&log, "1e-2");
 
     let contents = hardbody::log::read::read_log(&log, false).unwrap();
@@ -249,17 +175,7 @@ for l in (4, 6):
         out[f"q{l}{'avg' if average else ''}"] = float(np.nanmean(st.particle_order))
 print(json.dumps(out))
 "#;
-    let out = Command::new("python3")
-        .args(["-c", script])
-        .arg(&frame)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let theirs: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let theirs = python(script, &frame);
 
     // freud divides by the density N/V where hardbody takes the N − 1
     // partners each centre has, (N − 1)/V; and it measures distances in
@@ -315,18 +231,7 @@ print(json.dumps(out))
     )
     .unwrap();
     let rods_log = dir.join("rods.mcap");
-    let run = Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .arg("run")
-        .arg(&rods)
-        .arg("--out")
-        .arg(&rods_log)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    run(&rods, &rods_log);
     let ours = analyze(&rods_log, "1e-2");
     let (_, state) = hardbody::log::read::read_log(&rods_log, false)
         .unwrap()
@@ -347,17 +252,7 @@ axes = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * 
 nematic = freud.order.Nematic().compute(axes)
 print(json.dumps({"order": float(nematic.order), "director": [float(v) for v in nematic.director]}))
 "#;
-    let out = Command::new("python3")
-        .args(["-c", script])
-        .arg(&frame)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let theirs: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let theirs = python(script, &frame);
     let (a, b) = (
         ours["nematic"]["order"].as_f64().unwrap(),
         theirs["order"].as_f64().unwrap(),
