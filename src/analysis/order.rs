@@ -7,17 +7,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 /// Q = ⟨(3 uᵢuᵢᵀ − I)/2⟩. 1 when all are parallel, ≈ 0 (O(1/√N)) when
 /// isotropic. `None` for no vectors.
 pub fn nematic_order(axes: impl IntoIterator<Item = Vector3<f64>>) -> Option<f64> {
-    let mut q = Matrix3::zeros();
-    let mut n = 0usize;
-    for u in axes {
-        q += u * u.transpose() * 1.5 - Matrix3::identity() * 0.5;
-        n += 1;
-    }
-    if n == 0 {
-        return None;
-    }
-    let q = q / n as f64;
-    Some(SymmetricEigen::new(q).eigenvalues.max())
+    nematic_director(axes).map(|(order, _)| order)
 }
 
 /// S₂ of unit vectors uᵢ with its director, the eigenvector of Q of the

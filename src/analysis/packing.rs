@@ -127,21 +127,21 @@ pub fn contact_network(
     let mut left = contact_numbers.clone();
     let mut rattler = vec![false; n];
     loop {
-        let newly: Vec<usize> = (0..n)
-            .filter(|&i| !rattler[i] && left[i] < freedom[i] + 1)
+        let newly: Vec<bool> = (0..n)
+            .map(|i| !rattler[i] && left[i] < freedom[i] + 1)
             .collect();
-        if newly.is_empty() {
+        if !newly.contains(&true) {
             break;
         }
-        for &i in &newly {
-            rattler[i] = true;
-        }
         for &(i, j) in &contacts {
-            if newly.contains(&i) && !newly.contains(&j) {
+            if newly[i] && !newly[j] && !rattler[j] {
                 left[j] -= 1;
-            } else if newly.contains(&j) && !newly.contains(&i) {
+            } else if newly[j] && !newly[i] && !rattler[i] {
                 left[i] -= 1;
             }
+        }
+        for (r, new) in rattler.iter_mut().zip(&newly) {
+            *r |= *new;
         }
     }
     let backbone: Vec<usize> = (0..n).filter(|&i| !rattler[i]).collect();
@@ -192,6 +192,20 @@ mod tests {
         }
     }
 
+    /// 64 bodies on the simple-cubic lattice of spacing 1 filling a box
+    /// of edge 4.
+    fn simple_cubic_4() -> Vec<PackedBody> {
+        (0..64)
+            .map(|s| {
+                at(
+                    (s % 4) as f64 - 1.5,
+                    ((s / 4) % 4) as f64 - 1.5,
+                    (s / 16) as f64 - 1.5,
+                )
+            })
+            .collect()
+    }
+
     /// The close-packed fcc crystal: every sphere touches twelve, none is
     /// a rattler, φ = π/√18.
     #[test]
@@ -230,15 +244,7 @@ mod tests {
     #[test]
     fn simple_cubic_spheres_touch_six_and_a_gap_is_no_contact() {
         let box_ = PeriodicBox::new(V3::repeat(4.0)).unwrap();
-        let bodies: Vec<PackedBody> = (0..64)
-            .map(|s| {
-                at(
-                    (s % 4) as f64 - 1.5,
-                    ((s / 4) % 4) as f64 - 1.5,
-                    (s / 16) as f64 - 1.5,
-                )
-            })
-            .collect();
+        let bodies = simple_cubic_4();
         let touching = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
         assert!(touching.contact_numbers.iter().all(|&z| z == 6));
         assert_eq!(touching.contacts.len(), 64 * 3);
@@ -285,15 +291,7 @@ mod tests {
     fn cubes_touch_by_faces_edges_and_corners() {
         let cube = Shape::Cuboid(Cuboid::new(0.5, 0.5, 0.5).unwrap());
         let box_ = PeriodicBox::new(V3::repeat(4.0)).unwrap();
-        let bodies: Vec<PackedBody> = (0..64)
-            .map(|s| {
-                at(
-                    (s % 4) as f64 - 1.5,
-                    ((s / 4) % 4) as f64 - 1.5,
-                    (s / 16) as f64 - 1.5,
-                )
-            })
-            .collect();
+        let bodies = simple_cubic_4();
         let network = contact_network(&box_, &[cube], &bodies, 1e-6);
         assert!(
             network.contact_numbers.iter().all(|&z| z == 26),
