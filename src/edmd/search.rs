@@ -176,6 +176,10 @@ impl Predictor {
             return Ok(Found::Apart);
         };
         let mut search = ContactSearch::new(self, a, b, since, d, dv);
+        if search.rate_bound == 0.0 {
+            // Nothing moves.
+            return Ok(Found::Apart);
+        }
         match search.start(resume, t1, t2)? {
             Start::Ended(found) => Ok(found),
             Start::At(t, d_t, normal_t) => {
@@ -257,12 +261,11 @@ enum Start {
 
 impl<'a> ContactSearch<'a> {
     /// The bounding spheres' interval [t1, t2] within the horizon, and
-    /// where they part (`t_exit`); None where they never meet by then, or
-    /// nothing moves.
+    /// where they part (`t_exit`); None where they never meet by then.
     #[inline]
     fn interval(
-        (shape_a, q_a, w_a): Rotor,
-        (shape_b, q_b, w_b): Rotor,
+        (shape_a, ..): Rotor,
+        (shape_b, ..): Rotor,
         d: &V3,
         dv: &V3,
         horizon: f64,
@@ -290,16 +293,7 @@ impl<'a> ContactSearch<'a> {
         // canonical, see `Dynamics::predict_pair`).
         let t_exit = t2;
         let t2 = t2.min(horizon);
-        if t1 > t2 {
-            return None;
-        }
-        // Eq. (32), with the moment arm in place of the bounding radius: the
-        // distance changes at the normal velocity of the contact points, and
-        // a rotation moves a surface point along its normal by ω·(x × n).
-        let rate_bound = dv.norm()
-            + w_a.angular_velocity(q_a).norm() * shape_a.moment_arm()
-            + w_b.angular_velocity(q_b).norm() * shape_b.moment_arm();
-        (rate_bound != 0.0).then_some((t1, t2, t_exit))
+        (t1 <= t2).then_some((t1, t2, t_exit))
     }
 
     /// The search of a pair (see [`Predictor::search_into`]) whose
@@ -314,6 +308,9 @@ impl<'a> ContactSearch<'a> {
         dv: &'a V3,
     ) -> Self {
         let (turn_a, turn_b) = (TurnBound::new(w_a, q_a), TurnBound::new(w_b, q_b));
+        // Eq. (32), with the moment arm in place of the bounding radius: the
+        // distance changes at the normal velocity of the contact points, and
+        // a rotation moves a surface point along its normal by ω·(x × n).
         let rate_bound =
             dv.norm() + turn_a.speed * shape_a.moment_arm() + turn_b.speed * shape_b.moment_arm();
         let options = predictor.options();
