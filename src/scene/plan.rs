@@ -147,9 +147,13 @@ impl Plan {
                 .map(|(i, _)| {
                     let shell = match scene.packing_fraction_before(i) {
                         Some(phi) => Some(scene.neighbour_shell(phi)),
-                        // Only the automatic choice for spheres depends on it.
-                        None => Some(scene.neighbour_shell(1.0))
-                            .filter(|_| scene.neighbour_shell(0.0) == scene.neighbour_shell(1.0)),
+                        // Known all the same where the choice does not depend
+                        // on it (all but the automatic choice for spheres).
+                        None => {
+                            let (dilute, dense) =
+                                (scene.neighbour_shell(0.0), scene.neighbour_shell(1.0));
+                            (dilute == dense).then_some(dense)
+                        }
                     };
                     (i, shell)
                 })
