@@ -10,7 +10,8 @@
 mod common;
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
 
 use common::scene_files;
@@ -92,31 +93,36 @@ fn state_digest(path: &Path) -> (usize, u64, usize, u64) {
     (states, state_hash, stats, stats_hash)
 }
 
-fn run_shortened(file: &Path, dir: &Path) -> (usize, u64, usize, u64) {
-    let text = std::fs::read_to_string(file).unwrap();
-    let scene = shortened(Scene::parse(&text).unwrap());
-    let name = file.file_stem().unwrap().to_string_lossy();
-    let out = dir.join(format!("{name}.mcap"));
-    let stop = AtomicBool::new(false);
-    run_scene(&scene, &text, &out, &mut Silent, &stop).unwrap_or_else(|e| panic!("{name}: {e}"));
-    state_digest(&out)
+/// Every shipped scene, shortened and run once for the tests of this
+/// file: (name, scene as run, text, log).
+fn shortened_runs() -> &'static [(String, Scene, PathBuf)] {
+    static RUNS: OnceLock<Vec<(String, Scene, PathBuf)>> = OnceLock::new();
+    RUNS.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        scene_files("data/scenes")
+            .iter()
+            .map(|file| {
+                let name = file.file_stem().unwrap().to_string_lossy().to_string();
+                let text = std::fs::read_to_string(file).unwrap();
+                let scene = shortened(Scene::parse(&text).unwrap());
+                let out = dir.join(format!("{name}.mcap"));
+                run_scene(&scene, &text, &out, &mut Silent, &AtomicBool::new(false))
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                (name, scene, out)
+            })
+            .collect()
+    })
 }
 
 #[test]
 fn every_shipped_scene_writes_the_reference_states() {
-    let dir = std::env::temp_dir().join(format!("hardbody-golden-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
     let reference_path = Path::new(env!("CARGO_MANIFEST_DIR")).join(REFERENCE);
-
-    let measured: BTreeMap<String, (usize, u64, usize, u64)> = scene_files("data/scenes")
+    let measured: BTreeMap<String, (usize, u64, usize, u64)> = shortened_runs()
         .iter()
-        .map(|file| {
-            let name = file.file_stem().unwrap().to_string_lossy().to_string();
-            (name, run_shortened(file, &dir))
-        })
+        .map(|(name, _, log)| (name.clone(), state_digest(log)))
         .collect();
-    let _ = std::fs::remove_dir_all(&dir);
 
     let lines: String = measured
         .iter()
@@ -155,18 +161,10 @@ fn every_shipped_scene_writes_the_reference_states() {
 fn the_plan_says_what_the_run_does() {
     use hardbody::log::read::read_log;
     use hardbody::scene::plan::Plan;
-    let dir = std::env::temp_dir().join(format!("hardbody-plan-truth-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
     let (mut aligned, mut cells, mut lists) = (0, 0, 0);
-    for file in scene_files("data/scenes") {
-        let name = file.file_stem().unwrap().to_string_lossy().to_string();
-        let text = std::fs::read_to_string(&file).unwrap();
-        let scene = shortened(Scene::parse(&text).unwrap());
-        let plan = Plan::of(&scene);
-        let out = dir.join(format!("{name}.mcap"));
-        run_scene(&scene, &text, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
-        let log = read_log(&out, true).unwrap();
+    for (name, scene, out) in shortened_runs() {
+        let plan = Plan::of(scene);
+        let log = read_log(out, true).unwrap();
         let volumes: Vec<f64> = plan
             .species
             .iter()
@@ -215,7 +213,6 @@ fn the_plan_says_what_the_run_does() {
         let measured = log.stats.iter().any(|(_, s)| s.nematic_order.is_some());
         assert_eq!(measured, plan.nematic_order, "{name}: nematic order");
     }
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(
         aligned > 0 && cells > 0 && lists > 0,
         "{aligned} {cells} {lists}"
