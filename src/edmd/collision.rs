@@ -55,13 +55,24 @@ impl Kinetics {
 /// collision at the contact point with arms `arm_a` = x_C − r_A and
 /// `arm_b` = x_C − r_B; applies it to both bodies. Bodies whose contact
 /// points do not approach (u ≤ 0, a grazing touch) exchange nothing.
-pub fn collide(a: &mut Kinetics, b: &mut Kinetics, arm_a: &V3, arm_b: &V3, normal: &V3) -> f64 {
+/// `growth` is what the bodies' growth adds to the approach speed u of the
+/// contact points (0 for rigid bodies): the rule reverses u with it, so
+/// that growing bodies separate after touching (Lubachevsky–Stillinger).
+pub fn collide(
+    a: &mut Kinetics,
+    b: &mut Kinetics,
+    arm_a: &V3,
+    arm_b: &V3,
+    normal: &V3,
+    growth: f64,
+) -> f64 {
     let ta = arm_a.cross(normal);
     let tb = arm_b.cross(normal);
     let u = (a.velocity + a.angular_velocity.cross(arm_a)
         - b.velocity
         - b.angular_velocity.cross(arm_b))
-    .dot(normal);
+    .dot(normal)
+        + growth;
     if u <= 0.0 {
         return 0.0;
     }
@@ -93,8 +104,16 @@ pub fn collide(a: &mut Kinetics, b: &mut Kinetics, arm_a: &V3, arm_b: &V3, norma
 /// and moment), so a solution with at most 3 points carrying impulse
 /// exists (Carathéodory); the sets of up to 3 points are tried in turn.
 /// Returns the total impulse ΣJ that B receives along the normal; zero if
-/// no point approaches.
-pub fn collide_patch(a: &mut Kinetics, b: &mut Kinetics, arms: &[(V3, V3)], normal: &V3) -> f64 {
+/// no point approaches. `growth` is added to every point's approach speed
+/// (as in [`collide`]: the same at every point, since the growth moves the
+/// two contact points apart along n at a rate set by r_B − r_A alone).
+pub fn collide_patch(
+    a: &mut Kinetics,
+    b: &mut Kinetics,
+    arms: &[(V3, V3)],
+    normal: &V3,
+    growth: f64,
+) -> f64 {
     let m = arms.len().min(8);
     let mut ta = [V3::zeros(); 8];
     let mut tb = [V3::zeros(); 8];
@@ -110,7 +129,8 @@ pub fn collide_patch(a: &mut Kinetics, b: &mut Kinetics, arms: &[(V3, V3)], norm
         u[k] = (a.velocity + a.angular_velocity.cross(&arm_a)
             - b.velocity
             - b.angular_velocity.cross(&arm_b))
-        .dot(normal);
+        .dot(normal)
+            + growth;
     }
     if u[..m].iter().all(|&x| x <= 0.0) {
         return 0.0;
@@ -213,7 +233,8 @@ pub fn collide_patch(a: &mut Kinetics, b: &mut Kinetics, arms: &[(V3, V3)], norm
 }
 
 /// The impulse between two spheres (arms along the normal, no torque):
-/// J = 2 u / (1/m_A + 1/m_B), applied to the velocities.
+/// J = 2 u / (1/m_A + 1/m_B), applied to the velocities; `growth` as in
+/// [`collide`] (for spheres: the rate at which their radii sum grows).
 #[inline]
 pub fn collide_spheres(
     v_a: &mut V3,
@@ -221,8 +242,9 @@ pub fn collide_spheres(
     inverse_mass_a: f64,
     inverse_mass_b: f64,
     normal: &V3,
+    growth: f64,
 ) -> f64 {
-    let u = (*v_a - *v_b).dot(normal);
+    let u = (*v_a - *v_b).dot(normal) + growth;
     if u <= 0.0 {
         return 0.0;
     }
@@ -308,7 +330,7 @@ mod tests {
                 a.energy() + b.energy(),
                 approach(&a, &b),
             );
-            let j = collide_patch(&mut a, &mut b, arms, &normal);
+            let j = collide_patch(&mut a, &mut b, arms, &normal, 0.0);
             let u1 = approach(&a, &b);
             if u0.iter().all(|&x| x <= 0.0) {
                 assert_eq!(j, 0.0);
@@ -349,7 +371,7 @@ mod tests {
         let (mut a, mut b) = (body(V3::new(0.3, 0.1, 1.0)), body(V3::new(0.0, -0.2, -0.5)));
         let corners = [(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)]
             .map(|(x, y)| (V3::new(x, y, 0.5), V3::new(x, y, -0.5)));
-        let j = collide_patch(&mut a, &mut b, &corners, &V3::z());
+        let j = collide_patch(&mut a, &mut b, &corners, &V3::z(), 0.0);
         assert!((j - 1.5).abs() < 1e-12, "{j}");
         assert!(
             (a.velocity - V3::new(0.3, 0.1, -0.5)).norm() < 1e-12,
@@ -389,7 +411,7 @@ mod tests {
                 a.energy() + b.energy(),
                 approach(&a, &b),
             );
-            let j = collide(&mut a, &mut b, &arm_a, &arm_b, &normal);
+            let j = collide(&mut a, &mut b, &arm_a, &arm_b, &normal, 0.0);
             let (p1, l1, e1, u1) = (
                 momentum(&a, &b),
                 angular(&a, &b),
@@ -410,12 +432,61 @@ mod tests {
         assert!(collided > 100, "too few approaching pairs: {collided}");
     }
 
+    /// Growing bodies: the approach with the growth's share is reversed
+    /// (they separate after touching, faster than they grow apart), even
+    /// when the rigid parts alone recede; momentum and angular momentum
+    /// are conserved.
+    #[test]
+    fn growth_is_reversed_with_the_approach() {
+        let mut u = crate::test_support::uniform(19);
+        for k in 0..300 {
+            let (ra, mut a) = random_body(&mut u);
+            let (rb, mut b) = random_body(&mut u);
+            let xc = (ra + rb) * 0.5;
+            let normal = (rb - ra).normalize();
+            let (arm_a, arm_b) = (xc - ra, xc - rb);
+            let approach = |a: &Kinetics, b: &Kinetics| {
+                (a.velocity + a.angular_velocity.cross(&arm_a)
+                    - b.velocity
+                    - b.angular_velocity.cross(&arm_b))
+                .dot(&normal)
+            };
+            let growth = 0.5 + u();
+            let (p0, l0, u0) = (
+                momentum(&a, &b),
+                angular_momentum(&ra, &a, &rb, &b),
+                approach(&a, &b) + growth,
+            );
+            let patch = k % 2 == 0;
+            let j = if patch {
+                collide_patch(&mut a, &mut b, &[(arm_a, arm_b)], &normal, growth)
+            } else {
+                collide(&mut a, &mut b, &arm_a, &arm_b, &normal, growth)
+            };
+            let u1 = approach(&a, &b) + growth;
+            if u0 > 0.0 {
+                assert!(j > 0.0);
+                assert!((u1 + u0).abs() < 1e-11 * (1.0 + u0.abs()), "{u0} {u1}");
+            }
+            assert!((momentum(&a, &b) - p0).norm() < 1e-12 * (1.0 + p0.norm()));
+            let l1 = angular_momentum(&ra, &a, &rb, &b);
+            assert!((l1 - l0).norm() < 1e-11 * (1.0 + l0.norm()));
+        }
+        let mut va = V3::new(0.1, 0.0, 0.0);
+        let mut vb = V3::new(0.0, 0.0, 0.0);
+        // Closing at 0.1, the radii's sum growing at 1: the approach 1.1
+        // reversed, the centres part at 1.1 + 1.
+        let j = collide_spheres(&mut va, &mut vb, 1.0, 1.0, &V3::x(), 1.0);
+        assert!((j - 1.1).abs() < 1e-15);
+        assert!(((vb - va).x - 2.1).abs() < 1e-15, "{va} {vb}");
+    }
+
     /// Equal spheres head-on exchange their velocities.
     #[test]
     fn equal_spheres_exchange_normal_velocities() {
         let mut va = V3::new(1.0, 0.5, 0.0);
         let mut vb = V3::new(-2.0, 0.0, 0.25);
-        let j = collide_spheres(&mut va, &mut vb, 1.0, 1.0, &V3::x());
+        let j = collide_spheres(&mut va, &mut vb, 1.0, 1.0, &V3::x(), 0.0);
         assert_eq!(j, 3.0);
         assert_eq!(va, V3::new(-2.0, 0.5, 0.0));
         assert_eq!(vb, V3::new(1.0, 0.0, 0.25));

@@ -9,7 +9,9 @@ mod bounds;
 pub mod calendar;
 pub mod collision;
 pub mod dynamics;
+pub mod jam;
 pub mod motion;
+mod outcome;
 pub mod predict;
 pub mod search;
 

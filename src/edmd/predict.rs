@@ -332,6 +332,7 @@ mod tests {
                     (a, &qa, &wa),
                     (b, &qb, &wb),
                     since,
+                    None,
                     &d,
                     &dv,
                     None,
@@ -424,5 +425,95 @@ mod tests {
             .find(|&t| dist(t) < 0.0)
             .unwrap();
         assert!(first_negative >= tc && first_negative - tc < 3e-5);
+    }
+
+    /// Growing bodies of every kind, turning and moving: the contact found
+    /// is where the grown bodies' distance, s(τ) times the unscaled
+    /// shapes' distance at the separation over s(τ), first reaches zero,
+    /// checked by stepping finely; pairs that stay apart stay apart.
+    #[test]
+    fn growing_bodies_touch_where_fine_stepping_says() {
+        use crate::edmd::search::Growth;
+        let shapes = [
+            ellipsoid(1.0, 0.5, 0.4),
+            Shape::Cuboid(crate::geometry::Cuboid::new(0.6, 0.4, 0.3).unwrap()),
+            Shape::Superellipsoid(
+                crate::geometry::Superellipsoid::new(0.5, 0.5, 0.7, (4.0, 4.0, 4.0)).unwrap(),
+            ),
+            ellipsoid(0.5, 0.5, 0.5),
+        ];
+        let mut u = crate::test_support::uniform(23);
+        let mut vector = || V3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+        let p = Predictor::new(PredictorOptions::default());
+        let (mut met, mut missed) = (0, 0);
+        for case in 0..48 {
+            let (a, b) = (&shapes[case % 4], &shapes[(case / 4) % 4]);
+            let qa = UnitQuaternion::from_scaled_axis(vector() * 6.0);
+            let qb = UnitQuaternion::from_scaled_axis(vector() * 6.0);
+            let (wa, wb) = (
+                Spin::constant(vector() * 2.0),
+                Spin::constant(vector() * 2.0),
+            );
+            let d = vector().normalize() * 1.9;
+            let dv = -d * 0.3 + vector() * 0.8;
+            // From 0.8 to 1 over the horizon.
+            let growth = Growth {
+                scale: 0.8,
+                rate: 0.1,
+            };
+            let horizon = 2.0;
+            let grown = |t: f64| {
+                let s = growth.scale + growth.rate * t;
+                let rel = Relative::new(
+                    &((d + dv * t) / s),
+                    &wa.orientation_after(&qa, t),
+                    &wb.orientation_after(&qb, t),
+                );
+                s * distance(a, b, &rel, &DistanceOptions::default(), None).distance
+            };
+            if grown(0.0) <= 0.0 {
+                continue;
+            }
+            let mut stopped = None;
+            let found = p
+                .search_into(
+                    (a, &qa, &wa),
+                    (b, &qb, &wb),
+                    (0.0, 0.0),
+                    Some(growth),
+                    &d,
+                    &dv,
+                    None,
+                    horizon,
+                    u32::MAX,
+                    &mut stopped,
+                )
+                .unwrap();
+            let step = 2e-5;
+            let first_negative = (1..=(horizon / step) as usize)
+                .map(|k| k as f64 * step)
+                .find(|&t| grown(t) < 0.0);
+            match found {
+                Found::Contact(tc) => {
+                    met += 1;
+                    assert!(
+                        grown(tc) >= -1e-12 && grown(tc) < 1e-8,
+                        "{case}: {}",
+                        grown(tc)
+                    );
+                    let first = first_negative.expect("they overlap past the contact");
+                    assert!(
+                        first >= tc && first - tc < 2.0 * step,
+                        "{case}: {tc} {first}"
+                    );
+                }
+                Found::Apart => {
+                    missed += 1;
+                    assert_eq!(first_negative, None, "case {case}");
+                }
+                Found::Stopped(_) => unreachable!("no budget"),
+            }
+        }
+        assert!(met > 10 && missed > 5, "{met} met, {missed} apart");
     }
 }

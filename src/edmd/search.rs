@@ -38,59 +38,7 @@ use crate::geometry::{Contact, Relative, Shape, Status, WarmStart, distance};
 
 type V3 = Vector3<f64>;
 
-/// How a search for a contact ended.
-// Returned once per search and moved, never stored in bulk: the few hundred
-// bytes of an unfinished search's state cost less than a box for it.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Search {
-    /// The bodies touch at this time.
-    Contact(f64),
-    /// They stay apart up to the horizon.
-    Apart,
-    /// Out of budget: apart up to `progress.time()` at least; the search
-    /// resumes from `progress` exactly as if it had not stopped.
-    Unfinished(Progress),
-}
-
-/// How a search ended, without its progress (see
-/// [`Predictor::search_into`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Found {
-    /// The bodies touch at this time.
-    Contact(f64),
-    /// They stay apart up to the horizon.
-    Apart,
-    /// Out of budget, apart up to this time at least; the progress to
-    /// resume from is in the caller's slot.
-    Stopped(f64),
-}
-
-/// Where an unfinished search stopped: the step it had reached and the
-/// solver state it carries (warm starts), so that a resumed search takes
-/// the same steps, to the bit, as one that never stopped.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Progress {
-    t: f64,
-    distance: f64,
-    normal: V3,
-    warm: Option<WarmStart>,
-    hint: Option<V3>,
-    last: Option<(f64, Contact)>,
-    earlier: Option<(f64, Contact)>,
-}
-
-impl Progress {
-    /// The time (from the search's origin) it got to.
-    pub fn time(&self) -> f64 {
-        self.t
-    }
-}
-
-/// A body's shape and rotation, for prediction: (shape, orientation at the
-/// search's origin, or a given time before it for
-/// [`Predictor::search_into`], free rotation; |ω| is constant in it).
-pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
+pub use super::outcome::{Found, Growth, Progress, Rotor, Search, SearchError};
 
 impl Predictor {
     /// The first time τ in [0, `horizon`] at which the bodies touch, their
@@ -134,6 +82,7 @@ impl Predictor {
                 a,
                 b,
                 (0.0, 0.0),
+                None,
                 d,
                 dv,
                 resume,
@@ -155,13 +104,14 @@ impl Predictor {
     /// progress is a few hundred bytes, which the dynamics' many searches
     /// that end at once should not copy through every return. The bodies'
     /// orientations are given `since` (A, B) before the search's origin
-    /// (each turns on from there).
+    /// (each turns on from there); `growth`, if any, scales both bodies.
     #[allow(clippy::too_many_arguments)]
     pub fn search_into(
         &self,
         a: Rotor,
         b: Rotor,
         since: (f64, f64),
+        growth: Option<Growth>,
         d: &V3,
         dv: &V3,
         resume: Option<&Progress>,
@@ -176,6 +126,9 @@ impl Predictor {
             return Ok(Found::Apart);
         };
         let mut search = ContactSearch::new(self, a, b, since, d, dv);
+        if let Some(g) = growth {
+            search.grow(g);
+        }
         if search.rate_bound == 0.0 {
             // Nothing moves.
             return Ok(Found::Apart);
@@ -187,30 +140,6 @@ impl Predictor {
             }
         }
     }
-}
-
-/// Why a contact search could not follow the distance.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-pub enum SearchError {
-    /// The distance solver gave no finite distance.
-    #[error("{status:?} at τ = {at}")]
-    Solver {
-        /// How the solve ended.
-        status: Status,
-        /// The time from the search's origin.
-        at: f64,
-    },
-    /// The pair overlaps where the search starts.
-    #[error("the pair overlaps by {depth:e} at τ = {at}")]
-    Overlap {
-        /// How deep.
-        depth: f64,
-        /// The time from the search's origin.
-        at: f64,
-    },
-    /// A distance came out NaN without a solver report.
-    #[error("distance is NaN")]
-    NotANumber,
 }
 
 /// A search in progress: the pair, its motion, the step bounds fixed over
@@ -225,6 +154,8 @@ struct ContactSearch<'a> {
     w_b: &'a Spin,
     /// How long before the search's origin the orientations were given.
     since: (f64, f64),
+    /// The bodies' growth, if they grow.
+    growth: Option<Growth>,
     d: &'a V3,
     dv: &'a V3,
     turn_a: TurnBound,
@@ -324,6 +255,7 @@ impl<'a> ContactSearch<'a> {
             w_a,
             w_b,
             since,
+            growth: None,
             d,
             dv,
             turn_a,
@@ -343,6 +275,20 @@ impl<'a> ContactSearch<'a> {
         }
     }
 
+    /// The bodies grow: the distance changes faster by the rate times the
+    /// bounding radii (no surface point is farther from its centre).
+    fn grow(&mut self, growth: Growth) {
+        self.rate_bound +=
+            growth.rate * (self.shape_a.bounding_radius() + self.shape_b.bounding_radius());
+        self.growth = Some(growth);
+    }
+
+    /// The bodies' scale at τ = t (1 if they do not grow).
+    #[inline]
+    fn scale(&self, t: f64) -> f64 {
+        self.growth.map_or(1.0, |g| g.scale + g.rate * t)
+    }
+
     /// Both orientations at τ = t.
     #[inline]
     fn orientations(&mut self, t: f64) -> (UnitQuaternion<f64>, UnitQuaternion<f64>) {
@@ -360,11 +306,17 @@ impl<'a> ContactSearch<'a> {
         (qa, qb)
     }
 
-    /// B's placement in A's frame at τ = t.
+    /// B's placement in A's frame at τ = t; for growing bodies, the
+    /// placement of the unscaled shapes whose distance, times the scale,
+    /// is the distance (the separation divided by the scale).
     #[inline]
     fn pose(&mut self, t: f64) -> Relative {
         let (qa_t, qb_t) = self.orientations(t);
-        Relative::new(&(self.d + self.dv * t), &qa_t, &qb_t)
+        let separation = self.d + self.dv * t;
+        match self.growth {
+            None => Relative::new(&separation, &qa_t, &qb_t),
+            Some(_) => Relative::new(&(separation / self.scale(t)), &qa_t, &qb_t),
+        }
     }
 
     /// The signed distance at τ = t (NaN where the solver failed, the
@@ -394,13 +346,21 @@ impl<'a> ContactSearch<'a> {
             self.hint
                 .and_then(|n| support_points_start(shape_a, shape_b, &rel, &n))
         });
-        let contact = distance(
+        let mut contact = distance(
             shape_a,
             shape_b,
             &rel,
             &self.predictor.options().distance,
             start.as_ref(),
         );
+        if self.growth.is_some() {
+            // Lengths of the grown bodies; the solver state stays the
+            // unscaled problem's.
+            let scale = self.scale(t);
+            contact.distance *= scale;
+            contact.point_a *= scale;
+            contact.point_b *= scale;
+        }
         if contact.warm_start.is_some() {
             self.warm = contact.warm_start;
         }
@@ -443,6 +403,7 @@ impl<'a> ContactSearch<'a> {
         let rel = self.pose(t);
         let (bound, normal) =
             distance_lower_bound_near(self.shape_a, self.shape_b, &rel, self.hint.as_ref());
+        let bound = bound * self.scale(t);
         // (Also where a cold distance below starts.)
         self.hint = Some(normal);
         if bound > self.exact_below {
@@ -474,6 +435,16 @@ impl<'a> ContactSearch<'a> {
         let gb = self
             .turn_b
             .support_growth(self.shape_b, self.w_b, &qb_t, &u_b);
+        let (ga, gb) = match self.growth {
+            None => (ga, gb),
+            Some(g) => {
+                let scale = self.scale(t);
+                (
+                    ga.grown(scale, g.rate, self.shape_a.bounding_radius()),
+                    gb.grown(scale, g.rate, self.shape_b.bounding_radius()),
+                )
+            }
+        };
         let phi = n.dot(&(self.d + self.dv * t)) - ga.value - gb.value;
         // (NaN included: no time is sure then.)
         if phi.is_nan() || phi <= 0.0 {
@@ -516,7 +487,14 @@ impl<'a> ContactSearch<'a> {
             self.w_a.angular_velocity(&qa_t),
             self.w_b.angular_velocity(&qb_t),
         );
-        -normal.dot(&(self.dv + omega_b.cross(&arm_b) - omega_a.cross(&arm_a)))
+        let rigid = -normal.dot(&(self.dv + omega_b.cross(&arm_b) - omega_a.cross(&arm_a)));
+        match self.growth {
+            None => rigid,
+            // A grown body's surface point x (from its centre) moves
+            // outward at (ṡ/s) x: the contact points close faster by
+            // (ṡ/s) n·(arm_A − arm_B) = (ṡ/s) n·(r_B − r_A).
+            Some(g) => rigid + g.rate / self.scale(t) * normal.dot(&(arm_a - arm_b)),
+        }
     }
 
     /// A contact at τ = t, the solver state there kept for the collision.

@@ -204,6 +204,22 @@ pub struct SupportGrowth {
     pub lipschitz: f64,
 }
 
+impl SupportGrowth {
+    /// The bound for the body scaled by `scale` and growing from there at
+    /// `rate` (d scale/dτ), of a body whose support values are at most
+    /// `reach` (its bounding radius): (s + ṡτ) h(τ) ≤ s · bound(τ) + ṡ
+    /// reach τ.
+    pub fn grown(&self, scale: f64, rate: f64, reach: f64) -> SupportGrowth {
+        SupportGrowth {
+            value: self.value * scale,
+            slope: self.slope * scale + rate * reach,
+            kinks: self.kinks.map(|(w, c, r)| (w * scale, c, r)),
+            curvature: self.curvature * scale,
+            lipschitz: self.lipschitz * scale + rate * reach,
+        }
+    }
+}
+
 impl Shape {
     /// Short lowercase name of the shape kind (`sphere`, `ellipsoid`, ...).
     pub fn kind(&self) -> &'static str {
@@ -254,6 +270,30 @@ impl Shape {
     pub fn inertia_tensor(&self, mass: f64) -> Matrix3<f64> {
         let m2 = self.second_moments() * (mass / self.volume());
         Matrix3::from_diagonal(&Vector3::new(m2.y + m2.z, m2.x + m2.z, m2.x + m2.y))
+    }
+
+    /// The same body scaled by `factor` (> 0) in every length: what a
+    /// body growing at a uniform rate becomes. Every distance between
+    /// scaled bodies is `factor` times the distance between the bodies at
+    /// centre separations divided by it.
+    pub fn scaled(&self, factor: f64) -> Shape {
+        debug_assert!(factor.is_finite() && factor > 0.0, "{factor}");
+        match self {
+            Shape::Sphere(s) => Shape::Sphere(Sphere {
+                radius: s.radius * factor,
+            }),
+            Shape::Ellipsoid(e) => Shape::Ellipsoid(Ellipsoid {
+                semi_axes: e.semi_axes * factor,
+            }),
+            Shape::Superellipsoid(s) => Shape::Superellipsoid(Superellipsoid {
+                semi_axes: s.semi_axes * factor,
+                exponents: s.exponents,
+                bounding_radius: s.bounding_radius * factor,
+            }),
+            Shape::Cuboid(c) => Shape::Cuboid(Cuboid {
+                half_extents: c.half_extents * factor,
+            }),
+        }
     }
 
     /// Radius of the smallest sphere about the body centre that holds the body.

@@ -86,7 +86,46 @@ impl Dynamics {
             b.velocity *= scale;
             b.angular_velocity *= scale;
         }
-        Self::assemble(system, species, kinds, bodies, options, 0.0)
+        Self::assemble(system, species, kinds, bodies, options, 0.0, None)
+    }
+
+    /// The dynamics of `system` with the velocities given, its bodies
+    /// growing (Lubachevsky–Stillinger) so that each one's linear size is
+    /// its size in `system` times 1 + `rate` t, up to the time
+    /// ([`Dynamics::growth_ends`]) at which it is 1 + `margin` times that:
+    /// the dynamics is built for bodies of that size (cells and neighbour
+    /// regions), so it must not be run past it. Moments of inertia are
+    /// those of the largest bodies.
+    pub fn growing(
+        system: &System,
+        velocities: &[(V3, V3)],
+        options: &DynamicsOptions,
+        rate: f64,
+        margin: f64,
+    ) -> Result<Self, EdmdError> {
+        if !(rate.is_finite() && rate > 0.0 && margin.is_finite() && margin > 0.0) {
+            return Err(EdmdError::BadGrowth { rate, margin });
+        }
+        let n = system.len();
+        if n < 2 {
+            return Err(EdmdError::TooFewParticles(n));
+        }
+        let largest = 1.0 + margin;
+        let species: Vec<Species> = system
+            .species()
+            .iter()
+            .map(|s| Species {
+                shape: s.shape.scaled(largest),
+                ..s.clone()
+            })
+            .collect();
+        let kinds = kinds_for(&species, options)?;
+        let bodies = bodies_moving(system, velocities, &kinds)?;
+        let growth = Swelling {
+            at_origin: 1.0 / largest,
+            rate: rate / largest,
+        };
+        Self::assemble(system, species, kinds, bodies, options, 0.0, Some(growth))
     }
 
     /// The dynamics of `system` with velocities and angular velocities
@@ -107,32 +146,8 @@ impl Dynamics {
         }
         let species = system.species().to_vec();
         let kinds = kinds_for(&species, options)?;
-        if velocities.len() != n
-            || velocities
-                .iter()
-                .zip(system.particles())
-                .any(|((v, w), p)| {
-                    !(v.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()))
-                        || (!kinds[p.species as usize].rotates && *w != V3::zeros())
-                })
-        {
-            return Err(EdmdError::BadVelocities(n));
-        }
-        let bodies: Vec<Body> = system
-            .particles()
-            .iter()
-            .zip(velocities)
-            .map(|(p, (v, w))| Body {
-                position: p.position,
-                velocity: *v,
-                time: 0.0,
-                orientation: p.orientation,
-                angular_velocity: *w,
-                species: p.species,
-                horizon: f64::INFINITY,
-            })
-            .collect();
-        let mut dynamics = Self::assemble(system, species, kinds, bodies, options, 0.0)?;
+        let bodies = bodies_moving(system, velocities, &kinds)?;
+        let mut dynamics = Self::assemble(system, species, kinds, bodies, options, 0.0, None)?;
         dynamics.origin = time;
         dynamics.collisions = collisions;
         dynamics.collisions_at_rebase = collisions;
@@ -240,8 +255,15 @@ impl Dynamics {
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         let tolerance = Predictor::new(options.predictor).contact_tolerance();
         let system = system_of(box_, species, particles, tolerance)?;
-        let mut dynamics =
-            Self::assemble(&system, species.to_vec(), kinds, bodies, options, dump.now)?;
+        let mut dynamics = Self::assemble(
+            &system,
+            species.to_vec(),
+            kinds,
+            bodies,
+            options,
+            dump.now,
+            None,
+        )?;
         dynamics.origin = dump.time_origin;
         dynamics.collisions = dump.collisions;
         dynamics.collisions_at_rebase = dump.collisions_at_rebase.min(dump.collisions);
@@ -279,7 +301,9 @@ impl Dynamics {
     }
 
     /// Everything but the velocities: cells, calendar, first predictions,
-    /// with the clock at `now` (the bodies' stored times are at most it).
+    /// with the clock at `now` (the bodies' stored times are at most it),
+    /// the bodies growing as `growth` says (`system` then holds them at
+    /// their size now).
     pub(super) fn assemble(
         system: &System,
         species: Vec<Species>,
@@ -287,6 +311,7 @@ impl Dynamics {
         bodies: Vec<Body>,
         options: &DynamicsOptions,
         now: f64,
+        growth: Option<Swelling>,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let rotors = kinds_rotating(&bodies, &kinds);
@@ -390,7 +415,9 @@ impl Dynamics {
             interval: Interval::default(),
             kinetic_translational,
             degrees_of_freedom: dof,
-            packing_fraction: system.packing_fraction(),
+            // At the species' sizes.
+            packing_fraction: system.packing_fraction()
+                / growth.map_or(1.0, |g| g.scale(now)).powi(3),
             rotating,
             options: options.clone(),
             trace: None,
@@ -404,6 +431,7 @@ impl Dynamics {
             kinds,
             bodies,
             crossing_times: vec![f64::INFINITY; n],
+            growth,
         };
         dynamics.molecular_axes = dynamics.species.iter().map(Species::order_axis).collect();
         dynamics.set_reference();
@@ -517,6 +545,42 @@ pub(super) fn system_of(
     let touching =
         |i: usize, j: usize| pair_touches(&box_, species, &particles[i], &particles[j], tolerance);
     System::with_contacts(box_, species.to_vec(), particles.clone(), touching)
+}
+
+/// The bodies of `system` at rest in their stored poses at time 0, moving
+/// with `velocities` (checked: finite, one pair per body, no spin for
+/// bodies that do not turn).
+fn bodies_moving(
+    system: &System,
+    velocities: &[(V3, V3)],
+    kinds: &[Kind],
+) -> Result<Vec<Body>, EdmdError> {
+    let n = system.len();
+    if velocities.len() != n
+        || velocities
+            .iter()
+            .zip(system.particles())
+            .any(|((v, w), p)| {
+                !(v.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()))
+                    || (!kinds[p.species as usize].rotates && *w != V3::zeros())
+            })
+    {
+        return Err(EdmdError::BadVelocities(n));
+    }
+    Ok(system
+        .particles()
+        .iter()
+        .zip(velocities)
+        .map(|(p, (v, w))| Body {
+            position: p.position,
+            velocity: *v,
+            time: 0.0,
+            orientation: p.orientation,
+            angular_velocity: *w,
+            species: p.species,
+            horizon: f64::INFINITY,
+        })
+        .collect())
 }
 
 /// How many bodies rotate.

@@ -79,7 +79,8 @@ impl Dynamics {
             position_after(&b.position, &b.velocity, self.now - b.time)
         };
         let d = self.box_.minimum_image(&(now(j) - now(i)));
-        if let Some(sigma) = sphere_contact {
+        let scale = self.scale_now();
+        if let Some(sigma) = sphere_contact.map(|s| s * scale) {
             // Two spheres touch now.
             let gap = d.norm() - sigma;
             if gap.abs() > 1e-9 * sigma {
@@ -118,7 +119,9 @@ impl Dynamics {
             let (mi, mj) = (self.kinds[si].inverse_mass, self.kinds[sj].inverse_mass);
             let (a, b) = pair_mut(&mut self.bodies, i, j);
             let ke_before = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
-            let jn = collide_spheres(&mut a.velocity, &mut b.velocity, mi, mj, &normal);
+            // The radii's sum grows at σ ṡ/s.
+            let growth = self.growth.map_or(0.0, |g| g.rate / scale * len);
+            let jn = collide_spheres(&mut a.velocity, &mut b.velocity, mi, mj, &normal, growth);
             let ke_after = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
             self.accumulate_kinetic();
             self.kinetic_translational += ke_after - ke_before;
@@ -138,11 +141,19 @@ impl Dynamics {
             &self.kinds[bi.species as usize],
             &self.kinds[bj.species as usize],
         );
-        let rel = Relative::new(d, &bi.orientation, &bj.orientation);
+        // Growing bodies: the unscaled shapes at the separation over the
+        // scale, as the prediction solved them; lengths scaled back.
+        let scale = self.scale_now();
+        let rel = Relative::new(&(d / scale), &bi.orientation, &bj.orientation);
         let warm = self.found.remove(&(i as u32, j as u32));
-        let contact = self
-            .predictor
-            .contact_from(&ki.shape, &kj.shape, &rel, warm.as_ref());
+        let contact = scaled_contact(
+            self.predictor
+                .contact_from(&ki.shape, &kj.shape, &rel, warm.as_ref()),
+            scale,
+        );
+        // What the growth adds to the approach of the contact points.
+        let growth_along =
+            |normal: &V3| self.growth.map_or(0.0, |g| g.rate / scale * normal.dot(d));
         if !contact.distance.is_finite() {
             return Err(EdmdError::Solver {
                 i,
@@ -154,8 +165,8 @@ impl Dynamics {
                 },
             });
         }
-        let scale = ki.shape.min_half_extent().min(kj.shape.min_half_extent());
-        if contact.distance.abs() > self.predictor.contact_tolerance() * scale {
+        let size = ki.shape.min_half_extent().min(kj.shape.min_half_extent());
+        if contact.distance.abs() > self.predictor.contact_tolerance() * size {
             return Err(EdmdError::ContactMismatch {
                 i,
                 j,
@@ -170,7 +181,7 @@ impl Dynamics {
                 &(bi.velocity + bi.angular_velocity.cross(&arm_a)
                     - bj.velocity
                     - bj.angular_velocity.cross(&(arm_a - d))),
-            );
+            ) + growth_along(&normal);
             (normal, arm_a, closing)
         };
         let kinetics = |b: &Body, k: &Kind| Kinetics {
@@ -186,18 +197,24 @@ impl Dynamics {
             &kj.shape,
             &rel,
             &contact.normal,
-            self.predictor.contact_tolerance() * scale,
+            self.predictor.contact_tolerance() * size / scale,
         );
         if patch.points().len() >= 2 {
             let normal = bi.orientation * contact.normal;
             let mut arms = [(V3::zeros(), V3::zeros()); 8];
             for (arm, p) in arms.iter_mut().zip(patch.points()) {
-                let arm_a = bi.orientation * p;
+                let arm_a = bi.orientation * (p * scale);
                 *arm = (arm_a, arm_a - d);
             }
             let mut ka = kinetics(&bi, ki);
             let mut kb = kinetics(&bj, kj);
-            let jn = collide_patch(&mut ka, &mut kb, &arms[..patch.points().len()], &normal);
+            let jn = collide_patch(
+                &mut ka,
+                &mut kb,
+                &arms[..patch.points().len()],
+                &normal,
+                growth_along(&normal),
+            );
             return Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)));
         }
         let (mut normal, mut arm_a, closing) = lab(&contact);
@@ -213,15 +230,16 @@ impl Dynamics {
             let rate = (bj.velocity - bi.velocity).norm()
                 + bi.angular_velocity.norm() * ki.shape.moment_arm()
                 + bj.angular_velocity.norm() * kj.shape.moment_arm();
-            let mut delta =
-                self.predictor.contact_tolerance() * scale / rate.max(f64::MIN_POSITIVE);
+            let mut delta = self.predictor.contact_tolerance() * size / rate.max(f64::MIN_POSITIVE);
             for _ in 0..40 {
+                // (At the scale of now: the bodies a moment later, as big.)
                 let later = Relative::new(
-                    &(d + (bj.velocity - bi.velocity) * delta),
+                    &((d + (bj.velocity - bi.velocity) * delta) / scale),
                     &spin_i.orientation_after(&bi.orientation, delta),
                     &spin_j.orientation_after(&bj.orientation, delta),
                 );
-                let ahead = self.predictor.contact(&ki.shape, &kj.shape, &later);
+                let ahead =
+                    scaled_contact(self.predictor.contact(&ki.shape, &kj.shape, &later), scale);
                 if ahead.distance < 0.0 {
                     let (n, a, c) = lab(&ahead);
                     if c > 0.0 {
@@ -235,7 +253,14 @@ impl Dynamics {
         let arm_b = arm_a - d;
         let mut ka = kinetics(&bi, ki);
         let mut kb = kinetics(&bj, kj);
-        let jn = collide(&mut ka, &mut kb, &arm_a, &arm_b, &normal);
+        let jn = collide(
+            &mut ka,
+            &mut kb,
+            &arm_a,
+            &arm_b,
+            &normal,
+            growth_along(&normal),
+        );
         Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)))
     }
 
@@ -292,6 +317,17 @@ pub(super) fn pair_touches(
     );
     let scale = sa.min_half_extent().min(sb.min_half_extent());
     contact.distance >= -tolerance * scale
+}
+
+/// A contact of unscaled shapes at the separation over `scale`, in the
+/// lengths of the bodies scaled by it (the solver state left unscaled).
+fn scaled_contact(mut contact: crate::geometry::Contact, scale: f64) -> crate::geometry::Contact {
+    if scale != 1.0 {
+        contact.distance *= scale;
+        contact.point_a *= scale;
+        contact.point_b *= scale;
+    }
+    contact
 }
 
 /// Two distinct elements of a slice, mutably.

@@ -235,6 +235,10 @@ impl Dynamics {
         let h = kind
             .shape
             .lab_half_extents(&q.to_rotation_matrix().into_inner());
+        let h = match self.growth {
+            None => h,
+            Some(g) => h * g.scale(t),
+        };
         let half = self.box_.lengths() * 0.5;
         let walls = self.box_.walls();
         (0..3)
@@ -252,6 +256,12 @@ impl Dynamics {
     /// grazing minima below ε_d, and the safeguarded root finder. Gives up
     /// after a fixed number of steps (to be renewed from there).
     pub(super) fn wall_contact(&self, i: usize, t_end: f64) -> WallContact {
+        // Growing bodies are bounded by their species' shapes only up to
+        // the end of the growth.
+        let t_end = match self.growth {
+            None => t_end,
+            Some(g) => t_end.min((1.0 - g.at_origin) / g.rate),
+        };
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let half = self.box_.lengths() * 0.5;
@@ -264,19 +274,29 @@ impl Dynamics {
             let mut best_t = t_end;
             for k in (0..3).filter(|&k| walls[k]) {
                 let v = b.velocity[k];
-                if v == 0.0 {
-                    continue;
-                }
-                let up = v > 0.0;
-                let gap = half[k] - h[k] - if up { b.position[k] } else { -b.position[k] };
-                let t = b.time + (gap / v.abs()).max(0.0);
-                if t < best_t {
-                    best_t = t;
-                    best = WallContact::At {
-                        time: t,
-                        axis: k,
-                        up,
-                    };
+                // The gap to the wall ahead closes at |v|; growing, the
+                // extent h grows at ṡ h and both walls may come.
+                let sides: [(bool, f64, f64); 2] = match self.growth {
+                    None => [(v > 0.0, h[k], v.abs()), (false, 0.0, 0.0)],
+                    Some(g) => {
+                        let (h_t, rate) = (h[k] * g.scale(b.time), h[k] * g.rate);
+                        [(true, h_t, v + rate), (false, h_t, -v + rate)]
+                    }
+                };
+                for (up, extent, closing) in sides {
+                    if closing <= 0.0 {
+                        continue;
+                    }
+                    let gap = half[k] - extent - if up { b.position[k] } else { -b.position[k] };
+                    let t = b.time + (gap / closing).max(0.0);
+                    if t < best_t {
+                        best_t = t;
+                        best = WallContact::At {
+                            time: t,
+                            axis: k,
+                            up,
+                        };
+                    }
                 }
             }
             return best;
@@ -289,7 +309,11 @@ impl Dynamics {
             .filter(|&k| walls[k])
             .map(|k| b.velocity[k].abs())
             .fold(0.0, f64::max);
-        let rate = speed + b.angular_velocity.norm() * kind.shape.moment_arm();
+        let rate = speed
+            + b.angular_velocity.norm() * kind.shape.moment_arm()
+            + self
+                .growth
+                .map_or(0.0, |g| g.rate * kind.shape.bounding_radius());
         let gap = |t: f64| self.wall_gap_at(i, t).0;
         let contact = |lo: f64| {
             let (_, axis, up) = self.wall_gap_at(i, lo);
@@ -334,13 +358,15 @@ impl Dynamics {
         let b = self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let normal = V3::ith(axis, if up { 1.0 } else { -1.0 });
+        let scale = self.scale_now();
         let arm = b.orientation
             * kind
                 .shape
-                .support(&b.orientation.inverse_transform_vector(&normal));
+                .support(&b.orientation.inverse_transform_vector(&normal))
+            * scale;
         let gap = 0.5 * self.box_.lengths()[axis] - (b.position[axis] + arm[axis]) * normal[axis];
-        let scale = kind.shape.min_half_extent();
-        if gap.abs() > 1e3 * self.predictor.contact_tolerance() * scale {
+        let size = kind.shape.min_half_extent();
+        if gap.abs() > 1e3 * self.predictor.contact_tolerance() * size {
             return Err(EdmdError::ContactMismatch {
                 i,
                 j: i,
@@ -361,7 +387,11 @@ impl Dynamics {
             inverse_inertia: Matrix3::zeros(),
         };
         let ke_before = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
-        let j = collide(&mut body, &mut wall, &arm, &V3::zeros(), &normal);
+        // The growth moves the touching point outward at (ṡ/s) n·arm.
+        let growth = self
+            .growth
+            .map_or(0.0, |g| g.rate / scale * normal.dot(&arm));
+        let j = collide(&mut body, &mut wall, &arm, &V3::zeros(), &normal, growth);
         let ke_after = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
         self.accumulate_kinetic();
         self.kinetic_translational += ke_after - ke_before;

@@ -37,6 +37,24 @@ impl Dynamics {
         Ok(())
     }
 
+    /// Runs `count` more collisions, or until `t_end` if that comes first
+    /// (bodies are then advanced to it).
+    pub fn run_collisions_until(&mut self, count: u64, t_end: f64) -> Result<(), EdmdError> {
+        let target = self.collisions + count;
+        while self.collisions < target {
+            match self.calendar.peek() {
+                Some(e) if e.time <= t_end - self.origin => {
+                    self.process_next()?;
+                }
+                _ => {
+                    self.advance_clock(t_end - self.origin);
+                    break;
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Moves the clock to `now` (no event in between).
     pub(super) fn advance_clock(&mut self, now: f64) {
         if now > self.now {
@@ -134,6 +152,9 @@ impl Dynamics {
         self.interval.ke_since -= shift;
         self.origin += shift;
         self.now = 0.0;
+        if let Some(g) = self.growth.as_mut() {
+            g.at_origin += g.rate * shift;
+        }
         self.collisions_at_rebase = self.collisions;
         // Every prediction again from the new poses: an event predicted
         // before and shifted can differ in its last bit from the same event

@@ -111,6 +111,14 @@ pub enum EdmdError {
     /// shell every body would rebuild its list at every instant).
     #[error("the neighbour shell must be a finite length > 0, got {0}")]
     BadShell(f64),
+    /// A growth rate or margin that is not a finite number > 0.
+    #[error("growth rate and margin must be finite and > 0, got {rate} and {margin}")]
+    BadGrowth {
+        /// The rate asked.
+        rate: f64,
+        /// The margin asked.
+        margin: f64,
+    },
     /// A dump that cannot be a dynamics state.
     #[error("invalid dump: {0}")]
     BadDump(String),
@@ -472,6 +480,29 @@ pub struct Dynamics {
     options: DynamicsOptions,
     /// Every collision (time, lower index, higher index) while on.
     trace: Option<Vec<(f64, u32, u32)>>,
+    /// The bodies' growth, if they grow.
+    growth: Option<Swelling>,
+}
+
+/// Lubachevsky–Stillinger growth: every body is its species' shape scaled
+/// by f(t) = `at_origin` + `rate` t (t on the dynamics' clock, relative to
+/// its origin). The species' shapes are the largest the bodies become
+/// (f reaches 1 at [`Dynamics::growth_ends`]): cells, neighbour regions,
+/// bounding spheres and turn bounds are theirs, so all stay conservative
+/// up to then, and only distances, support planes, contact times and
+/// impulses see the scale.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Swelling {
+    at_origin: f64,
+    rate: f64,
+}
+
+impl Swelling {
+    /// f at time `t` (relative clock).
+    #[inline]
+    fn scale(&self, t: f64) -> f64 {
+        self.at_origin + self.rate * t
+    }
 }
 
 /// The outcome of a search for a body's next wall contact.

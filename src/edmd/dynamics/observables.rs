@@ -173,10 +173,42 @@ impl Dynamics {
     }
 
     /// The current state as an MC system: building it checks, independently
-    /// of the predictions, that no two bodies overlap.
+    /// of the predictions, that no two bodies overlap. Growing bodies have
+    /// their size now.
     pub fn to_system(&self) -> Result<System, StateError> {
         let tolerance = self.predictor.contact_tolerance();
-        system_of(self.box_, &self.species, self.particles(), tolerance)
+        system_of(self.box_, &self.species_now(), self.particles(), tolerance)
+    }
+
+    /// The species with the bodies' shapes now (scaled, if they grow).
+    pub fn species_now(&self) -> Vec<Species> {
+        let scale = self.scale_now();
+        self.species
+            .iter()
+            .map(|s| Species {
+                shape: if scale == 1.0 {
+                    s.shape
+                } else {
+                    s.shape.scaled(scale)
+                },
+                ..s.clone()
+            })
+            .collect()
+    }
+
+    /// The bodies' scale now relative to their species' shapes (1 unless
+    /// they grow).
+    #[inline]
+    pub(super) fn scale_now(&self) -> f64 {
+        self.growth.map_or(1.0, |g| g.scale(self.now))
+    }
+
+    /// When growing bodies reach the size the dynamics was built for (the
+    /// end of [`Dynamics::growing`]'s margin), on the simulated clock;
+    /// `None` if they do not grow. The dynamics must not run past it.
+    pub fn growth_ends(&self) -> Option<f64> {
+        self.growth
+            .map(|g| self.origin + (1.0 - g.at_origin) / g.rate)
     }
 
     /// Starts (or stops) recording every collision: time, and the pair as
@@ -234,7 +266,7 @@ impl Dynamics {
             interval_collisions: iv.collisions,
             pressure,
             temperature: kt,
-            packing_fraction: self.packing_fraction,
+            packing_fraction: self.packing_fraction * self.scale_now().powi(3),
             nematic_order: self.nematic_order(),
         }
     }

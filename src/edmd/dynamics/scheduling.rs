@@ -6,7 +6,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::edmd::calendar::{Calendar, EventKind};
 use crate::edmd::motion::position_after;
-use crate::edmd::search::{Found, Progress};
+use crate::edmd::search::{Found, Growth, Progress};
 use crate::geometry::WarmStart;
 
 type V3 = Vector3<f64>;
@@ -277,7 +277,18 @@ impl Dynamics {
                 dd += x * x;
                 v2 += dv[a][k] * dv[a][k];
             }
-            let t = crate::geometry::pair::sphere_contact_time_from_products(b, dd, v2, sigma[k]);
+            let t = match self.growth {
+                None => {
+                    crate::geometry::pair::sphere_contact_time_from_products(b, dd, v2, sigma[k])
+                }
+                Some(g) => crate::geometry::pair::grown_sphere_contact_time(
+                    b,
+                    dd,
+                    v2,
+                    sigma[k] * g.scale(t0[k]),
+                    sigma[k] * g.rate,
+                ),
+            };
             times[k] = (t0[k] + t).max(self.now); // t0 + ∞ stays ∞
         }
         times
@@ -332,7 +343,11 @@ impl Dynamics {
             (bj.time, bj.position - ri)
         };
         let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
-        (t0 + crate::geometry::pair::sphere_contact_time_or_never(&d, &dv, sigma)).max(self.now)
+        let t = match self.growth {
+            None => crate::geometry::pair::sphere_contact_time_or_never(&d, &dv, sigma),
+            Some(g) => grown_sphere_contact(&d, &dv, sigma, g, t0),
+        };
+        (t0 + t).max(self.now)
     }
 
     /// The contact time of bodies `i` and `j` if it comes before
@@ -353,6 +368,12 @@ impl Dynamics {
         stopped: &mut Option<Progress>,
     ) -> Result<PairSearch, EdmdError> {
         let (a, b) = (i.min(j), i.max(j));
+        // Growing bodies are bounded by their species' shapes only up to
+        // the end of the growth.
+        let horizon = match self.growth {
+            None => horizon,
+            Some(g) => horizon.min((1.0 - g.at_origin) / g.rate),
+        };
         let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
         let t0 = ba.time.max(bb.time);
         let ra = position_after(&ba.position, &ba.velocity, t0 - ba.time);
@@ -363,9 +384,14 @@ impl Dynamics {
         let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
         let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
         let found = if let Some(sigma) = self.contact_sums[pair] {
-            match crate::geometry::pair::sphere_contact_time(&d, &dv, sigma) {
-                Some(t) => Found::Contact(t),
-                None => Found::Apart,
+            let t = match self.growth {
+                None => crate::geometry::pair::sphere_contact_time_or_never(&d, &dv, sigma),
+                Some(g) => grown_sphere_contact(&d, &dv, sigma, g, t0),
+            };
+            if t < f64::INFINITY {
+                Found::Contact(t)
+            } else {
+                Found::Apart
             }
         } else {
             let (ka, kb) = (
@@ -382,6 +408,10 @@ impl Dynamics {
                     (&ka.shape, &ba.orientation, &spin_a),
                     (&kb.shape, &bb.orientation, &spin_b),
                     (t0 - ba.time, t0 - bb.time),
+                    self.growth.map(|g| Growth {
+                        scale: g.scale(t0),
+                        rate: g.rate,
+                    }),
                     &d,
                     &dv,
                     resume,
@@ -406,6 +436,19 @@ impl Dynamics {
             Found::Stopped(t) => PairSearch::Unfinished(t0 + t),
         })
     }
+}
+
+/// The contact time (from `t0`) of two growing spheres `d` apart at `t0`
+/// whose contact distance is `sigma` at full size.
+#[inline]
+fn grown_sphere_contact(d: &V3, dv: &V3, sigma: f64, growth: Swelling, t0: f64) -> f64 {
+    crate::geometry::pair::grown_sphere_contact_time(
+        d.dot(dv),
+        d.norm_squared(),
+        dv.norm_squared(),
+        sigma * growth.scale(t0),
+        sigma * growth.rate,
+    )
 }
 
 /// Schedules the collision of `i` and `j` at `t`, keeping the solver state

@@ -73,6 +73,42 @@ pub fn contact_time_from_products(d_dot_v: f64, d_squared: f64, v_squared: f64, 
     select(meets, t, f64::INFINITY)
 }
 
+/// The earliest time t ≥ 0 at which two growing spheres touch: contact
+/// distance `sigma` now, growing at `sigma_rate` (Lubachevsky–Stillinger
+/// growth), separation `d + v t`; +∞ if never. |d + v t|² = (σ + σ̇ t)²
+/// is a′t² + 2b′t + c′ = 0 with a′ = v² − σ̇², b′ = d·v − σσ̇, c′ = |d|² − σ²:
+/// a pair apart (c′ > 0) meets at c′ / (−b′ + √(b′² − a′c′)) if that is
+/// positive; a pair touching by round-off meets now if it closes (b′ < 0),
+/// and a receding one again at the later root if the growth outruns the
+/// separation (a′ < 0), as after a collision.
+#[inline]
+pub fn grown_contact_time_from_products(
+    d_dot_v: f64,
+    d_squared: f64,
+    v_squared: f64,
+    sigma: f64,
+    sigma_rate: f64,
+) -> f64 {
+    let a = v_squared - sigma_rate * sigma_rate;
+    let b = d_dot_v - sigma * sigma_rate;
+    let c = d_squared - sigma * sigma;
+    let disc = b * b - a * c;
+    if c > 0.0 {
+        let denominator = -b + disc.max(0.0).sqrt();
+        if disc >= 0.0 && denominator > 0.0 {
+            c / denominator
+        } else {
+            f64::INFINITY
+        }
+    } else if b < 0.0 {
+        0.0
+    } else if a < 0.0 {
+        (-b - disc.max(0.0).sqrt()) / a
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// `if pick { a } else { b }` by bit masks: no branch.
 #[inline(always)]
 fn select(pick: bool, a: f64, b: f64) -> f64 {
@@ -124,6 +160,68 @@ mod tests {
             }
         }
         assert!(met > 2_000 && never > 2_000, "{met} met, {never} never");
+    }
+
+    /// Growing spheres: a finite time is where |d + v t| = σ + σ̇ t with
+    /// the gap closing there; +∞ only where the gap never closes (checked
+    /// on a fine grid of times); no growth gives the rigid answer; a pair
+    /// that has just collided and recedes slower than it grows meets again.
+    #[test]
+    fn grown_contact_times_match_the_growing_line() {
+        let mut u = crate::test_support::uniform(8);
+        let (mut met, mut never) = (0, 0);
+        for k in 0..20_000 {
+            let d = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 4.0;
+            let v = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+            let sigma = if k % 5 == 0 { d.norm() } else { 1.0 };
+            let rate = if k % 3 == 0 { 0.0 } else { 0.3 * u() };
+            if d.norm() < sigma && k % 5 != 0 {
+                // Overlapping: not a state the dynamics has.
+                continue;
+            }
+            let t = grown_contact_time_from_products(
+                d.dot(&v),
+                d.norm_squared(),
+                v.norm_squared(),
+                sigma,
+                rate,
+            );
+            let gap = |t: f64| (d + v * t).norm() - (sigma + rate * t);
+            if rate == 0.0 && d.norm_squared() > sigma * sigma {
+                assert_eq!(t, contact_time_or_never(&d, &v, sigma), "{d} {v}");
+            }
+            if t.is_finite() {
+                met += 1;
+                assert!(t >= 0.0);
+                if t > 0.0 {
+                    assert!(
+                        gap(t).abs() < 1e-10 * (1.0 + d.norm()),
+                        "{d} {v}: {}",
+                        gap(t)
+                    );
+                    // Apart before it (bar round-off at a start touching).
+                    let mid = 0.5 * t;
+                    assert!(gap(mid) > -1e-12, "{d} {v} {sigma} {rate}: {}", gap(mid));
+                }
+            } else {
+                never += 1;
+                for step in 1..400 {
+                    let s = step as f64 * 0.05;
+                    assert!(gap(s) > 0.0, "{d} {v} {sigma} {rate}: meets by {s}");
+                }
+            }
+        }
+        assert!(met > 2_000 && never > 2_000, "{met} met, {never} never");
+        // Touching (|d| = σ = 1), growing at 0.5: receding along the normal
+        // faster than that (0.6), never again (|d + v t| ≥ n·(d + v t)
+        // outruns σ + σ̇ t); slower (0.1), closing now.
+        let t = grown_contact_time_from_products(0.6, 1.0, 0.36, 1.0, 0.5);
+        assert!(t.is_infinite(), "{t}");
+        let t = grown_contact_time_from_products(0.1, 1.0, 0.01, 1.0, 0.5);
+        assert_eq!(t, 0.0);
+        // Sideways (d·v = 0), growing at 0.05: closing now.
+        let t = grown_contact_time_from_products(0.0, 1.0, 0.01, 1.0, 0.05);
+        assert_eq!(t, 0.0);
     }
 
     /// Head-on and oblique approaches touch exactly at the predicted time;

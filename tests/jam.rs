@@ -1,0 +1,175 @@
+//! Jammed packings by event-driven growth: the state is overlap-free, its
+//! reduced pressure past the bound, and a random jammed packing of spheres
+//! is near φ = 0.64 with an isostatic backbone (z = 2 d_f = 6) and a few
+//! per cent rattlers. Bodies of every kind, and walls, stay overlap-free
+//! while they grow into a packing.
+
+use hardbody::analysis::packing::{ContactNetwork, PackedBody, contact_network};
+use hardbody::edmd::DynamicsOptions;
+use hardbody::edmd::jam::{JamEnd, JamOptions, Jammed, jam};
+use hardbody::space::PeriodicBox;
+use hardbody::state::{Species, System};
+use nalgebra::Vector3;
+use rand::SeedableRng;
+
+/// `n` bodies of `shape` on a lattice in a cube at packing fraction `phi`,
+/// walled along the axes `walls` says.
+fn dilute(shape: &str, n: usize, phi: f64, walls: [bool; 3]) -> System {
+    let species = vec![Species {
+        name: "body".into(),
+        shape: shape.parse().unwrap(),
+        rotation: true,
+    }];
+    let volume = n as f64 * species[0].shape.volume() / phi;
+    let box_ = PeriodicBox::new(Vector3::repeat(volume.cbrt()))
+        .unwrap()
+        .with_walls(walls);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+    hardbody::state::start::lattice(box_, species, &[n], &mut rng).unwrap()
+}
+
+/// The contact network at gaps below `gap` times the smallest half-extent.
+fn network(system: &System, gap: f64) -> ContactNetwork {
+    let shapes: Vec<_> = system.species().iter().map(|s| s.shape).collect();
+    let bodies: Vec<PackedBody> = system
+        .particles()
+        .iter()
+        .map(|p| PackedBody {
+            position: p.position,
+            orientation: p.orientation,
+            shape: p.species as usize,
+        })
+        .collect();
+    contact_network(system.periodic_box(), &shapes, &bodies, gap)
+}
+
+fn jam_from(system: &System, options: &JamOptions) -> Jammed {
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
+    let out = jam(
+        system,
+        options,
+        &DynamicsOptions::default(),
+        &mut rng,
+        |_| true,
+    )
+    .unwrap();
+    eprintln!(
+        "{:?}, {} retries ({:?}): {:?}",
+        out.end, out.retries, out.last_failure, out.last
+    );
+    out
+}
+
+/// 200 spheres at the default rate: jammed (Z past 10¹²) at φ within
+/// 0.64 ± 0.015, overlap-free, the backbone within 0.1 of z = 6 with
+/// under 6 % rattlers; the contacts are a network apart from the rest
+/// (the same count from gaps of 10⁻⁹ to 10⁻⁷).
+#[test]
+fn spheres_jam_near_random_close_packing_with_an_isostatic_backbone() {
+    let n: usize = std::env::var("HARDBODY_JAM_N")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200);
+    // Another γ (for the φ_J-against-rate measurements): the figures are
+    // printed, and only the default's are held to the targets.
+    let rate: Option<f64> = std::env::var("HARDBODY_JAM_RATE")
+        .ok()
+        .and_then(|s| s.parse().ok());
+    let start = dilute("Sphere(radius: 0.5)", n, 0.3, [false; 3]);
+    let options = JamOptions {
+        growth_rate: rate.unwrap_or(JamOptions::default().growth_rate),
+        ..JamOptions::default()
+    };
+    let started = std::time::Instant::now();
+    let out = jam_from(&start, &options);
+    eprintln!(
+        "{n} spheres jammed in {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    assert_eq!(out.end, JamEnd::Jammed);
+    assert!(out.last.unwrap().pressure >= 1e12);
+    let net = network(&out.system, 1e-9);
+    eprintln!(
+        "phi {:.4}, z {:.3}, {} rattlers, histogram {:?}",
+        net.packing_fraction,
+        net.backbone_contact_number,
+        net.rattlers.len(),
+        net.contact_number_histogram
+    );
+    assert_eq!(net.overlaps, 0);
+    if rate.is_some() {
+        return;
+    }
+    assert!(
+        (net.packing_fraction - 0.64).abs() < 0.015,
+        "{}",
+        net.packing_fraction
+    );
+    assert_eq!(net.isostatic_contact_number, 6.0);
+    assert!(
+        (net.backbone_contact_number - 6.0).abs() < 0.1,
+        "{}",
+        net.backbone_contact_number
+    );
+    assert!(
+        net.rattlers.len() * 100 < 6 * n,
+        "{} rattlers",
+        net.rattlers.len()
+    );
+    assert_eq!(
+        network(&out.system, 1e-7).contacts.len(),
+        net.contacts.len()
+    );
+}
+
+/// Ellipsoids, superballs and cubes, and spheres between walls, grown to
+/// Z = 10⁵: no overlap (nor with a wall), by the exact pair distance, and
+/// the species' sizes those of the bodies.
+#[test]
+fn bodies_and_walls_grow_into_overlap_free_packings() {
+    let cases = [
+        ("Ellipsoid(a: 0.625, b: 0.5, c: 0.4)", [false; 3]),
+        (
+            "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))",
+            [false; 3],
+        ),
+        ("Cuboid(a: 0.5, b: 0.5, c: 0.5)", [false; 3]),
+        ("Sphere(radius: 0.5)", [true, false, true]),
+    ];
+    for (shape, walls) in cases {
+        // (Cubes: enough for a box twice their grown reach.)
+        let n = if shape.starts_with("Cuboid") { 64 } else { 27 };
+        let start = dilute(shape, n, 0.15, walls);
+        let options = JamOptions {
+            growth_rate: 1e-2,
+            pressure: 1e5,
+            ..JamOptions::default()
+        };
+        let out = jam_from(&start, &options);
+        assert_eq!(out.end, JamEnd::Jammed, "{shape}");
+        let last = out.last.unwrap();
+        assert!(last.pressure >= 1e5, "{shape}");
+        // Every pair by the exact distance, to round-off (the touching
+        // pairs of a packing at Z = 10⁵ are about 10⁻⁶ apart).
+        assert_eq!(network(&out.system, 1e-12).overlaps, 0, "{shape}");
+        let box_ = out.system.periodic_box();
+        let shape_now = out.system.species()[0].shape;
+        for p in out.system.particles() {
+            let h = shape_now.lab_half_extents(&p.orientation.to_rotation_matrix().into_inner());
+            for k in (0..3).filter(|&k| box_.walls()[k]) {
+                let reach = p.position[k].abs() + h[k] - 0.5 * box_.lengths()[k];
+                assert!(reach <= 1e-12, "{shape}: {reach} into wall {k}");
+            }
+        }
+        let grown = out.system.species()[0].shape.bounding_radius()
+            / start.species()[0].shape.bounding_radius();
+        assert!(
+            (grown - last.size).abs() < 1e-12,
+            "{shape}: {grown} {}",
+            last.size
+        );
+        let phi = out.system.packing_fraction();
+        assert!(phi > 0.5, "{shape}: φ = {phi}");
+        eprintln!("{shape}: φ {phi:.4}");
+    }
+}
