@@ -22,7 +22,8 @@ use hardbody::scene::{Scene, Stage};
 const REFERENCE: &str = "tests/golden/states.txt";
 
 /// The scene cut short: Monte Carlo stages of at most 300 sweeps, dynamics
-/// of at most 1 time unit, compressions to at most φ = 0.45 and
+/// of at most 1 time unit, compressions to at most φ = 0.45, jams at
+/// γ ≥ 10⁻² to βPV/N = 10⁴ at most, and
 /// frames often enough that every stage writes several.
 fn shortened(mut scene: Scene) -> Scene {
     scene.log.frames_every = 50;
@@ -44,6 +45,13 @@ fn shortened(mut scene: Scene) -> Scene {
                 *duration = duration.min(1.0);
                 *stats_every = Some(*duration / 5.0);
                 *frames_every = Some(*duration / 4.0);
+            }
+            Stage::Jam {
+                growth_rate,
+                pressure,
+            } => {
+                *growth_rate = Some(growth_rate.unwrap_or(0.0).max(1e-2));
+                *pressure = Some(pressure.unwrap_or(1e4).min(1e4));
             }
         }
     }

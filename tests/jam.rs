@@ -4,9 +4,17 @@
 //! per cent rattlers. Bodies of every kind, and walls, stay overlap-free
 //! while they grow into a packing.
 
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use common::cut_after_frames;
 use hardbody::analysis::packing::{ContactNetwork, PackedBody, contact_network};
 use hardbody::edmd::DynamicsOptions;
 use hardbody::edmd::jam::{JamEnd, JamOptions, Jammed, jam};
+use hardbody::log::read::read_log;
+use hardbody::run::{Silent, resume_run, run_scene};
+use hardbody::scene::Scene;
 use hardbody::space::PeriodicBox;
 use hardbody::state::{Species, System};
 use nalgebra::Vector3;
@@ -171,5 +179,111 @@ fn bodies_and_walls_grow_into_overlap_free_packings() {
         let phi = out.system.packing_fraction();
         assert!(phi > 0.5, "{shape}: φ = {phi}");
         eprintln!("{shape}: φ {phi:.4}");
+    }
+}
+
+const JAM_SCENE: &str = r#"Scene(
+    seed: 9,
+    box: (6.5, 6.5, 6.5),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 125)],
+    stages: [Compress(packing_fraction: 0.4), Jam(growth_rate: 0.01, pressure: 1e7)],
+)"#;
+
+/// A scene's Jam stage: it jams (the summary says so, the last frame's
+/// species are grown and its state overlap-free at φ > 0.6), its `/stats`
+/// carry the growth, and a run resumed from any of its frames writes the
+/// uninterrupted run's frames bit for bit.
+#[test]
+fn a_scene_jams_and_resumes_bit_for_bit() {
+    let dir = std::env::temp_dir().join(format!("hardbody-jam-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("jam.mcap");
+    let scene = Scene::parse(JAM_SCENE).unwrap();
+    let summary = run_scene(
+        &scene,
+        JAM_SCENE,
+        &path,
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert!(
+        summary.stages[1].contains("jam): jammed at packing fraction"),
+        "{:?}",
+        summary.stages
+    );
+    let whole = read_log(&path, true).unwrap();
+    let (_, last) = whole.states.last().unwrap();
+    assert_eq!(last.stage, "jam");
+    let shape = last.species[0].shape;
+    assert!(shape.bounding_radius() > 0.55, "{shape:?}");
+    let jam_stats: Vec<_> = whole
+        .stats
+        .iter()
+        .map(|(_, s)| s)
+        .filter(|s| s.stage == "jam")
+        .collect();
+    assert!(jam_stats.len() > 10);
+    assert!(
+        jam_stats
+            .windows(2)
+            .all(|w| w[1].packing_fraction >= w[0].packing_fraction)
+    );
+    let phi = jam_stats.last().unwrap().packing_fraction;
+    assert!(phi > 0.6, "{phi}");
+    let jam_frames = whole
+        .states
+        .iter()
+        .filter(|(_, s)| s.stage == "jam")
+        .count();
+    assert!(jam_frames >= 3, "{jam_frames} jam frames");
+    let bytes = std::fs::read(&path).unwrap();
+    let first_jam = whole
+        .states
+        .iter()
+        .position(|(_, s)| s.stage == "jam")
+        .unwrap();
+    for k in [first_jam + 1, whole.states.len() - 1] {
+        let cut = dir.join(format!("cut-{k}.mcap.partial"));
+        std::fs::write(&cut, &bytes[..cut_after_frames(&bytes, k + 1)]).unwrap();
+        let out = dir.join(format!("resumed-{k}.mcap"));
+        resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let resumed = read_log(&out, true).unwrap();
+        assert_eq!(
+            resumed.states.len(),
+            whole.states.len(),
+            "cut after frame {k}"
+        );
+        for ((t, s), (tw, sw)) in resumed.states.iter().zip(&whole.states) {
+            assert_eq!(t, tw);
+            assert_eq!(
+                serde_json::to_string(s).unwrap(),
+                serde_json::to_string(sw).unwrap(),
+                "cut after frame {k}"
+            );
+        }
+    }
+}
+
+/// `hardbody bench jam --quick`: every row jammed, overlap-free (the
+/// suite fails otherwise) and dense.
+#[test]
+fn the_jam_bench_runs() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .args(["bench", "jam", "--quick", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        assert_eq!(r["end"], "jammed", "{r}");
+        assert!(r["packing_fraction"].as_f64().unwrap() > 0.55, "{r}");
+        assert!(r["pressure"].as_f64().unwrap() >= 1e6, "{r}");
+        assert!(r["seconds"].as_f64().unwrap() > 0.0, "{r}");
     }
 }

@@ -4,6 +4,7 @@ pub mod compress;
 pub mod edmd;
 pub mod edmd_speed;
 pub mod effects;
+pub mod jam;
 pub mod mc;
 pub mod ocsi;
 pub mod plot;

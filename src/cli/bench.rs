@@ -6,7 +6,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use hardbody::bench::{compress, edmd, edmd_speed, effects, mc, ocsi, scene, speed_plots};
+use hardbody::bench::{compress, edmd, edmd_speed, effects, jam, mc, ocsi, scene, speed_plots};
 
 use super::{EXIT_FAILED, Suite, bad_input, esay, print_block, print_json, say};
 
@@ -35,6 +35,7 @@ pub(super) fn bench(suite: Suite, quick: bool, json: bool, plot: Option<&Path>) 
             Some(&|rows, dir| compress::plot(rows, dir)),
         ),
         Suite::Scene => out.report("scene", scene::run(quick), scene::table, None),
+        Suite::Jam => out.report("jam", jam::run(quick), jam::table, None),
         Suite::Edmd => out.report("edmd", edmd_speed::speed(quick), edmd_speed::table, None),
         Suite::EdmdShell => out.report(
             "edmd-shell",

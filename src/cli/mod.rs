@@ -143,6 +143,8 @@ enum Suite {
     Mc,
     /// Compression from a dilute fluid: seconds and sweeps by shape, and against N.
     Compress,
+    /// Jammed packings by event-driven growth: phi_J, contacts and seconds by shape and rate.
+    Jam,
     /// Hard-sphere dynamics through the full scene path against the library directly.
     Scene,
     /// Event-driven dynamics: time per collision for spheres, ellipsoids and cubes.

@@ -26,7 +26,7 @@
 use nalgebra::Vector3;
 use rand::Rng;
 
-use super::dynamics::{Dynamics, DynamicsOptions, EdmdError};
+use super::dynamics::{Dynamics, DynamicsOptions, EdmdError, automatic_neighbour_shell};
 use crate::state::System;
 
 type V3 = Vector3<f64>;
@@ -88,7 +88,7 @@ pub enum JamEnd {
 }
 
 /// One chunk's figures, as the run goes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct JamChunk {
     /// Chunks done.
     pub chunk: u64,
@@ -106,6 +106,218 @@ pub struct JamChunk {
     pub growth_rate: f64,
     /// The linear size relative to the start.
     pub size: f64,
+}
+
+/// Where a jamming run stands between chunks: with the state and the
+/// velocities, all that continuing it bit for bit needs (a log's frame
+/// carries it).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct JamProgress {
+    /// Chunks done.
+    pub chunk: u64,
+    /// Simulated time since the start.
+    pub time: f64,
+    /// Collisions since the start.
+    pub collisions: u64,
+    /// The growth rate the next chunk runs at.
+    pub rate: f64,
+    /// Whether Z has reached [`SETTLE_FROM`] (the rate is then γ).
+    pub settling: bool,
+    /// Chunks run again at a lower rate after a failure.
+    pub retries: u64,
+    /// The first species' bounding radius at the start (sizes are
+    /// reported relative to it).
+    pub start_size: f64,
+    /// The last chunk's figures.
+    pub last: Option<JamChunk>,
+}
+
+/// A jamming run, chunk by chunk.
+#[derive(Debug, Clone)]
+pub struct JamRun {
+    state: System,
+    velocities: Vec<(V3, V3)>,
+    progress: JamProgress,
+    options: JamOptions,
+    dynamics: DynamicsOptions,
+    end: Option<JamEnd>,
+    last_failure: Option<String>,
+}
+
+impl JamRun {
+    /// A run from `system` with Maxwell–Boltzmann velocities at
+    /// `dynamics.temperature` drawn from `rng`. The neighbour structure of
+    /// each chunk is the automatic one at its packing fraction (the shell
+    /// of `dynamics` is not used).
+    pub fn new<R: Rng>(
+        system: &System,
+        options: &JamOptions,
+        dynamics: &DynamicsOptions,
+        rng: &mut R,
+    ) -> Result<Self, EdmdError> {
+        check(options)?;
+        let velocities = Dynamics::from_state(system, dynamics, rng)?.velocities();
+        let progress = JamProgress {
+            chunk: 0,
+            time: 0.0,
+            collisions: 0,
+            rate: FLUID_SPEED_UP * options.growth_rate,
+            settling: false,
+            retries: 0,
+            start_size: system.species()[0].shape.bounding_radius(),
+            last: None,
+        };
+        Self::resume(system, &velocities, options, dynamics, progress)
+    }
+
+    /// The run continued from a state, its velocities and its progress.
+    pub fn resume(
+        system: &System,
+        velocities: &[(V3, V3)],
+        options: &JamOptions,
+        dynamics: &DynamicsOptions,
+        progress: JamProgress,
+    ) -> Result<Self, EdmdError> {
+        check(options)?;
+        if velocities.len() != system.len() {
+            return Err(EdmdError::BadVelocities(system.len()));
+        }
+        Ok(Self {
+            state: system.clone(),
+            velocities: velocities.to_vec(),
+            progress,
+            options: *options,
+            dynamics: dynamics.clone(),
+            end: None,
+            last_failure: None,
+        })
+    }
+
+    /// Runs the next chunk; its figures, or `None` once the run has ended
+    /// (see [`JamRun::end`]). Errors are those of building the dynamics
+    /// (the bodies grown too big for the box); a numerical failure within
+    /// a chunk runs it again at half the rate.
+    pub fn chunk(&mut self) -> Result<Option<JamChunk>, EdmdError> {
+        if self.end.is_some() {
+            return Ok(None);
+        }
+        let n = self.state.len() as u64;
+        let p = &mut self.progress;
+        loop {
+            if self.options.max_collisions > 0 && p.collisions >= self.options.max_collisions {
+                self.end = Some(JamEnd::Budget);
+                return Ok(None);
+            }
+            let dynamics = DynamicsOptions {
+                neighbour_shell: automatic_neighbour_shell(
+                    self.state.species(),
+                    self.state.packing_fraction(),
+                ),
+                ..self.dynamics.clone()
+            };
+            let mut md = Dynamics::growing(
+                &self.state,
+                &self.velocities,
+                &dynamics,
+                p.rate,
+                self.options.margin,
+            )?;
+            let ends = md.growth_ends().expect("growing");
+            let outcome = md
+                .run_collisions_until(self.options.collisions_per_body * n, ends)
+                .and_then(|()| {
+                    let pressure = md.sample().pressure.unwrap_or(0.0);
+                    Ok((pressure, md.to_system()?))
+                });
+            let (pressure, next) = match outcome {
+                Ok(done) => done,
+                Err(e) => {
+                    self.last_failure = Some(e.to_string());
+                    if p.rate * 0.5 < self.options.growth_floor {
+                        self.end = Some(JamEnd::GrowthFloor);
+                        return Ok(None);
+                    }
+                    p.rate *= 0.5;
+                    p.retries += 1;
+                    continue;
+                }
+            };
+            // Thermostat: the kinetic energy back to dof kT / 2.
+            let kt = 2.0 * md.kinetic_energy() / md.degrees_of_freedom();
+            let factor = (self.dynamics.temperature / kt).sqrt();
+            self.velocities = md
+                .velocities()
+                .iter()
+                .map(|(v, w)| (v * factor, w * factor))
+                .collect();
+            p.chunk += 1;
+            p.time += md.time();
+            p.collisions += md.collisions();
+            let z = pressure * next.periodic_box().volume() / n as f64;
+            let figures = JamChunk {
+                chunk: p.chunk,
+                time: p.time,
+                collisions: p.collisions,
+                packing_fraction: next.packing_fraction(),
+                pressure: z,
+                temperature: kt,
+                growth_rate: p.rate,
+                size: next.species()[0].shape.bounding_radius() / p.start_size,
+            };
+            self.state = next;
+            p.last = Some(figures);
+            if !p.settling && z >= SETTLE_FROM {
+                p.settling = true;
+                p.rate = p.rate.min(self.options.growth_rate);
+            }
+            if z >= self.options.pressure {
+                self.end = Some(JamEnd::Jammed);
+            }
+            return Ok(Some(figures));
+        }
+    }
+
+    /// Ends the run where it stands (the caller stopped it).
+    pub fn stop(&mut self) {
+        self.end.get_or_insert(JamEnd::Stopped);
+    }
+
+    /// Why the run ended, once it has.
+    pub fn end(&self) -> Option<JamEnd> {
+        self.end
+    }
+
+    /// The bodies now, at their size now (the species scaled).
+    pub fn system(&self) -> &System {
+        &self.state
+    }
+
+    /// The velocities now, at kT.
+    pub fn velocities(&self) -> &[(V3, V3)] {
+        &self.velocities
+    }
+
+    /// Where the run stands.
+    pub fn progress(&self) -> &JamProgress {
+        &self.progress
+    }
+
+    /// The last failure that made a chunk run again, if any.
+    pub fn last_failure(&self) -> Option<&str> {
+        self.last_failure.as_deref()
+    }
+}
+
+fn check(options: &JamOptions) -> Result<(), EdmdError> {
+    let positive = |x: f64| x.is_finite() && x > 0.0;
+    if positive(options.growth_rate) && positive(options.margin) {
+        Ok(())
+    } else {
+        Err(EdmdError::BadGrowth {
+            rate: options.growth_rate,
+            margin: options.margin,
+        })
+    }
 }
 
 /// The outcome: the last certified state and how the run ended.
@@ -128,8 +340,7 @@ pub struct Jammed {
 /// Grows the bodies of `system` (Lubachevsky–Stillinger) until jammed, from
 /// Maxwell–Boltzmann velocities at `dynamics.temperature` (drawn from
 /// `rng`). `each_chunk` sees every chunk's figures and returns false to stop
-/// there. Errors are those of building the dynamics (bad options or
-/// state); numerical failures within the run lower the rate instead.
+/// there (see [`JamRun`] for the errors).
 pub fn jam<R: Rng>(
     system: &System,
     options: &JamOptions,
@@ -137,98 +348,18 @@ pub fn jam<R: Rng>(
     rng: &mut R,
     mut each_chunk: impl FnMut(&JamChunk) -> bool,
 ) -> Result<Jammed, EdmdError> {
-    if !(options.growth_rate.is_finite()
-        && options.growth_rate > 0.0
-        && options.margin.is_finite()
-        && options.margin > 0.0)
-    {
-        return Err(EdmdError::BadGrowth {
-            rate: options.growth_rate,
-            margin: options.margin,
-        });
+    let mut run = JamRun::new(system, options, dynamics, rng)?;
+    while let Some(figures) = run.chunk()? {
+        if run.end().is_none() && !each_chunk(&figures) {
+            run.stop();
+        }
     }
-    let start = Dynamics::from_state(system, dynamics, rng)?;
-    let mut state = system.clone();
-    let mut velocities = start.velocities();
-    let dof = start.degrees_of_freedom();
-    let n = system.len() as u64;
-    let size_of = |s: &System| s.species()[0].shape.bounding_radius();
-    let initial_size = size_of(system);
-    // The rate of the fluid; from Z ≥ SETTLE_FROM, γ (each lowered by
-    // halves after a failure).
-    let (mut rate, mut time, mut collisions, mut chunk) =
-        (FLUID_SPEED_UP * options.growth_rate, 0.0, 0, 0);
-    let mut settling = false;
-    let mut retries = 0;
-    let mut last_failure = None;
-    let mut last = None;
-    let end = loop {
-        if options.max_collisions > 0 && collisions >= options.max_collisions {
-            break JamEnd::Budget;
-        }
-        // A state the dynamics cannot be built on (bodies grown too big
-        // for the box) is an error; a failure while it runs is numerical.
-        let mut md = Dynamics::growing(&state, &velocities, dynamics, rate, options.margin)?;
-        let ends = md.growth_ends().expect("growing");
-        let outcome = md
-            .run_collisions_until(options.collisions_per_body * n, ends)
-            .and_then(|()| {
-                let pressure = md.sample().pressure.unwrap_or(0.0);
-                Ok((pressure, md.to_system()?))
-            });
-        let (pressure, next) = match outcome {
-            Ok(done) => done,
-            Err(e) => {
-                last_failure = Some(e.to_string());
-                if rate * 0.5 < options.growth_floor {
-                    break JamEnd::GrowthFloor;
-                }
-                rate *= 0.5;
-                retries += 1;
-                continue;
-            }
-        };
-        // Thermostat: the kinetic energy back to dof kT / 2.
-        let kt = 2.0 * md.kinetic_energy() / dof;
-        let factor = (dynamics.temperature / kt).sqrt();
-        velocities = md
-            .velocities()
-            .iter()
-            .map(|(v, w)| (v * factor, w * factor))
-            .collect();
-        chunk += 1;
-        time += md.time();
-        collisions += md.collisions();
-        let z = pressure * next.periodic_box().volume() / n as f64;
-        let figures = JamChunk {
-            chunk,
-            time,
-            collisions,
-            packing_fraction: next.packing_fraction(),
-            pressure: z,
-            temperature: kt,
-            growth_rate: rate,
-            size: size_of(&next) / initial_size,
-        };
-        state = next;
-        last = Some(figures);
-        if !settling && z >= SETTLE_FROM {
-            settling = true;
-            rate = rate.min(options.growth_rate);
-        }
-        if z >= options.pressure {
-            break JamEnd::Jammed;
-        }
-        if !each_chunk(&figures) {
-            break JamEnd::Stopped;
-        }
-    };
     Ok(Jammed {
-        system: state,
-        velocities,
-        last,
-        end,
-        retries,
-        last_failure,
+        system: run.state,
+        velocities: run.velocities,
+        last: run.progress.last,
+        end: run.end.expect("ended"),
+        retries: run.progress.retries,
+        last_failure: run.last_failure,
     })
 }

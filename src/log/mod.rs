@@ -254,6 +254,9 @@ pub struct ResumeInfo {
     /// judged from (absent in logs of earlier versions).
     #[serde(default)]
     pub drift: Option<crate::mc::tuning::DriftWatch>,
+    /// The growth's progress (Jam stages; absent elsewhere).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jam: Option<crate::edmd::jam::JamProgress>,
 }
 
 /// See [`ResumeInfo`].
@@ -584,7 +587,7 @@ impl LogWriter {
             (
                 "log_time".to_string(),
                 format!(
-                    "{NS_PER_SWEEP} ns per Monte Carlo sweep, {NS_PER_TIME_UNIT} ns per unit of simulated time"
+                    "{NS_PER_SWEEP} ns per Monte Carlo sweep and per chunk of a jam stage, {NS_PER_TIME_UNIT} ns per unit of simulated time"
                 ),
             ),
         ]);

@@ -25,6 +25,16 @@ impl Runner<'_> {
         info: &ResumeInfo,
         index: usize,
     ) -> Result<Phase, String> {
+        if info.jam.is_some() {
+            let (Some(v), Some(w)) = (&record.velocities, &record.angular_velocities) else {
+                return Err("a jam frame without velocities".into());
+            };
+            return Ok(Phase::Moving {
+                system,
+                velocities: v.iter().map(|v| Vector3::from(*v)).collect(),
+                angular_velocities: w.iter().map(|w| Vector3::from(*w)).collect(),
+            });
+        }
         let Some(d) = info.dynamics else {
             return Ok(Phase::Mc(system));
         };
@@ -101,6 +111,7 @@ impl Runner<'_> {
                 compress: None,
                 dynamics: Some(progress),
                 drift: None,
+                jam: None,
             }),
             ..StateRecord::of_particles(
                 dynamics.periodic_box(),

@@ -18,12 +18,14 @@
 mod cadence;
 mod compress;
 mod dynamics;
+mod jam;
 mod monte_carlo;
 mod records;
 mod start;
 
 use compress::CompressStage;
 use dynamics::DynamicsStage;
+use jam::JamStage;
 use monte_carlo::MonteCarloStage;
 use start::start_state;
 pub use start::{RecordError, check_start, system_from_record};
@@ -126,6 +128,9 @@ pub enum StageError {
     /// A compression resumed from a frame that does not carry its state.
     #[error("a compression frame without the compression's state")]
     NoCompressorState,
+    /// A jam frame without the velocities its growth goes on with.
+    #[error("a jam frame without velocities")]
+    NoJamVelocities,
     /// A compression stage without a target (the scene's checks refuse
     /// it).
     #[error("a compression without a target")]
@@ -162,6 +167,12 @@ pub struct RunSummary {
 #[allow(clippy::large_enum_variant)] // one per run, moved between stages
 enum Phase {
     Mc(System),
+    /// A state with the velocities of a jam stage resumed.
+    Moving {
+        system: System,
+        velocities: Vec<nalgebra::Vector3<f64>>,
+        angular_velocities: Vec<nalgebra::Vector3<f64>>,
+    },
     Dynamics {
         dynamics: Box<Dynamics>,
         temperature: f64,
@@ -449,13 +460,17 @@ fn describe(stage: &Stage) -> String {
             temperature,
             ..
         } => format!("dynamics, t = {duration} at kT = {temperature}"),
+        Stage::Jam { pressure, .. } => format!(
+            "jam to betaPV/N = {:e}",
+            pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE)
+        ),
     }
 }
 
 fn ticks(stage: &Stage) -> u64 {
     match stage {
         // Compression ends when it gets there: no length to show.
-        Stage::Compress { .. } => 0,
+        Stage::Compress { .. } | Stage::Jam { .. } => 0,
         Stage::MonteCarlo { sweeps, .. } => *sweeps,
         Stage::Dynamics { duration, .. } => (duration * 1000.0).ceil() as u64,
     }
@@ -547,6 +562,10 @@ impl Runner<'_> {
                 let stage = DynamicsStage::start(self, index, phase, resume, log, rng)?;
                 self.drive(stage, log, progress)
             }
+            Stage::Jam { .. } => {
+                let stage = JamStage::start(self, index, phase, resume, log, rng)?;
+                self.drive(stage, log, progress)
+            }
         }
     }
 
@@ -558,7 +577,7 @@ impl Runner<'_> {
 
     fn to_system(&self, phase: Phase) -> Result<System, StageError> {
         match phase {
-            Phase::Mc(system) => Ok(system),
+            Phase::Mc(system) | Phase::Moving { system, .. } => Ok(system),
             Phase::Dynamics { dynamics, .. } => dynamics.to_system().map_err(StageError::Handoff),
         }
     }

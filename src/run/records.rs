@@ -72,6 +72,7 @@ impl Runner<'_> {
             compress,
             dynamics: None,
             drift,
+            jam: None,
         }
     }
 

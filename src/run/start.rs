@@ -119,15 +119,38 @@ pub enum RecordError {
     State(#[from] StateError),
 }
 
-/// A system from a logged state, checked against the scene's species.
+/// A system from a logged state, checked against the scene's species: a
+/// jam stage's frame holds them grown, all by one factor, and its touching
+/// pairs to round-off (as the dynamics hands them on).
 pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, RecordError> {
-    let species = plan.mc_species();
+    let grown = record.stage == "jam";
+    let mut species = plan.mc_species();
+    let factor = record
+        .species
+        .first()
+        .zip(species.first())
+        .map_or(1.0, |(r, s)| {
+            r.shape.bounding_radius() / s.shape.bounding_radius()
+        });
     let same = record.species.len() == species.len()
-        && record
-            .species
-            .iter()
-            .zip(&species)
-            .all(|(r, s)| r.name == s.name && r.shape == s.shape);
+        && record.species.iter().zip(&species).all(|(r, s)| {
+            r.name == s.name
+                && if grown {
+                    let scaled = s.shape.scaled(factor);
+                    r.shape.kind() == s.shape.kind()
+                        && (r.shape.bounding_radius() - scaled.bounding_radius()).abs()
+                            <= 1e-12 * scaled.bounding_radius()
+                        && (r.shape.obb_half_extents() - scaled.obb_half_extents()).norm()
+                            <= 1e-12 * scaled.bounding_radius()
+                } else {
+                    r.shape == s.shape
+                }
+        });
+    if grown && same {
+        for (s, r) in species.iter_mut().zip(&record.species) {
+            s.shape = r.shape;
+        }
+    }
     if !same {
         let list = |named: Vec<String>| named.join(", ");
         return Err(RecordError::Species {
@@ -183,9 +206,32 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, R
             )),
             species: s,
         })
-        .collect();
-    Ok(System::new(box_, species, particles)?)
+        .collect::<Vec<Particle>>();
+    if !grown {
+        return Ok(System::new(box_, species, particles)?);
+    }
+    let touching = |i: usize, j: usize| {
+        let (a, b) = (&particles[i], &particles[j]);
+        let (sa, sb) = (
+            &species[a.species as usize].shape,
+            &species[b.species as usize].shape,
+        );
+        let d = box_.minimum_image(&(b.position - a.position));
+        let rel = crate::geometry::Relative::new(&d, &a.orientation, &b.orientation);
+        let gap = crate::geometry::distance(sa, sb, &rel, &Default::default(), None).distance;
+        gap >= -JAM_CONTACT_TOLERANCE * sa.min_half_extent().min(sb.min_half_extent())
+    };
+    Ok(System::with_contacts(
+        box_,
+        species.clone(),
+        particles.clone(),
+        touching,
+    )?)
 }
+
+/// How deep (relative to the smaller body's smallest half-extent) pairs
+/// of a jammed frame may touch: the dynamics' contact tolerance.
+const JAM_CONTACT_TOLERANCE: f64 = 1e-9;
 
 #[cfg(test)]
 mod tests {

@@ -174,6 +174,19 @@ pub enum Stage {
         #[serde(default)]
         c2: bool,
     },
+    /// A jammed packing by event-driven growth (Lubachevsky–Stillinger,
+    /// as Donev, Torquato and Stillinger): every body's linear size grows
+    /// at `growth_rate` relative to its size (ten times faster until
+    /// βPV/N = 10³) while the bodies move at kT = 1, until βPV/N passes
+    /// `pressure`. The last stage: the species' sizes change in it.
+    Jam {
+        /// γ, per unit time (default 10⁻³).
+        #[serde(default)]
+        growth_rate: Option<f64>,
+        /// The bound on βPV/N that ends it (default 10¹²).
+        #[serde(default)]
+        pressure: Option<f64>,
+    },
 }
 
 impl Stage {
@@ -206,6 +219,7 @@ impl Stage {
             Stage::Compress { .. } => "compress",
             Stage::MonteCarlo { .. } => "monte_carlo",
             Stage::Dynamics { .. } => "dynamics",
+            Stage::Jam { .. } => "jam",
         }
     }
 }
@@ -451,6 +465,7 @@ impl Scene {
                     ..
                 } => None,
                 Stage::MonteCarlo { .. } | Stage::Dynamics { .. } => phi,
+                Stage::Jam { .. } => None,
             };
         }
         phi

@@ -122,11 +122,11 @@ impl Plan {
         let has_mc = scene
             .stages
             .iter()
-            .any(|s| !matches!(s, Stage::Dynamics { .. }));
+            .any(|s| !matches!(s, Stage::Dynamics { .. } | Stage::Jam { .. }));
         let has_dynamics = scene
             .stages
             .iter()
-            .any(|s| matches!(s, Stage::Dynamics { .. }));
+            .any(|s| matches!(s, Stage::Dynamics { .. } | Stage::Jam { .. }));
         let asks = |f: fn(&Stage) -> bool| scene.stages.iter().any(f);
         Plan {
             mc_neighbours: NeighbourPlan::for_species(&mc_species),
@@ -442,6 +442,18 @@ impl fmt::Display for Report<'_> {
                         ),
                     };
                     format!("Monte Carlo, {e}, {sweeps} sweeps ({tuned})")
+                }
+                Stage::Jam {
+                    growth_rate,
+                    pressure,
+                } => {
+                    let rate = growth_rate.unwrap_or(crate::edmd::jam::DEFAULT_GROWTH_RATE);
+                    format!(
+                        "jam by event-driven growth: sizes grow at {:e} per unit time ({rate:e} from betaPV/N = {:e}) at kT = 1, until betaPV/N passes {:e}",
+                        crate::edmd::jam::FLUID_SPEED_UP * rate,
+                        crate::edmd::jam::SETTLE_FROM,
+                        pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE)
+                    )
                 }
                 Stage::Dynamics {
                     duration,

@@ -160,6 +160,34 @@ impl Scene {
         for (i, st) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stages[{i}].{name}");
             match st {
+                Stage::Jam {
+                    growth_rate,
+                    pressure,
+                } => {
+                    if i + 1 != self.stages.len() {
+                        return bad(
+                            &format!("stages[{i}]"),
+                            "a Jam stage must be the last: the bodies' sizes change in it".into(),
+                        );
+                    }
+                    if let Some(rate) = growth_rate
+                        && !(rate.is_finite() && *rate > 0.0 && *rate <= 0.1)
+                    {
+                        return bad(
+                            &f("growth_rate"),
+                            format!("must lie in (0, 0.1], got {rate}"),
+                        );
+                    }
+                    if let Some(p) = pressure
+                        && !(p.is_finite() && *p > 1.0 && *p <= 1e14)
+                    {
+                        return bad(
+                            &f("pressure"),
+                            format!("must lie in (1, 1e14] (βPV/N), got {p:e}"),
+                        );
+                    }
+                    known_phi = None;
+                }
                 Stage::Compress {
                     packing_fraction,
                     pressure,

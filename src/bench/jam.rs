@@ -1,0 +1,171 @@
+//! `hardbody bench jam`: jammed packings by event-driven growth
+//! ([`crate::edmd::jam`]) on one thread, from the melted dilute lattice of
+//! `bench compress`: per system the packing fraction reached, the backbone
+//! contact number against the isostatic 2 d_f, the rattlers, the
+//! collisions and the seconds. Spheres at several growth rates (slower
+//! growth, denser and closer to isostatic), then the bodies of Donev's
+//! and Jiao's packings at the default rate. Every end state is checked by
+//! the exact pair distance: no overlap.
+
+use std::time::Instant;
+
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+
+use super::compress::dilute_start;
+use super::markdown_table;
+use crate::analysis::packing::{PackedBody, contact_network};
+use crate::edmd::DynamicsOptions;
+use crate::edmd::jam::{DEFAULT_GROWTH_RATE, JamEnd, JamOptions, jam};
+use crate::geometry::Shape;
+
+/// One jamming run.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct JamRow {
+    /// The shape, in the scene spelling.
+    pub shape: String,
+    /// Bodies.
+    pub n: usize,
+    /// γ (the rate near the jam; ten times it below βPV/N = 10³).
+    pub growth_rate: f64,
+    /// φ at the end.
+    pub packing_fraction: f64,
+    /// βPV/N of the last chunk.
+    pub pressure: f64,
+    /// Mean contact number of the backbone (gaps below 10⁻⁹ of the
+    /// smallest half-extent).
+    pub backbone_contact_number: f64,
+    /// 2 d_f.
+    pub isostatic_contact_number: f64,
+    /// Rattlers, per cent of the bodies.
+    pub rattlers_percent: f64,
+    /// Collisions.
+    pub collisions: u64,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// How it ended.
+    pub end: String,
+}
+
+/// The systems: spheres at three rates, then the bodies at the default;
+/// `quick`, 64 spheres and 27 spheroids to βPV/N = 10⁶ (for the tests).
+pub fn run(quick: bool) -> Result<Vec<JamRow>, String> {
+    let shape = |text: &str| -> Result<Shape, String> { text.parse().map_err(|e| format!("{e}")) };
+    let sphere = shape("Sphere(radius: 0.5)")?;
+    let cases: Vec<(Shape, usize, f64, f64)> = if quick {
+        vec![
+            (sphere, 4, 1e-2, 1e6),
+            (shape("Ellipsoid(a: 0.75, b: 0.5, c: 0.5)")?, 3, 1e-2, 1e6),
+        ]
+    } else {
+        let mut cases: Vec<_> = [1e-2, 3e-3, DEFAULT_GROWTH_RATE]
+            .into_iter()
+            .map(|rate| (sphere, 10, rate, 1e12))
+            .collect();
+        for text in [
+            "Ellipsoid(a: 0.75, b: 0.5, c: 0.5)",
+            "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)",
+            "Ellipsoid(a: 0.625, b: 0.5, c: 0.4)",
+            "Ellipsoid(a: 0.5, b: 0.5, c: 0.25)",
+            "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))",
+            "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
+        ] {
+            cases.push((shape(text)?, 10, DEFAULT_GROWTH_RATE, 1e12));
+        }
+        cases
+    };
+    cases
+        .into_iter()
+        .map(|(shape, side, rate, pressure)| timed(shape, side, rate, pressure))
+        .collect()
+}
+
+/// Jams `side`³ bodies of `shape` at `rate` to `pressure` and times it.
+fn timed(shape: Shape, side: usize, rate: f64, pressure: f64) -> Result<JamRow, String> {
+    let start = dilute_start(&[shape], side, 3)?;
+    let options = JamOptions {
+        growth_rate: rate,
+        pressure,
+        ..JamOptions::default()
+    };
+    let mut rng = Pcg64::seed_from_u64(4);
+    let clock = Instant::now();
+    let out = jam(
+        &start,
+        &options,
+        &DynamicsOptions::default(),
+        &mut rng,
+        |_| true,
+    )
+    .map_err(|e| format!("{shape}: {e}"))?;
+    let seconds = clock.elapsed().as_secs_f64();
+    let system = &out.system;
+    let shapes: Vec<Shape> = system.species().iter().map(|s| s.shape).collect();
+    let bodies: Vec<PackedBody> = system
+        .particles()
+        .iter()
+        .map(|p| PackedBody {
+            position: p.position,
+            orientation: p.orientation,
+            shape: p.species as usize,
+        })
+        .collect();
+    let network = contact_network(system.periodic_box(), &shapes, &bodies, 1e-9);
+    if network.overlaps > 0 {
+        return Err(format!("{shape}: {} overlapping pairs", network.overlaps));
+    }
+    let last = out
+        .last
+        .ok_or_else(|| format!("{shape}: no chunk finished"))?;
+    Ok(JamRow {
+        shape: shape.to_string(),
+        n: system.len(),
+        growth_rate: rate,
+        packing_fraction: system.packing_fraction(),
+        pressure: last.pressure,
+        backbone_contact_number: network.backbone_contact_number,
+        isostatic_contact_number: network.isostatic_contact_number,
+        rattlers_percent: 100.0 * network.rattlers.len() as f64 / system.len() as f64,
+        collisions: last.collisions,
+        seconds,
+        end: match out.end {
+            JamEnd::Jammed => "jammed".into(),
+            other => format!("{other:?} ({})", out.last_failure.unwrap_or_default()),
+        },
+    })
+}
+
+/// The rows as a Markdown table.
+pub fn table(rows: &[JamRow]) -> String {
+    let columns = [
+        "shape",
+        "N",
+        "growth rate",
+        "phi_J",
+        "betaPV/N",
+        "z backbone",
+        "2 d_f",
+        "rattlers %",
+        "collisions",
+        "seconds",
+        "end",
+    ];
+    markdown_table(
+        &columns,
+        rows.iter().map(|r| {
+            vec![
+                r.shape.clone(),
+                r.n.to_string(),
+                format!("{:e}", r.growth_rate),
+                format!("{:.4}", r.packing_fraction),
+                format!("{:.2e}", r.pressure),
+                format!("{:.3}", r.backbone_contact_number),
+                format!("{}", r.isostatic_contact_number),
+                format!("{:.1}", r.rattlers_percent),
+                r.collisions.to_string(),
+                format!("{:.1}", r.seconds),
+                r.end.clone(),
+            ]
+        }),
+    )
+}

@@ -1,0 +1,230 @@
+//! The jam stage: event-driven growth chunk by chunk ([`crate::edmd::jam`]),
+//! a `/stats` message per chunk, a frame every [`FRAME_CHUNKS`] chunks
+//! and at the end. Each frame holds the grown species, the velocities and
+//! the run's progress: a resumed run goes on from it bit for bit.
+
+use rand_pcg::Pcg64;
+
+use crate::edmd::jam::{
+    DEFAULT_GROWTH_RATE, DEFAULT_JAM_PRESSURE, JamChunk, JamEnd, JamOptions, JamRun,
+};
+use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
+use crate::mc::moves::Counts;
+use crate::scene::Stage;
+
+use super::cadence::{Mark, StageRun};
+use super::records::Interval;
+use super::*;
+
+/// Chunks between frames.
+const FRAME_CHUNKS: u64 = 10;
+
+/// A jam stage under way.
+pub(super) struct JamStage {
+    index: usize,
+    run: JamRun,
+    last: Option<JamChunk>,
+    frame_due: bool,
+}
+
+impl JamStage {
+    /// The stage from `phase` (its first frame written), or from the frame
+    /// `resume` (whose state and velocities `phase` holds).
+    pub(super) fn start(
+        runner: &mut Runner,
+        index: usize,
+        phase: Phase,
+        resume: Option<ResumeInfo>,
+        log: &mut LogWriter,
+        rng: &mut Pcg64,
+    ) -> Result<Self, StageError> {
+        let Stage::Jam {
+            growth_rate,
+            pressure,
+        } = runner.scene.stages[index]
+        else {
+            unreachable!("called for jam stages")
+        };
+        let options = JamOptions {
+            growth_rate: growth_rate.unwrap_or(DEFAULT_GROWTH_RATE),
+            pressure: pressure.unwrap_or(DEFAULT_JAM_PRESSURE),
+            ..JamOptions::default()
+        };
+        let resumed = resume.and_then(|r| r.jam);
+        let run = match (resumed, phase) {
+            (
+                Some(progress),
+                Phase::Moving {
+                    system,
+                    velocities,
+                    angular_velocities,
+                },
+            ) => {
+                let dynamics = runner.dynamics_options(1.0, false, system.packing_fraction());
+                let moving: Vec<_> = velocities.into_iter().zip(angular_velocities).collect();
+                JamRun::resume(&system, &moving, &options, &dynamics, progress)?
+            }
+            (Some(_), _) => return Err(StageError::NoJamVelocities),
+            (None, phase) => {
+                let system = runner.to_system(phase)?;
+                let dynamics = runner.dynamics_options(1.0, false, system.packing_fraction());
+                let run = JamRun::new(&system, &options, &dynamics, rng)?;
+                runner.start_frame(log, &record(runner, &run, index, false))?;
+                run
+            }
+        };
+        Ok(Self {
+            index,
+            last: run.progress().last,
+            run,
+            frame_due: false,
+        })
+    }
+
+    /// Log time where the run stands.
+    fn time(&self, runner: &Runner) -> u64 {
+        runner.clock + self.run.progress().chunk * NS_PER_SWEEP
+    }
+}
+
+/// The frame of `run` where it stands.
+fn record(runner: &Runner, run: &JamRun, index: usize, complete: bool) -> StateRecord {
+    let system = run.system();
+    StateRecord {
+        stage_index: index,
+        stage: "jam".into(),
+        time: Some(run.progress().time),
+        resume: Some(ResumeInfo {
+            stage_clock: runner.clock,
+            stage_complete: complete,
+            sweep: 0,
+            max_translate: 0.0,
+            sizes: runner.sizes,
+            rng: None,
+            window: Counts::default(),
+            tune_window: Counts::default(),
+            compress: None,
+            dynamics: None,
+            drift: None,
+            jam: Some(*run.progress()),
+        }),
+        ..StateRecord::of_particles(system.periodic_box(), system.species(), system.particles())
+            .with_velocities(run.velocities())
+    }
+}
+
+impl StageRun for JamStage {
+    fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
+        let figures = self.run.chunk()?;
+        let time = self.time(runner);
+        Ok(match figures {
+            Some(chunk) => {
+                self.last = Some(chunk);
+                self.frame_due |= chunk.chunk.is_multiple_of(FRAME_CHUNKS);
+                Mark {
+                    time,
+                    stats: true,
+                    frame: self.frame_due,
+                    end: self.run.end().is_some(),
+                }
+            }
+            // Ended without a new chunk (its floor or budget): the state
+            // of the last chunk is the stage's.
+            None => Mark {
+                time,
+                stats: false,
+                frame: true,
+                end: true,
+            },
+        })
+    }
+
+    fn stats(&mut self, runner: &Runner) -> Stats {
+        let system = self.run.system();
+        let chunk = self.last.expect("stats after a chunk");
+        let density = system.len() as f64 / system.periodic_box().volume();
+        runner.stats(
+            self.index,
+            Interval {
+                time: Some(chunk.time),
+                packing_fraction: chunk.packing_fraction,
+                pressure: Some(chunk.pressure * density),
+                box_lengths: system.periodic_box().lengths().into(),
+                collisions: Some(chunk.collisions),
+                temperature: Some(chunk.temperature),
+                nematic_order: runner.system_nematic_order(system),
+                ..Interval::default()
+            },
+        )
+    }
+
+    fn progress(&self) -> (u64, String) {
+        let p = self.run.progress();
+        (
+            p.chunk,
+            self.last
+                .map(|c| {
+                    format!(
+                        "phi {:.4}, betaPV/N {:.3e}, {} collisions",
+                        c.packing_fraction, c.pressure, c.collisions
+                    )
+                })
+                .unwrap_or_default(),
+        )
+    }
+
+    fn frame_ready(&mut self) -> Result<bool, StageError> {
+        // Between chunks the state is certified overlap-free.
+        Ok(true)
+    }
+
+    fn frame(&mut self, runner: &Runner, complete: bool) -> StateRecord {
+        self.frame_due = false;
+        record(runner, &self.run, self.index, complete)
+    }
+
+    fn failed(&mut self, runner: &mut Runner, log: &mut LogWriter) {
+        // The last certified state before the failure.
+        let time = self.time(runner);
+        let _ = log.frame(time, &self.frame(runner, false));
+    }
+
+    fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String) {
+        let index = self.index;
+        let p = *self.run.progress();
+        runner.clock += p.chunk * NS_PER_SWEEP;
+        if p.retries > 0 {
+            runner.notes.push(format!(
+                "stage {index} (jam): {} chunks run again at a lower growth rate after a numerical failure (the last: {})",
+                p.retries,
+                self.run.last_failure().unwrap_or("-")
+            ));
+        }
+        let system = self.run.system();
+        let phi = system.packing_fraction();
+        let figures = self
+            .last
+            .map(|c| {
+                format!(
+                    ", betaPV/N {:.3e} after {} collisions in {} chunks (t = {:.4}, growth rate {:e})",
+                    c.pressure, c.collisions, c.chunk, c.time, c.growth_rate
+                )
+            })
+            .unwrap_or_default();
+        let line = match self.run.end() {
+            Some(JamEnd::Jammed) => format!("jammed at packing fraction {phi:.4}{figures}"),
+            Some(JamEnd::GrowthFloor) => format!(
+                "growth rate lowered to its floor at packing fraction {phi:.4}{figures}: not jammed ({})",
+                self.run.last_failure().unwrap_or("-")
+            ),
+            Some(JamEnd::Budget) => {
+                format!("collision budget spent at packing fraction {phi:.4}{figures}")
+            }
+            Some(JamEnd::Stopped) | None => {
+                debug_assert!(stopped);
+                format!("interrupted at packing fraction {phi:.4}{figures}")
+            }
+        };
+        (Phase::Mc(self.run.system().clone()), line)
+    }
+}
