@@ -68,7 +68,7 @@ fn jam_from(system: &System, options: &JamOptions) -> Jammed {
     out
 }
 
-/// 200 spheres at the default rate: jammed (Z past 10¹²) at φ within
+/// 300 spheres at the default rate: jammed (Z past 10¹²) at φ within
 /// 0.64 ± 0.015, overlap-free, the backbone within 0.1 of z = 6 with
 /// under 6 % rattlers; the contacts are a network apart from the rest
 /// (the same count from gaps of 10⁻⁹ to 10⁻⁷).
@@ -77,7 +77,7 @@ fn spheres_jam_near_random_close_packing_with_an_isostatic_backbone() {
     let n: usize = std::env::var("HARDBODY_JAM_N")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(200);
+        .unwrap_or(300);
     // Another γ (for the φ_J-against-rate measurements): the figures are
     // printed, and only the default's are held to the targets.
     let rate: Option<f64> = std::env::var("HARDBODY_JAM_RATE")

@@ -17,8 +17,9 @@
 //!
 //! A chunk is one [`Dynamics::growing`] run: the sizes at its start times
 //! 1 + γt, up to a fixed relative growth (the margin its cells and
-//! neighbour regions are built for) or a number of collisions per body,
-//! whichever comes first. A chunk whose numerics fail (a contact the
+//! neighbour regions are built for, 5 %: wider costs more candidates per
+//! search, narrower more rebuilds while the fluid is dilute) or a number
+//! of collisions per body, whichever comes first. A chunk whose numerics fail (a contact the
 //! solver could not certify) is run again from its start at half the
 //! rate; below [`JamOptions::growth_floor`] the run ends at the last
 //! state that was certified.
@@ -50,6 +51,9 @@ pub struct JamOptions {
     pub collisions_per_body: u64,
     /// Largest total number of collisions (a safety net; 0: none).
     pub max_collisions: u64,
+    /// Stop growing at this packing fraction instead (a dense fluid or
+    /// glass, not a jammed packing), reached to round-off.
+    pub packing_fraction: Option<f64>,
 }
 
 impl Default for JamOptions {
@@ -58,9 +62,10 @@ impl Default for JamOptions {
             growth_rate: DEFAULT_GROWTH_RATE,
             pressure: DEFAULT_JAM_PRESSURE,
             growth_floor: DEFAULT_GROWTH_RATE * 1e-4,
-            margin: 0.01,
+            margin: 0.05,
             collisions_per_body: 100,
             max_collisions: 0,
+            packing_fraction: None,
         }
     }
 }
@@ -83,6 +88,8 @@ pub enum JamEnd {
     GrowthFloor,
     /// The collision budget ran out.
     Budget,
+    /// The packing fraction asked was reached.
+    PackingFraction,
     /// The caller stopped it.
     Stopped,
 }
@@ -222,17 +229,35 @@ impl JamRun {
                 p.rate,
                 self.options.margin,
             )?;
-            let ends = md.growth_ends().expect("growing");
+            // The end of the margin, or where the sizes reach the
+            // packing fraction asked (they are 1 + rate t times those of
+            // the chunk's start).
+            let mut ends = md.growth_ends().expect("growing");
+            if let Some(target) = self.options.packing_fraction {
+                let size = (target / self.state.packing_fraction()).cbrt();
+                ends = ends.min((size - 1.0) / p.rate);
+            }
             let outcome = md
                 .run_collisions_until(self.options.collisions_per_body * n, ends)
+                .map_err(|e| e.to_string())
                 .and_then(|()| {
-                    let pressure = md.sample().pressure.unwrap_or(0.0);
-                    Ok((pressure, md.to_system()?))
+                    let sample = md.sample();
+                    // Collisions that all fall at one instant: bodies
+                    // caught at gaps the arithmetic no longer resolves.
+                    if sample.pressure.is_none() && md.collisions() > 0 {
+                        return Err(format!(
+                            "{} collisions without time advancing at βPV/N ≈ {:.3e}",
+                            md.collisions(),
+                            p.last.map_or(0.0, |c| c.pressure)
+                        ));
+                    }
+                    let system = md.to_system().map_err(|e| e.to_string())?;
+                    Ok((sample.pressure.unwrap_or(0.0), system))
                 });
             let (pressure, next) = match outcome {
                 Ok(done) => done,
                 Err(e) => {
-                    self.last_failure = Some(e.to_string());
+                    self.last_failure = Some(e);
                     if p.rate * 0.5 < self.options.growth_floor {
                         self.end = Some(JamEnd::GrowthFloor);
                         return Ok(None);
@@ -272,6 +297,10 @@ impl JamRun {
             }
             if z >= self.options.pressure {
                 self.end = Some(JamEnd::Jammed);
+            } else if let Some(target) = self.options.packing_fraction
+                && figures.packing_fraction >= target * (1.0 - 1e-12)
+            {
+                self.end = Some(JamEnd::PackingFraction);
             }
             return Ok(Some(figures));
         }

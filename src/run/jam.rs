@@ -217,6 +217,7 @@ impl StageRun for JamStage {
                 "growth rate lowered to its floor at packing fraction {phi:.4}{figures}: not jammed ({})",
                 self.run.last_failure().unwrap_or("-")
             ),
+            Some(JamEnd::PackingFraction) => format!("grown to packing fraction {phi:.4}{figures}"),
             Some(JamEnd::Budget) => {
                 format!("collision budget spent at packing fraction {phi:.4}{figures}")
             }
