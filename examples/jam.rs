@@ -2,8 +2,9 @@
 //! from a dilute lattice, the contact network of the result, the time.
 //!
 //! `cargo run --release --example jam -- "Ellipsoid(a: 0.75, b: 0.5, c: 0.5)" 1000 1e-3`
-//! (shape in the scene spelling, the number of bodies, the growth rate;
-//! defaults: 1000 spheres at 10⁻³, about 40 s on one core).
+//! (shape in the scene spelling, the number of bodies, the growth rate,
+//! and optionally the bound on βPV/N; defaults: 1000 spheres at 10⁻³ to
+//! 10¹², about 40 s on one core).
 
 use std::time::Instant;
 
@@ -30,6 +31,10 @@ fn main() {
         .map_or(Ok(1000), |s| s.parse())
         .expect("a count");
     let rate: f64 = args.get(2).map_or(Ok(1e-3), |s| s.parse()).expect("a rate");
+    let pressure: f64 = args
+        .get(3)
+        .map_or(Ok(1e12), |s| s.parse())
+        .expect("a pressure");
     let species = vec![Species {
         name: shape.kind().into(),
         shape,
@@ -43,6 +48,7 @@ fn main() {
     let start = lattice(box_, species, &[n], &mut rng).expect("room on the lattice");
     let options = JamOptions {
         growth_rate: rate,
+        pressure,
         ..JamOptions::default()
     };
     let clock = Instant::now();
@@ -54,7 +60,7 @@ fn main() {
         &mut rng,
         |c| {
             chunks += 1;
-            if chunks % 50 == 0 {
+            if chunks % 10 == 0 {
                 eprintln!(
                     "chunk {}: phi {:.4}, betaPV/N {:.3e}, {} collisions",
                     c.chunk, c.packing_fraction, c.pressure, c.collisions

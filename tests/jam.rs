@@ -287,3 +287,40 @@ fn the_jam_bench_runs() {
         assert!(r["seconds"].as_f64().unwrap() > 0.0, "{r}");
     }
 }
+
+/// `analyze --packing` reports the cubatic order of cuboids: near 0 for
+/// the random orientations of the start, and a packing of cubes grown
+/// from it keeps a finite value in [0, 1].
+#[test]
+fn analyze_reports_the_cubatic_order_of_cubes() {
+    let dir = std::env::temp_dir().join(format!("hardbody-cubatic-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = r#"Scene(
+        seed: 2,
+        box: (9.0, 9.0, 9.0),
+        species: [Species(name: "cube", shape: Cuboid(a: 0.5, b: 0.5, c: 0.5), count: 64)],
+        stages: [Jam(growth_rate: 0.01, pressure: 1e4)],
+    )"#;
+    let path = dir.join("cubes.mcap");
+    let scene = Scene::parse(text).unwrap();
+    run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let cubatic = |frame: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .args(["analyze", "--packing", "--json", "--frame", frame])
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["cubatic"].as_f64().unwrap()
+    };
+    let start = cubatic("0");
+    assert!(start.abs() < 0.1, "{start}");
+    let last = read_log(&path, true).unwrap().states.len() - 1;
+    let end = cubatic(&last.to_string());
+    assert!((0.0..=1.0).contains(&end), "{end}");
+}

@@ -1,5 +1,5 @@
 //! Orientational order: the nematic order parameter S₂ (largest eigenvalue
-//! of the Q tensor) and a cubatic alignment for cubes.
+//! of the Q tensor) and the cubatic alignment and order for cubes.
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
@@ -86,9 +86,95 @@ pub fn local_cubic_order(
     (pairs > 0).then(|| sum / pairs as f64)
 }
 
+/// The global cubatic order of bodies with rotations `rotations`: the
+/// mean [`cubic_alignment`] over all ordered pairs, the body with itself
+/// included, in O(N) through the fourth-rank tensor T = Σᵢ Σₖ uᵢₖ⊗⁴ of the
+/// body axes uᵢₖ (Σ over pairs of Σₖₗ (uᵢₖ·uⱼₗ)⁴ is |T|²). 1 when every
+/// body's axes coincide up to cubic symmetry, 1/N on average for random
+/// orientations (the self pairs); no director to search for. `None` for
+/// no bodies.
+pub fn cubatic_order(rotations: impl IntoIterator<Item = Matrix3<f64>>) -> Option<f64> {
+    let mut t = [0.0f64; 81];
+    let mut n = 0usize;
+    for r in rotations {
+        for k in 0..3 {
+            let u = r.column(k);
+            for a in 0..3 {
+                for b in 0..3 {
+                    let ab = u[a] * u[b];
+                    for c in 0..3 {
+                        let abc = ab * u[c];
+                        for d in 0..3 {
+                            t[((a * 3 + b) * 3 + c) * 3 + d] += abc * u[d];
+                        }
+                    }
+                }
+            }
+        }
+        n += 1;
+    }
+    if n == 0 {
+        return None;
+    }
+    let squared: f64 = t.iter().map(|x| x * x).sum();
+    let mean = squared / (3.0 * (n * n) as f64);
+    Some((mean - 0.6) / 0.4)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The cubatic order is the pair mean of the cubic alignment (brute
+    /// force), 1 for bodies turned by symmetries of the cube only, and
+    /// near 1/N for random orientations.
+    #[test]
+    fn cubatic_order_is_the_mean_alignment_of_all_pairs() {
+        let mut u = crate::test_support::uniform(9);
+        let random = |u: &mut dyn FnMut() -> f64| {
+            *nalgebra::Rotation3::from_scaled_axis(
+                Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 7.0,
+            )
+            .matrix()
+        };
+        let bodies: Vec<Matrix3<f64>> = (0..50).map(|_| random(&mut u)).collect();
+        let brute: f64 = bodies
+            .iter()
+            .flat_map(|a| bodies.iter().map(move |b| cubic_alignment(a, b)))
+            .sum::<f64>()
+            / (50.0 * 50.0);
+        let fast = cubatic_order(bodies.iter().copied()).unwrap();
+        assert!((fast - brute).abs() < 1e-12, "{fast} {brute}");
+        // Quarter turns and flips of one orientation: perfectly cubatic.
+        let base = random(&mut u);
+        let quarter = |axis: Vector3<f64>, k: u32| {
+            *nalgebra::Rotation3::from_axis_angle(
+                &nalgebra::Unit::new_normalize(axis),
+                k as f64 * std::f64::consts::FRAC_PI_2,
+            )
+            .matrix()
+        };
+        let symmetric: Vec<Matrix3<f64>> = (0..24)
+            .map(|k| base * quarter(Vector3::x(), k % 4) * quarter(Vector3::z(), (k / 4) % 4))
+            .collect();
+        assert!((cubatic_order(symmetric).unwrap() - 1.0).abs() < 1e-12);
+        let n = 4000;
+        let isotropic = cubatic_order((0..n).map(|_| {
+            // Uniform rotations from normalised Gaussian-free quaternions:
+            // four uniforms in the unit ball, normalised.
+            loop {
+                let q = nalgebra::Vector4::new(u() - 0.5, u() - 0.5, u() - 0.5, u() - 0.5) * 2.0;
+                if q.norm() <= 1.0 && q.norm() > 1e-3 {
+                    let q =
+                        nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::from(q));
+                    break *q.to_rotation_matrix().matrix();
+                }
+            }
+        }))
+        .unwrap();
+        assert!(isotropic.abs() < 5.0 / n as f64, "{isotropic}");
+        assert_eq!(cubatic_order(Vec::new()), None);
+    }
 
     #[test]
     fn molecular_axis_is_the_odd_one_out() {

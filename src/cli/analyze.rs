@@ -430,7 +430,7 @@ pub(super) fn analyze_packing(
     json: bool,
     plot: Option<&std::path::Path>,
 ) -> ExitCode {
-    use hardbody::analysis::order::{molecular_axis, nematic_director};
+    use hardbody::analysis::order::{cubatic_order, molecular_axis, nematic_director};
     use hardbody::analysis::packing::{PackedBody, contact_network};
     use hardbody::analysis::structure::{
         neighbours, radial_distribution, steinhardt, structure_factor,
@@ -507,9 +507,17 @@ pub(super) fn analyze_packing(
             .iter()
             .filter_map(|b| axes[b.shape].map(|u| b.orientation * u)),
     );
+    // Cubatic order of the cuboids (the axes of other bodies mean nothing
+    // cubic).
+    let cuboids = bodies
+        .iter()
+        .filter(|b| matches!(shapes[b.shape], Shape::Cuboid(_)))
+        .map(|b| *b.orientation.to_rotation_matrix().matrix());
+    let cubatic = cubatic_order(cuboids);
     if json {
         print_json(&serde_json::json!({
             "frame": index,
+            "cubatic": cubatic,
             "network": network,
             "rdf": rdf,
             "structure_factor": {"k": k, "s": s_k},
@@ -598,6 +606,11 @@ pub(super) fn analyze_packing(
             d.x, d.y, d.z
         )),
         None => say("nematic order: none (no body has a molecular axis)"),
+    }
+    if let Some(order) = cubatic {
+        say(&format!(
+            "cubatic order of the cuboids: {order:.4} (1 aligned up to the cube's symmetries, 1/N random)"
+        ));
     }
     ExitCode::SUCCESS
 }

@@ -141,7 +141,7 @@ impl LogError {
 /// One `/stats` message. Fields that a stage does not measure are null.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
-    /// `compress`, `monte_carlo` or `dynamics`.
+    /// `compress`, `monte_carlo`, `dynamics` or `jam`.
     pub stage: String,
     /// Index of the stage in the scene.
     pub stage_index: usize,
@@ -199,7 +199,7 @@ pub struct SpeciesRecord {
 pub struct StateRecord {
     /// Index of the stage in the scene.
     pub stage_index: usize,
-    /// `compress`, `monte_carlo` or `dynamics`.
+    /// `compress`, `monte_carlo`, `dynamics` or `jam`.
     pub stage: String,
     /// Sweeps done in the stage (Monte Carlo).
     pub sweep: Option<u64>,
