@@ -8,7 +8,6 @@
 
 use std::time::Instant;
 
-use hardbody::analysis::packing::{PackedBody, contact_network};
 use hardbody::edmd::DynamicsOptions;
 use hardbody::edmd::jam::{JamOptions, jam};
 use hardbody::geometry::Shape;
@@ -72,17 +71,7 @@ fn main() {
     .expect("a jam");
     let seconds = clock.elapsed().as_secs_f64();
     let system = &out.system;
-    let shapes: Vec<Shape> = system.species().iter().map(|s| s.shape).collect();
-    let bodies: Vec<PackedBody> = system
-        .particles()
-        .iter()
-        .map(|p| PackedBody {
-            position: p.position,
-            orientation: p.orientation,
-            shape: p.species as usize,
-        })
-        .collect();
-    let net = contact_network(system.periodic_box(), &shapes, &bodies, 1e-9);
+    let net = system.contact_network(1e-9);
     let last = out.last.expect("a chunk");
     println!(
         "{shape}, N = {n}, growth rate {rate:e}: {:?} at phi = {:.4}, betaPV/N = {:.3e}, \

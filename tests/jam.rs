@@ -9,7 +9,7 @@ mod common;
 use std::sync::atomic::AtomicBool;
 
 use common::cut_after_frames;
-use hardbody::analysis::packing::{ContactNetwork, PackedBody, contact_network};
+use hardbody::analysis::packing::ContactNetwork;
 use hardbody::edmd::DynamicsOptions;
 use hardbody::edmd::jam::{JamEnd, JamOptions, Jammed, jam};
 use hardbody::log::read::read_log;
@@ -38,17 +38,7 @@ fn dilute(shape: &str, n: usize, phi: f64, walls: [bool; 3]) -> System {
 
 /// The contact network at gaps below `gap` times the smallest half-extent.
 fn network(system: &System, gap: f64) -> ContactNetwork {
-    let shapes: Vec<_> = system.species().iter().map(|s| s.shape).collect();
-    let bodies: Vec<PackedBody> = system
-        .particles()
-        .iter()
-        .map(|p| PackedBody {
-            position: p.position,
-            orientation: p.orientation,
-            shape: p.species as usize,
-        })
-        .collect();
-    contact_network(system.periodic_box(), &shapes, &bodies, gap)
+    system.contact_network(gap)
 }
 
 fn jam_from(system: &System, options: &JamOptions) -> Jammed {

@@ -14,7 +14,6 @@ use rand_pcg::Pcg64;
 
 use super::compress::dilute_start;
 use super::markdown_table;
-use crate::analysis::packing::{PackedBody, contact_network};
 use crate::edmd::DynamicsOptions;
 use crate::edmd::jam::{DEFAULT_GROWTH_RATE, JamEnd, JamOptions, jam};
 use crate::geometry::Shape;
@@ -100,17 +99,7 @@ fn timed(shape: Shape, side: usize, rate: f64, pressure: f64) -> Result<JamRow, 
     .map_err(|e| format!("{shape}: {e}"))?;
     let seconds = clock.elapsed().as_secs_f64();
     let system = &out.system;
-    let shapes: Vec<Shape> = system.species().iter().map(|s| s.shape).collect();
-    let bodies: Vec<PackedBody> = system
-        .particles()
-        .iter()
-        .map(|p| PackedBody {
-            position: p.position,
-            orientation: p.orientation,
-            shape: p.species as usize,
-        })
-        .collect();
-    let network = contact_network(system.periodic_box(), &shapes, &bodies, 1e-9);
+    let network = system.contact_network(1e-9);
     if network.overlaps > 0 {
         return Err(format!("{shape}: {} overlapping pairs", network.overlaps));
     }

@@ -258,4 +258,21 @@ impl System {
             .sum();
         v / self.box_.volume()
     }
+
+    /// The contact network of the bodies, pairs closer than
+    /// `gap_tolerance` times the smaller one's smallest half-extent (see
+    /// [`crate::analysis::packing::contact_network`]).
+    pub fn contact_network(&self, gap_tolerance: f64) -> crate::analysis::packing::ContactNetwork {
+        let shapes: Vec<_> = self.species.iter().map(|s| s.shape).collect();
+        let bodies: Vec<_> = self
+            .particles
+            .iter()
+            .map(|p| crate::analysis::packing::PackedBody {
+                position: p.position,
+                orientation: p.orientation,
+                shape: p.species as usize,
+            })
+            .collect();
+        crate::analysis::packing::contact_network(&self.box_, &shapes, &bodies, gap_tolerance)
+    }
 }

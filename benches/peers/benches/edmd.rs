@@ -21,6 +21,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use hardbody_peers::{run, smallenburg_source};
 use std::time::Instant;
 
 use hardbody::edmd::{Dynamics, DynamicsOptions};
@@ -35,28 +37,9 @@ use rand::SeedableRng;
 const OUR_SHELL: f64 = 0.25;
 const THEIR_SHELL: &str = "1.5";
 
-fn peer_source() -> PathBuf {
-    std::env::var_os("SMALLENBURG_EDMD")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/peers/smallenburg-edmd")
-        })
-}
-
-fn run(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
-    assert!(
-        out.status.success(),
-        "{cmd:?}: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
 /// The peer's codes, patched and built under `target/`; the folder.
 fn build_peer() -> PathBuf {
-    let source = peer_source();
+    let source = smallenburg_source();
     assert!(
         source.join("Single/mdSingle.c").exists(),
         "Smallenburg's EDMD source not found at {} (set SMALLENBURG_EDMD)",

@@ -23,6 +23,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use hardbody_peers::{run, smallenburg_source};
 use std::time::Instant;
 
 use hardbody::edmd::DynamicsOptions;
@@ -36,29 +38,10 @@ const N: usize = 1000;
 const TARGET: f64 = 0.62;
 const THEIR_SPEED: f64 = 0.1;
 
-fn peer_source() -> PathBuf {
-    std::env::var_os("SMALLENBURG_EDMD")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/peers/smallenburg-edmd")
-        })
-}
-
-fn run(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
-    assert!(
-        out.status.success(),
-        "{cmd:?}: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
 /// His growth code set to this task and built under `target/`; its
 /// folder.
 fn build_peer() -> PathBuf {
-    let source = peer_source().join("Grow");
+    let source = smallenburg_source().join("Grow");
     assert!(
         source.join("mdgrow.c").exists(),
         "no Grow code at {}",
