@@ -74,6 +74,14 @@ impl Default for JamOptions {
 pub const DEFAULT_GROWTH_RATE: f64 = 1e-3;
 /// The reduced pressure from which the bodies grow at γ (below it, 10γ).
 pub const SETTLE_FROM: f64 = 1e3;
+/// The contact tolerance of the predictions while growing (relative to
+/// the smaller body's smallest half-extent), at most: with the default
+/// 10⁻¹⁰, 1000 spheroids 1.5:1 stalled near βPV/N = 5×10⁹ (collisions at
+/// one instant); with this and [`JAM_NEWTON_TOLERANCE`], 125 of them
+/// jammed to 1.2×10¹².
+pub const JAM_CONTACT_TOLERANCE: f64 = 1e-13;
+/// Newton's tolerance on the distance while growing, at most.
+pub const JAM_NEWTON_TOLERANCE: f64 = 1e-14;
 /// How much faster than γ the bodies grow below [`SETTLE_FROM`].
 pub const FLUID_SPEED_UP: f64 = 10.0;
 /// The default bound on βPV/N (Donev et al.).
@@ -215,13 +223,22 @@ impl JamRun {
                 self.end = Some(JamEnd::Budget);
                 return Ok(None);
             }
-            let dynamics = DynamicsOptions {
+            let mut dynamics = DynamicsOptions {
                 neighbour_shell: automatic_neighbour_shell(
                     self.state.species(),
                     self.state.packing_fraction(),
                 ),
                 ..self.dynamics.clone()
             };
+            // Gaps near the bound are 1/Z of the size: contacts of bodies
+            // are found, and their distances solved, finer than that.
+            let predictor = &mut dynamics.predictor;
+            predictor.contact_tolerance = predictor.contact_tolerance.min(JAM_CONTACT_TOLERANCE);
+            predictor.distance.newton.tolerance = predictor
+                .distance
+                .newton
+                .tolerance
+                .min(JAM_NEWTON_TOLERANCE);
             let mut md = Dynamics::growing(
                 &self.state,
                 &self.velocities,
