@@ -66,10 +66,33 @@ impl Progress {
 /// shapes, and only the distances and support planes are scaled).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Growth {
-    /// The scale at the search's origin.
+    /// The scale at the origin (of the search, or of the clock).
     pub scale: f64,
     /// d scale / dτ.
     pub rate: f64,
+}
+
+impl Growth {
+    /// The scale at τ = `t`.
+    #[inline]
+    pub fn at(&self, t: f64) -> f64 {
+        self.scale + self.rate * t
+    }
+
+    /// The same growth seen from τ = `t` as its origin.
+    #[inline]
+    pub fn since(&self, t: f64) -> Growth {
+        Growth {
+            scale: self.at(t),
+            rate: self.rate,
+        }
+    }
+
+    /// When the scale reaches 1.
+    #[inline]
+    pub fn ends(&self) -> f64 {
+        (1.0 - self.scale) / self.rate
+    }
 }
 
 /// A body's shape and rotation, for prediction: (shape, orientation at the

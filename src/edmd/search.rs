@@ -286,7 +286,7 @@ impl<'a> ContactSearch<'a> {
     /// The bodies' scale at τ = t (1 if they do not grow).
     #[inline]
     fn scale(&self, t: f64) -> f64 {
-        self.growth.map_or(1.0, |g| g.scale + g.rate * t)
+        self.growth.map_or(1.0, |g| g.at(t))
     }
 
     /// Both orientations at τ = t.

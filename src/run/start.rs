@@ -210,28 +210,18 @@ pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, R
     if !grown {
         return Ok(System::new(box_, species, particles)?);
     }
-    let touching = |i: usize, j: usize| {
-        let (a, b) = (&particles[i], &particles[j]);
-        let (sa, sb) = (
-            &species[a.species as usize].shape,
-            &species[b.species as usize].shape,
-        );
-        let d = box_.minimum_image(&(b.position - a.position));
-        let rel = crate::geometry::Relative::new(&d, &a.orientation, &b.orientation);
-        let gap = crate::geometry::distance(sa, sb, &rel, &Default::default(), None).distance;
-        gap >= -JAM_CONTACT_TOLERANCE * sa.min_half_extent().min(sb.min_half_extent())
-    };
-    Ok(System::with_contacts(
+    Ok(System::with_touching(
         box_,
-        species.clone(),
-        particles.clone(),
-        touching,
+        species,
+        particles,
+        JAM_FRAME_TOUCHING,
     )?)
 }
 
 /// How deep (relative to the smaller body's smallest half-extent) pairs
-/// of a jammed frame may touch: the dynamics' contact tolerance.
-const JAM_CONTACT_TOLERANCE: f64 = 1e-9;
+/// of a jammed frame may touch: the dynamics' default contact tolerance
+/// (a jam frame is certified finer than that).
+const JAM_FRAME_TOUCHING: f64 = 1e-9;
 
 #[cfg(test)]
 mod tests {

@@ -21,6 +21,38 @@ impl System {
         Self::with_contacts(box_, species, particles, |_, _| false)
     }
 
+    /// A system whose pairs may touch as the event-driven dynamics hands
+    /// them on: [`System::with_contacts`], a pair let through where its
+    /// signed distance, by the geometry layer's distance kernel (the one
+    /// the predictions follow), is no deeper than `tolerance` times the
+    /// smaller body's smallest half-extent.
+    pub fn with_touching(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+        tolerance: f64,
+    ) -> Result<Self, StateError> {
+        let touching = |i: usize, j: usize| {
+            let (a, b) = (&particles[i], &particles[j]);
+            let (sa, sb) = (
+                &species[a.species as usize].shape,
+                &species[b.species as usize].shape,
+            );
+            let d = box_.minimum_image(&(b.position - a.position));
+            let rel = crate::geometry::Relative::new(&d, &a.orientation, &b.orientation);
+            let contact = crate::geometry::distance(
+                sa,
+                sb,
+                &rel,
+                &crate::geometry::DistanceOptions::default(),
+                None,
+            );
+            let scale = sa.min_half_extent().min(sb.min_half_extent());
+            contact.distance >= -tolerance * scale
+        };
+        Self::with_contacts(box_, species.clone(), particles.clone(), touching)
+    }
+
     /// As [`System::new`], except that pairs (i < j) for which
     /// `touching(i, j)` holds are let through where the overlap kernels
     /// count them as overlapping: a state of the event-driven dynamics

@@ -10,7 +10,7 @@ use crate::edmd::motion::position_after;
 use crate::edmd::predict::Predictor;
 use crate::geometry::pair::contact_sum;
 use crate::space::{CellList, NeighbourLists, PeriodicBox};
-use crate::state::{Particle, Species, StateError, System};
+use crate::state::{Species, System};
 
 type V3 = Vector3<f64>;
 
@@ -121,8 +121,8 @@ impl Dynamics {
             .collect();
         let kinds = kinds_for(&species, options)?;
         let bodies = bodies_moving(system, velocities, &kinds)?;
-        let growth = Swelling {
-            at_origin: 1.0 / largest,
+        let growth = Growth {
+            scale: 1.0 / largest,
             rate: rate / largest,
         };
         Self::assemble(system, species, kinds, bodies, options, 0.0, Some(growth))
@@ -254,7 +254,7 @@ impl Dynamics {
             .with_walls(dump.walls);
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         let tolerance = Predictor::new(options.predictor).contact_tolerance();
-        let system = system_of(box_, species, particles, tolerance)?;
+        let system = System::with_touching(box_, species.to_vec(), particles, tolerance)?;
         let mut dynamics = Self::assemble(
             &system,
             species.to_vec(),
@@ -311,7 +311,7 @@ impl Dynamics {
         bodies: Vec<Body>,
         options: &DynamicsOptions,
         now: f64,
-        growth: Option<Swelling>,
+        growth: Option<Growth>,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let rotors = kinds_rotating(&bodies, &kinds);
@@ -416,8 +416,7 @@ impl Dynamics {
             kinetic_translational,
             degrees_of_freedom: dof,
             // At the species' sizes.
-            packing_fraction: system.packing_fraction()
-                / growth.map_or(1.0, |g| g.scale(now)).powi(3),
+            packing_fraction: system.packing_fraction() / growth.map_or(1.0, |g| g.at(now)).powi(3),
             rotating,
             options: options.clone(),
             trace: None,
@@ -531,20 +530,6 @@ pub(super) fn link_near(
         }
         spheres.lists.link(i, j);
     }
-}
-
-/// The particles as an MC system, checked to be overlap-free, pairs that
-/// touch to the dynamics' contact `tolerance` let through (see
-/// [`System::with_contacts`]).
-pub(super) fn system_of(
-    box_: PeriodicBox,
-    species: &[Species],
-    particles: Vec<Particle>,
-    tolerance: f64,
-) -> Result<System, StateError> {
-    let touching =
-        |i: usize, j: usize| pair_touches(&box_, species, &particles[i], &particles[j], tolerance);
-    System::with_contacts(box_, species.to_vec(), particles.clone(), touching)
 }
 
 /// The bodies of `system` at rest in their stored poses at time 0, moving

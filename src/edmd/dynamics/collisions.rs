@@ -6,8 +6,6 @@ use nalgebra::Vector3;
 use crate::edmd::collision::{Kinetics, collide, collide_patch, collide_spheres};
 use crate::edmd::motion::position_after;
 use crate::geometry::Relative;
-use crate::space::PeriodicBox;
-use crate::state::{Particle, Species};
 
 type V3 = Vector3<f64>;
 
@@ -289,34 +287,6 @@ impl Dynamics {
         }
         virial
     }
-}
-
-/// Whether particles `a` and `b` are at most touching: their signed
-/// distance, by the geometry layer's distance kernel (the one the
-/// predictions follow), is no deeper than `tolerance` times the smaller
-/// body's smallest half-extent (the contact tolerance of the dynamics).
-pub(super) fn pair_touches(
-    box_: &PeriodicBox,
-    species: &[Species],
-    a: &Particle,
-    b: &Particle,
-    tolerance: f64,
-) -> bool {
-    let (sa, sb) = (
-        &species[a.species as usize].shape,
-        &species[b.species as usize].shape,
-    );
-    let d = box_.minimum_image(&(b.position - a.position));
-    let rel = Relative::new(&d, &a.orientation, &b.orientation);
-    let contact = crate::geometry::distance(
-        sa,
-        sb,
-        &rel,
-        &crate::geometry::DistanceOptions::default(),
-        None,
-    );
-    let scale = sa.min_half_extent().min(sb.min_half_extent());
-    contact.distance >= -tolerance * scale
 }
 
 /// A contact of unscaled shapes at the separation over `scale`, in the

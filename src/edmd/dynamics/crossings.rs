@@ -237,7 +237,7 @@ impl Dynamics {
             .lab_half_extents(&q.to_rotation_matrix().into_inner());
         let h = match self.growth {
             None => h,
-            Some(g) => h * g.scale(t),
+            Some(g) => h * g.at(t),
         };
         let half = self.box_.lengths() * 0.5;
         let walls = self.box_.walls();
@@ -260,7 +260,7 @@ impl Dynamics {
         // the end of the growth.
         let t_end = match self.growth {
             None => t_end,
-            Some(g) => t_end.min((1.0 - g.at_origin) / g.rate),
+            Some(g) => t_end.min(g.ends()),
         };
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
@@ -279,7 +279,7 @@ impl Dynamics {
                 let sides: [(bool, f64, f64); 2] = match self.growth {
                     None => [(v > 0.0, h[k], v.abs()), (false, 0.0, 0.0)],
                     Some(g) => {
-                        let (h_t, rate) = (h[k] * g.scale(b.time), h[k] * g.rate);
+                        let (h_t, rate) = (h[k] * g.at(b.time), h[k] * g.rate);
                         [(true, h_t, v + rate), (false, h_t, -v + rate)]
                     }
                 };

@@ -15,15 +15,7 @@ impl Dynamics {
     /// Runs until the simulated time reaches `t_end` (bodies are then
     /// advanced to it).
     pub fn run_until(&mut self, t_end: f64) -> Result<(), EdmdError> {
-        while let Some(e) = self.calendar.peek() {
-            // Relative to the origin, which a rebase moves.
-            if e.time > t_end - self.origin {
-                break;
-            }
-            self.process_next()?;
-        }
-        self.advance_clock(t_end - self.origin);
-        Ok(())
+        self.run_collisions_until(u64::MAX, t_end)
     }
 
     /// Runs `count` more collisions.
@@ -40,8 +32,9 @@ impl Dynamics {
     /// Runs `count` more collisions, or until `t_end` if that comes first
     /// (bodies are then advanced to it).
     pub fn run_collisions_until(&mut self, count: u64, t_end: f64) -> Result<(), EdmdError> {
-        let target = self.collisions + count;
+        let target = self.collisions.saturating_add(count);
         while self.collisions < target {
+            // Relative to the origin, which a rebase moves.
             match self.calendar.peek() {
                 Some(e) if e.time <= t_end - self.origin => {
                     self.process_next()?;
@@ -153,7 +146,7 @@ impl Dynamics {
         self.origin += shift;
         self.now = 0.0;
         if let Some(g) = self.growth.as_mut() {
-            g.at_origin += g.rate * shift;
+            *g = g.since(shift);
         }
         self.collisions_at_rebase = self.collisions;
         // Every prediction again from the new poses: an event predicted

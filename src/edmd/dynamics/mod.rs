@@ -21,7 +21,6 @@ mod observables;
 mod scheduling;
 
 use build::*;
-use collisions::*;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use observables::*;
 use scheduling::*;
@@ -29,8 +28,8 @@ use scheduling::*;
 use crate::edmd::calendar::Calendar;
 use crate::edmd::motion::{Spin, position_after};
 use crate::edmd::predict::{Predictor, PredictorOptions};
-use crate::edmd::search::Progress;
 use crate::edmd::search::SearchError;
+use crate::edmd::search::{Growth, Progress};
 use crate::geometry::{Shape, WarmStart};
 use crate::space::{CellList, NeighbourLists, PeriodicBox};
 use crate::state::{Species, StateError};
@@ -480,29 +479,14 @@ pub struct Dynamics {
     options: DynamicsOptions,
     /// Every collision (time, lower index, higher index) while on.
     trace: Option<Vec<(f64, u32, u32)>>,
-    /// The bodies' growth, if they grow.
-    growth: Option<Swelling>,
-}
-
-/// Lubachevsky–Stillinger growth: every body is its species' shape scaled
-/// by f(t) = `at_origin` + `rate` t (t on the dynamics' clock, relative to
-/// its origin). The species' shapes are the largest the bodies become
-/// (f reaches 1 at [`Dynamics::growth_ends`]): cells, neighbour regions,
-/// bounding spheres and turn bounds are theirs, so all stay conservative
-/// up to then, and only distances, support planes, contact times and
-/// impulses see the scale.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Swelling {
-    at_origin: f64,
-    rate: f64,
-}
-
-impl Swelling {
-    /// f at time `t` (relative clock).
-    #[inline]
-    fn scale(&self, t: f64) -> f64 {
-        self.at_origin + self.rate * t
-    }
+    /// Lubachevsky–Stillinger growth, if the bodies grow: each is its
+    /// species' shape scaled by `growth.at(t)` (t on the dynamics' clock,
+    /// relative to its origin). The species' shapes are the largest the
+    /// bodies become (the scale reaches 1 at [`Dynamics::growth_ends`]):
+    /// cells, neighbour regions, bounding spheres and turn bounds are
+    /// theirs, so all stay conservative up to then, and only distances,
+    /// support planes, contact times and impulses see the scale.
+    growth: Option<Growth>,
 }
 
 /// The outcome of a search for a body's next wall contact.

@@ -177,7 +177,7 @@ impl Dynamics {
     /// their size now.
     pub fn to_system(&self) -> Result<System, StateError> {
         let tolerance = self.predictor.contact_tolerance();
-        system_of(self.box_, &self.species_now(), self.particles(), tolerance)
+        System::with_touching(self.box_, self.species_now(), self.particles(), tolerance)
     }
 
     /// The species with the bodies' shapes now (scaled, if they grow).
@@ -200,15 +200,14 @@ impl Dynamics {
     /// they grow).
     #[inline]
     pub(super) fn scale_now(&self) -> f64 {
-        self.growth.map_or(1.0, |g| g.scale(self.now))
+        self.growth.map_or(1.0, |g| g.at(self.now))
     }
 
     /// When growing bodies reach the size the dynamics was built for (the
     /// end of [`Dynamics::growing`]'s margin), on the simulated clock;
     /// `None` if they do not grow. The dynamics must not run past it.
     pub fn growth_ends(&self) -> Option<f64> {
-        self.growth
-            .map(|g| self.origin + (1.0 - g.at_origin) / g.rate)
+        self.growth.map(|g| self.origin + g.ends())
     }
 
     /// Starts (or stops) recording every collision: time, and the pair as

@@ -285,7 +285,7 @@ impl Dynamics {
                     b,
                     dd,
                     v2,
-                    sigma[k] * g.scale(t0[k]),
+                    sigma[k] * g.at(t0[k]),
                     sigma[k] * g.rate,
                 ),
             };
@@ -372,7 +372,7 @@ impl Dynamics {
         // the end of the growth.
         let horizon = match self.growth {
             None => horizon,
-            Some(g) => horizon.min((1.0 - g.at_origin) / g.rate),
+            Some(g) => horizon.min(g.ends()),
         };
         let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
         let t0 = ba.time.max(bb.time);
@@ -408,10 +408,7 @@ impl Dynamics {
                     (&ka.shape, &ba.orientation, &spin_a),
                     (&kb.shape, &bb.orientation, &spin_b),
                     (t0 - ba.time, t0 - bb.time),
-                    self.growth.map(|g| Growth {
-                        scale: g.scale(t0),
-                        rate: g.rate,
-                    }),
+                    self.growth.map(|g| g.since(t0)),
                     &d,
                     &dv,
                     resume,
@@ -441,12 +438,12 @@ impl Dynamics {
 /// The contact time (from `t0`) of two growing spheres `d` apart at `t0`
 /// whose contact distance is `sigma` at full size.
 #[inline]
-fn grown_sphere_contact(d: &V3, dv: &V3, sigma: f64, growth: Swelling, t0: f64) -> f64 {
+fn grown_sphere_contact(d: &V3, dv: &V3, sigma: f64, growth: Growth, t0: f64) -> f64 {
     crate::geometry::pair::grown_sphere_contact_time(
         d.dot(dv),
         d.norm_squared(),
         dv.norm_squared(),
-        sigma * growth.scale(t0),
+        sigma * growth.at(t0),
         sigma * growth.rate,
     )
 }
