@@ -744,3 +744,139 @@ fn compression_to_the_jam_and_to_a_pressure_through_a_scene() {
         );
     }
 }
+
+/// A run taken step by step, paused part way through every stage, writes
+/// the states of the run in one go: the Monte Carlo stages' bit for bit
+/// at every log time both hold a frame, the dynamics' (which restarts
+/// its predictions at a pause) to round-off.
+#[test]
+fn a_run_taken_step_by_step_gives_the_run_in_one_go() {
+    use hardbody::run::{Advance, Simulation};
+    let dir = scratch("steps");
+    let scene = Scene::parse(SMALL).unwrap();
+    let whole_path = dir.join("whole.mcap");
+    run_scene(
+        &scene,
+        SMALL,
+        &whole_path,
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let stop = AtomicBool::new(false);
+    let steps_path = dir.join("steps.mcap");
+    let mut sim = Simulation::new(&scene, SMALL, &steps_path).unwrap();
+    // Stage 0 (compress): 7 sweeps, then the rest.
+    let step = sim.advance(Advance::Sweeps(7), &mut Silent, &stop).unwrap();
+    assert!(!step.stage_done && sim.paused() && step.stage_index == 0);
+    assert_eq!(sim.state().unwrap().sweep, Some(7));
+    assert!(sim.run_stage(&mut Silent, &stop).unwrap().stage_done);
+    // Stages 1 and 2 (NPT, NVT): pauses off the output cadence.
+    for _ in 0..2 {
+        let mut done = false;
+        while !done {
+            done = sim
+                .advance(Advance::Sweeps(33), &mut Silent, &stop)
+                .unwrap()
+                .stage_done;
+        }
+    }
+    // Stage 3 (dynamics) runs in time, not sweeps.
+    let e = sim
+        .advance(Advance::Sweeps(10), &mut Silent, &stop)
+        .unwrap_err();
+    assert!(e.to_string().contains("dynamics stage"), "{e}");
+    let step = sim
+        .advance(Advance::Time(0.13), &mut Silent, &stop)
+        .unwrap();
+    assert!(!step.stage_done);
+    assert!((sim.state().unwrap().time.unwrap() - 0.13).abs() < 1e-12);
+    assert!(sim.run_stage(&mut Silent, &stop).unwrap().stage_done);
+    assert_eq!(sim.stage_index(), None);
+    let e = sim.run_stage(&mut Silent, &stop).unwrap_err();
+    assert!(e.to_string().contains("every stage"), "{e}");
+    let summary = sim.finish().unwrap();
+    assert_eq!(summary.stages.len(), 4);
+    assert!(!summary.interrupted);
+
+    let whole = read_log(&whole_path, true).unwrap();
+    let steps = read_log(&steps_path, true).unwrap();
+    // The pauses add frames; every frame of the whole run is there.
+    assert!(steps.states.len() > whole.states.len());
+    let mut compared = 0;
+    for (t, s) in &whole.states {
+        let (_, p) = steps
+            .states
+            .iter()
+            .find(|(tp, _)| tp == t)
+            .unwrap_or_else(|| panic!("no frame at log time {t}"));
+        if s.stage == "dynamics" && s.time.unwrap() > 0.13 {
+            let worst = s
+                .positions
+                .iter()
+                .flatten()
+                .zip(p.positions.iter().flatten())
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-8, "log time {t}: positions differ by {worst}");
+        } else {
+            assert!(
+                bits(s) == bits(p),
+                "log time {t} (stage {}) differs",
+                s.stage_index
+            );
+        }
+        compared += 1;
+    }
+    assert_eq!(compared, whole.states.len());
+    // The /stats messages at the output cadence are the same, too.
+    let at_cadence: Vec<_> = steps
+        .stats
+        .iter()
+        .filter(|(t, _)| whole.stats.iter().any(|(tw, _)| tw == t))
+        .collect();
+    assert_eq!(at_cadence.len(), whole.stats.len());
+}
+
+/// A configuration set between steps is checked: overlapping bodies are
+/// refused with the state unchanged; a rigid shift of every body is
+/// taken and the run goes on from it.
+#[test]
+fn a_configuration_set_between_steps_is_checked() {
+    use hardbody::run::{Advance, Simulation};
+    let dir = scratch("set-state");
+    let scene = Scene::parse(SMALL).unwrap();
+    let stop = AtomicBool::new(false);
+    let mut sim = Simulation::new(&scene, SMALL, &dir.join("set.mcap")).unwrap();
+    sim.run_stage(&mut Silent, &stop).unwrap();
+    sim.advance(Advance::Sweeps(10), &mut Silent, &stop)
+        .unwrap();
+    let before = sim.state().unwrap();
+    let mut positions = before.positions.clone();
+    positions[1] = positions[0];
+    let e = sim
+        .set_configuration(&positions, &before.orientations)
+        .unwrap_err();
+    assert!(e.to_string().contains("overlap"), "{e}");
+    assert!(bits(&sim.state().unwrap()) == bits(&before));
+    let mut bad = before.orientations.clone();
+    bad[3] = [2.0, 0.0, 0.0, 0.0];
+    let e = sim.set_configuration(&before.positions, &bad).unwrap_err();
+    assert!(e.to_string().contains("unit quaternion"), "{e}");
+    let shifted: Vec<[f64; 3]> = before
+        .positions
+        .iter()
+        .map(|p| [p[0] + 0.25, p[1], p[2]])
+        .collect();
+    sim.set_configuration(&shifted, &before.orientations)
+        .unwrap();
+    let after = sim.state().unwrap();
+    // Shifted by 0.25, or by 0.25 less the box edge where it wrapped.
+    let off = after.positions[5][0] - before.positions[5][0] - 0.25;
+    let l = after.box_lengths[0];
+    assert!(off.abs() < 1e-12 || (off.abs() - l).abs() < 1e-12, "{off}");
+    while sim.stage_index().is_some() {
+        sim.run_stage(&mut Silent, &stop).unwrap();
+    }
+    sim.finish().unwrap();
+}

@@ -4,6 +4,8 @@
 //! give one, and end at the stage's end or at a stop once its frame is
 //! written. Each stage kind says only how it advances and what it writes.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::log::{LogWriter, StateRecord, Stats};
 
 use super::{Phase, Progress, Runner, StageError, StageResult};
@@ -42,13 +44,15 @@ pub(super) trait StageRun {
     fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String);
 }
 
-impl Runner<'_> {
-    /// Runs `stage` to its end, or to a stop, at the scene's cadence.
+impl Runner {
+    /// Runs `stage` to its end, or to a stop (`stop` set, or the pause
+    /// point reached), at the scene's cadence.
     pub(super) fn drive(
         &mut self,
         mut stage: impl StageRun,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
+        stop: &AtomicBool,
     ) -> StageResult {
         let stopped = loop {
             let mark = match stage.advance(self) {
@@ -63,10 +67,15 @@ impl Runner<'_> {
                 let (tick, message) = stage.progress();
                 progress.tick(tick, &message);
             }
-            let stop = !mark.end && self.stopped();
+            let paused = self.pause_at.is_some_and(|t| mark.time >= t);
+            let stop = !mark.end && (paused || stop.load(Ordering::Relaxed));
             let mut framed = false;
             if (mark.frame || mark.end || stop) && stage.frame_ready()? {
-                log.frame(mark.time, &stage.frame(self, mark.end))?;
+                let record = stage.frame(self, mark.end);
+                log.frame(mark.time, &record)?;
+                if stop {
+                    self.stopped_at = Some((mark.time, record));
+                }
                 framed = true;
             }
             if mark.end {

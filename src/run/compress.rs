@@ -181,7 +181,7 @@ impl StageRun for CompressStage<'_> {
     }
 }
 
-impl Runner<'_> {
+impl Runner {
     /// Before an NPT stage at `pressure` from a fresh start: compression
     /// (or expansion) to the packing fraction whose measured βP is within
     /// 3 % of it, so that the box moves start near the equilibrium density

@@ -15,7 +15,7 @@ use super::cadence::{Mark, StageRun};
 use super::records::Interval;
 use super::*;
 
-impl Runner<'_> {
+impl Runner {
     /// The phase a logged frame continues: the system, or for a dynamics
     /// frame the dynamics rebuilt from it.
     pub(super) fn resumed_phase(
@@ -265,7 +265,13 @@ impl StageRun for DynamicsStage {
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let next_stats = (self.k_stats as f64 * self.stats_dt).min(self.duration);
         let next_frame = (self.k_frames as f64 * self.frames_dt).min(self.duration);
-        let next = next_stats.min(next_frame);
+        let mut next = next_stats.min(next_frame);
+        if let Some(pause) = runner.pause_at {
+            let until = pause.saturating_sub(runner.clock) as f64 / NS_PER_TIME_UNIT;
+            if until > self.dynamics.time() - self.progress_at.start_time {
+                next = next.min(until);
+            }
+        }
         self.dynamics
             .run_until(self.progress_at.start_time + next)?;
         self.next = next;

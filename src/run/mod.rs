@@ -21,12 +21,14 @@ mod dynamics;
 mod jam;
 mod monte_carlo;
 mod records;
+mod simulation;
 mod start;
 
 use compress::CompressStage;
 use dynamics::DynamicsStage;
 use jam::JamStage;
 use monte_carlo::MonteCarloStage;
+pub use simulation::{Advance, Simulation, Step};
 use start::start_state;
 pub use start::{RecordError, check_start, system_from_record};
 
@@ -80,6 +82,11 @@ pub enum RunError {
     /// The start names a log that cannot be resumed from.
     #[error("start: {0}")]
     Resume(String),
+    /// A step-by-step run was asked for what it cannot do (a number of
+    /// sweeps of a dynamics stage, a step after the last stage, a
+    /// configuration that overlaps).
+    #[error("{0}")]
+    Request(String),
     /// The log could not be written.
     #[error("log: {0}")]
     Log(#[from] LogError),
@@ -141,11 +148,13 @@ impl RunError {
     /// Whether the input (scene, start, output path) is at fault rather
     /// than the simulation.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, RunError::Start(_) | RunError::Resume(_))
-            || matches!(
-                self,
-                RunError::Log(LogError::Io { .. } | LogError::Busy { .. })
-            )
+        matches!(
+            self,
+            RunError::Start(_) | RunError::Resume(_) | RunError::Request(_)
+        ) || matches!(
+            self,
+            RunError::Log(LogError::Io { .. } | LogError::Busy { .. })
+        )
     }
 }
 
@@ -289,128 +298,13 @@ fn run_with(
     stop: &AtomicBool,
     from: Option<ResumePoint>,
 ) -> Result<RunSummary, RunError> {
-    let plan = Plan::of(scene);
-    let mut runner = Runner {
-        scene,
-        plan,
-        clock: 0,
-        sizes: initial_sizes(scene),
-        stop,
-        failure: None,
-        drift: DriftWatch::default(),
-        notes: Vec::new(),
-    };
-    let (mut phase, first_stage, mut resume) = match &from {
-        None => {
-            let mut rng = Pcg64::seed_from_u64(scene.seed);
-            (
-                Phase::Mc(start_state(scene, &runner.plan, &mut rng)?),
-                0,
-                None,
-            )
-        }
-        Some(point) => {
-            let index = point.record.stage_index;
-            let system = system_from_record(&point.record, &runner.plan)
-                .map_err(|e| RunError::Resume(e.to_string()))?;
-            let phase = runner
-                .resumed_phase(system, &point.record, &point.info, index)
-                .map_err(RunError::Resume)?;
-            runner.sizes = point.info.sizes;
-            if point.info.stage_complete {
-                runner.clock = point.log_time;
-                (phase, index + 1, None)
-            } else {
-                runner.clock = point.info.stage_clock;
-                (phase, index, Some(point.info.clone()))
-            }
-        }
-    };
-    let species = runner.plan.mc_species();
-    let created = match &from {
-        Some(point) if point.in_place => {
-            LogWriter::create_replacing_partial(log_path, scene_text, &scene.to_ron(), &species)
-        }
-        _ => LogWriter::create(log_path, scene_text, &scene.to_ron(), &species),
-    };
-    let mut log = match created {
-        Ok(log) => log,
-        // A disk too full for the log's start: nothing is kept.
-        Err(source) if source.is_disk_full() => {
-            return Err(RunError::LogWrite { source, kept: None });
-        }
-        Err(e) => return Err(e.into()),
-    };
-    if let Some(point) = &from {
-        for (topic, time, data) in &point.prefix {
-            if let Err(source) = log.copy(topic, *time, data) {
-                let kept = log.abandon().unwrap_or(None);
-                return Err(RunError::LogWrite { source, kept });
-            }
+    let mut simulation = Simulation::open(scene, scene_text, log_path, from)?;
+    while simulation.stage_index().is_some() {
+        if simulation.run_stage(progress, stop)?.interrupted {
+            break;
         }
     }
-    let mut lines = Vec::new();
-    let mut interrupted = false;
-    for (index, stage) in scene.stages.iter().enumerate().skip(first_stage) {
-        progress.stage(index, scene.stages.len(), &describe(stage), ticks(stage));
-        let mut rng = stage_rng(scene.seed, index);
-        let started = Instant::now();
-        let outcome = runner.run_stage(index, phase, resume.take(), &mut log, progress, &mut rng);
-        match outcome {
-            Ok((next, line, stopped)) => {
-                let line = format!("{line} ({:.1} s)", started.elapsed().as_secs_f64());
-                progress.stage_done(&line);
-                lines.push(format!("stage {index} ({}): {line}", stage.kind()));
-                phase = next;
-                if stopped {
-                    interrupted = true;
-                    break;
-                }
-            }
-            Err(error) => {
-                // Why, in the log too (with the dynamics' state to replay
-                // it from, if the dynamics failed).
-                let (at, dump) = match runner.failure.take() {
-                    Some((at, dump)) => (at, Some(dump)),
-                    None => (runner.clock, None),
-                };
-                let failure = FailureRecord {
-                    stage_index: index,
-                    message: error.to_string(),
-                    dump,
-                };
-                // A log that cannot be written (a full disk) takes no
-                // failure record: the write is the failure.
-                let written = log.failure(at, &failure);
-                let first_error = log.error();
-                let kept = log.abandon();
-                if let Some(source) = first_error {
-                    return Err(RunError::LogWrite {
-                        source,
-                        kept: kept.unwrap_or(None),
-                    });
-                }
-                written?;
-                let Some(partial) = kept? else {
-                    unreachable!("a log written without error is kept");
-                };
-                return Err(RunError::Stage {
-                    index,
-                    kind: stage.kind(),
-                    error,
-                    partial,
-                });
-            }
-        }
-    }
-    let _ = phase;
-    let path = log.finish()?;
-    Ok(RunSummary {
-        log: path,
-        stages: lines,
-        interrupted,
-        notes: runner.notes,
-    })
+    simulation.finish()
 }
 
 /// Sweeps the approach to an NPT stage's pressure may take.
@@ -476,14 +370,18 @@ fn ticks(stage: &Stage) -> u64 {
     }
 }
 
-struct Runner<'a> {
-    scene: &'a Scene,
+struct Runner {
+    scene: Scene,
     plan: Plan,
     /// Log time at the start of the current stage (ns).
     clock: u64,
     /// Monte Carlo move sizes, carried from stage to stage.
     sizes: MoveSizes,
-    stop: &'a AtomicBool,
+    /// Log time (ns) at which the stage under way pauses: it stops there
+    /// as at a stop, with a frame to go on from.
+    pause_at: Option<u64>,
+    /// The frame a stage stopped at (log time and state), to go on from.
+    stopped_at: Option<(u64, StateRecord)>,
     /// Set by a dynamics stage that fails: the log time and the dynamics'
     /// stored state at the failure.
     failure: Option<(u64, DynamicsDump)>,
@@ -498,11 +396,10 @@ struct Runner<'a> {
 /// run was stopped.
 type StageResult = Result<(Phase, String, bool), StageError>;
 
-impl Runner<'_> {
-    fn stopped(&self) -> bool {
-        self.stop.load(Ordering::Relaxed)
-    }
-
+impl Runner {
+    /// Runs stage `index` from `phase` (or from the frame `resume`) to its
+    /// end or a stop; its random stream is the stage's own (or the
+    /// frame's).
     fn run_stage(
         &mut self,
         index: usize,
@@ -510,13 +407,13 @@ impl Runner<'_> {
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         progress: &mut dyn Progress,
-        rng: &mut Pcg64,
+        stop: &AtomicBool,
     ) -> StageResult {
-        if let Some(r) = &resume
-            && let Some(saved) = &r.rng
-        {
-            *rng = saved.clone();
-        }
+        let mut rng = match resume.as_ref().and_then(|r| r.rng.clone()) {
+            Some(saved) => saved,
+            None => stage_rng(self.scene.seed, index),
+        };
+        let rng = &mut rng;
         let stage = &self.scene.stages[index];
         match stage {
             Stage::Compress {
@@ -540,7 +437,7 @@ impl Runner<'_> {
                     ..defaults
                 };
                 let stage = CompressStage::start(self, index, system, &opts, resume, log, rng)?;
-                self.drive(stage, log, progress)
+                self.drive(stage, log, progress, stop)
             }
             Stage::MonteCarlo {
                 ensemble, sweeps, ..
@@ -556,15 +453,15 @@ impl Runner<'_> {
                     log,
                     rng,
                 )?;
-                self.drive(stage, log, progress)
+                self.drive(stage, log, progress, stop)
             }
             Stage::Dynamics { .. } => {
                 let stage = DynamicsStage::start(self, index, phase, resume, log, rng)?;
-                self.drive(stage, log, progress)
+                self.drive(stage, log, progress, stop)
             }
             Stage::Jam { .. } => {
                 let stage = JamStage::start(self, index, phase, resume, log, rng)?;
-                self.drive(stage, log, progress)
+                self.drive(stage, log, progress, stop)
             }
         }
     }
@@ -573,6 +470,18 @@ impl Runner<'_> {
     /// ended): the hand-off is visible, and checkable, in the log.
     fn start_frame(&self, log: &mut LogWriter, state: &StateRecord) -> Result<(), StageError> {
         Ok(log.frame(self.clock, state)?)
+    }
+
+    /// The phase a stage goes on from at a logged frame (`info` its
+    /// resume information) of stage `index`.
+    fn phase_of(
+        &self,
+        record: &StateRecord,
+        info: &ResumeInfo,
+        index: usize,
+    ) -> Result<Phase, String> {
+        let system = system_from_record(record, &self.plan).map_err(|e| e.to_string())?;
+        self.resumed_phase(system, record, info, index)
     }
 
     fn to_system(&self, phase: Phase) -> Result<System, StageError> {

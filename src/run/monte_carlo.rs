@@ -148,15 +148,16 @@ impl<'a> MonteCarloStage<'a> {
     }
 
     /// Draws the seeds of the sweeps the slabs' team is handed at once, up
-    /// to the next sweep after which something happens; moves the sweep
+    /// to the next sweep after which something happens (or the run
+    /// pauses); moves the sweep
     /// count past them and returns the index of the first.
-    fn draw_chunk(&mut self, settled: bool) -> u64 {
+    fn draw_chunk(&mut self, settled: bool, pause: Option<u64>) -> u64 {
         self.seeds.clear();
         let mut s = self.sweep;
         loop {
             s += 1;
             self.seeds.push(self.rng.next_u64());
-            if self.eventful(s, settled) || self.seeds.len() == MAX_CHUNK {
+            if self.eventful(s, settled) || pause == Some(s) || self.seeds.len() == MAX_CHUNK {
                 break;
             }
         }
@@ -178,7 +179,13 @@ impl<'a> MonteCarloStage<'a> {
 impl StageRun for MonteCarloStage<'_> {
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let settled = runner.drift.settled;
-        let chunk = self.slabs.is_some().then(|| self.draw_chunk(settled));
+        let pause = runner
+            .pause_at
+            .map(|t| t.saturating_sub(runner.clock) / NS_PER_SWEEP);
+        let chunk = self
+            .slabs
+            .is_some()
+            .then(|| self.draw_chunk(settled, pause));
         let counts = match (&mut self.slabs, chunk) {
             (Some(slabs), Some(first_index)) => slabs.sweeps(
                 &mut self.system,
@@ -274,7 +281,7 @@ impl StageRun for MonteCarloStage<'_> {
     }
 }
 
-impl Runner<'_> {
+impl Runner {
     /// βP over the interval: the imposed value in NPT, the SDF estimate in
     /// NVT (then the accumulator restarts).
     pub(super) fn interval_pressure(

@@ -12,7 +12,7 @@ use crate::state::{Species, System};
 
 use super::*;
 
-impl Runner<'_> {
+impl Runner {
     /// S₂ of the molecular axes of the turning anisotropic bodies, if the
     /// plan asks for it.
     pub(super) fn system_nematic_order(&self, system: &System) -> Option<f64> {

@@ -379,6 +379,18 @@ impl Scene {
         Ok(scene)
     }
 
+    /// Validates a scene built in code (or deserialized from another
+    /// format) as [`Scene::parse`] validates a scene file; the error names
+    /// the field, without a line.
+    pub fn check(&self) -> Result<(), SceneError> {
+        self.validate()
+            .map_err(|(field, message)| SceneError::Invalid {
+                field,
+                line: None,
+                message,
+            })
+    }
+
     /// The scene as RON (what the log's metadata records).
     pub fn to_ron(&self) -> String {
         // Optional values written bare, as a scene file writes them (and
@@ -532,6 +544,15 @@ mod tests {
         assert!(s.species[0].rotation);
         // Round trip through the serialised form the log records.
         assert_eq!(Scene::parse(&s.to_ron()).unwrap(), s);
+        assert_eq!(s.check(), Ok(()));
+        let mut bad = s.clone();
+        bad.species[0].count = 0;
+        match bad.check() {
+            Err(SceneError::Invalid { field, line, .. }) => {
+                assert_eq!((field.as_str(), line), ("species[0].count", None));
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
