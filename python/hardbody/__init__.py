@@ -1,0 +1,53 @@
+"""hardbody: dense packings and event-driven dynamics of hard ellipsoids,
+superellipsoids, cuboids and spheres.
+
+    import hardbody as hb
+    scene = hb.Scene(box=(8, 8, 8),
+                     species=[hb.Species("rod", hb.Ellipsoid(1.0, 0.5, 0.5), 64)],
+                     stages=[hb.Compress(packing_fraction=0.4),
+                             hb.MonteCarlo(hb.Nvt(), sweeps=2000),
+                             hb.Dynamics(duration=10.0)])
+    log = hb.run(scene, out="rods.mcap")
+    log.frames[-1].positions      # numpy (N, 3)
+    log.stats["pressure"]         # numpy, NaN where not measured
+
+Arrays are numpy; quaternions are [w, x, y, z] from body to lab. The
+README's "Python" section is the reference."""
+
+from . import _core
+from ._core import LogError, RunError, SceneError
+from ._log import Frame, RunLog, open_log
+from ._run import resume, run
+from ._simulation import Simulation
+from ._scene import (
+    Accuracy,
+    Auto,
+    Cells,
+    Compress,
+    Cuboid,
+    Dynamics,
+    Ellipsoid,
+    Jam,
+    Lattice,
+    Layered,
+    Lists,
+    Log,
+    MonteCarlo,
+    Npt,
+    Nvt,
+    Random,
+    Resume,
+    Scene,
+    Species,
+    Sphere,
+    Superellipsoid,
+)
+
+__version__ = _core.__version__
+
+__all__ = [
+    "Accuracy", "Auto", "Cells", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
+    "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
+    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere",
+    "Superellipsoid", "open_log", "resume", "run",
+]
