@@ -138,60 +138,35 @@ pub(super) fn analyze_replicas(
     json: bool,
     plot: Option<&std::path::Path>,
 ) -> ExitCode {
-    use hardbody::log::averages::{stage_averages, stages_over_replicas};
-    let mut runs = Vec::new();
-    let mut first_scene: Option<Scene> = None;
-    for (k, path) in paths.iter().enumerate() {
-        let contents = match log_to_analyze(path) {
-            Ok(c) => c,
+    use hardbody::log::averages::replica_averages;
+    let mut contents = Vec::with_capacity(paths.len());
+    for path in paths {
+        match log_to_analyze(path) {
+            Ok(c) => contents.push((path.display().to_string(), c)),
             Err(code) => return code,
-        };
-        // Replicas: the same scene but for the seed and the log's path.
-        let scene = contents
-            .metadata
-            .get("scene_resolved")
-            .and_then(|t| Scene::parse(t).ok())
-            .map(|s| Scene {
-                seed: 0,
-                log: Default::default(),
-                ..s
-            });
-        match (&first_scene, scene) {
-            (_, None) => {
-                return bad_input(format!(
-                    "{}: no readable scene in its metadata",
-                    path.display()
-                ));
-            }
-            (None, Some(s)) => first_scene = Some(s),
-            (Some(f), Some(s)) if *f != s => {
-                return bad_input(format!(
-                    "{}: its scene differs from that of {} other than in the seed: not a replica",
-                    path.display(),
-                    paths[0].display()
-                ));
-            }
-            _ => {}
         }
-        let stats: Vec<_> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
-        let stages = stage_averages(&stats);
-        if let Some(dir) = plot {
+    }
+    let logs: Vec<(String, &hardbody::log::read::LogContents)> =
+        contents.iter().map(|(name, c)| (name.clone(), c)).collect();
+    let replicas = match replica_averages(&logs) {
+        Ok(r) => r,
+        Err(e) => return bad_input(e),
+    };
+    if let Some(dir) = plot {
+        for (k, ((_, c), stages)) in contents.iter().zip(&replicas.runs).enumerate() {
+            let stats: Vec<_> = c.stats.iter().map(|(_, s)| s.clone()).collect();
             let dir = dir.join(format!("replica{}", k + 1));
             if let Err(e) = std::fs::create_dir_all(&dir) {
                 return bad_input(format!("--plot {}: {e}", dir.display()));
             }
-            for stage in &stages {
+            for stage in stages {
                 if let Err(e) = plot_stage(&dir, &stats, stage) {
                     return bad_input(e);
                 }
             }
         }
-        runs.push(stages);
     }
-    let combined = match stages_over_replicas(&runs) {
-        Ok(c) => c,
-        Err(e) => return bad_input(e),
-    };
+    let combined = replicas.combined;
     if json {
         print_json(&serde_json::json!({
             "logs": paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
@@ -430,13 +405,7 @@ pub(super) fn analyze_packing(
     json: bool,
     plot: Option<&std::path::Path>,
 ) -> ExitCode {
-    use hardbody::analysis::order::{cubatic_order, molecular_axis, nematic_director};
-    use hardbody::analysis::packing::{PackedBody, contact_network};
-    use hardbody::analysis::structure::{
-        neighbours, radial_distribution, steinhardt, structure_factor,
-    };
-    use hardbody::space::PeriodicBox;
-    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    use hardbody::log::packing::PackingReport;
     if !(gap.is_finite() && gap >= 0.0) {
         return bad_input(format!("--gap must be a finite number >= 0, got {gap}"));
     }
@@ -458,76 +427,31 @@ pub(super) fn analyze_packing(
         .and_then(|text| Scene::parse(text).ok())
         .map(|scene| scene.wall_axes())
         .unwrap_or_default();
-    let box_ = match PeriodicBox::new(Vector3::from(state.box_lengths)) {
-        Ok(b) => b.with_walls(walls),
+    let report = match PackingReport::of_frame(state, walls, gap) {
+        Ok(r) => r,
         Err(e) => return bad_input(format!("{}: frame {index}: {e}", path.display())),
     };
-    let shapes: Vec<Shape> = state.species.iter().map(|s| s.shape).collect();
-    let bodies: Vec<PackedBody> = state
-        .positions
-        .iter()
-        .zip(&state.orientations)
-        .zip(&state.species_of)
-        .map(|((p, q), &k)| PackedBody {
-            position: Vector3::from(*p),
-            orientation: UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3])),
-            shape: k as usize,
-        })
-        .collect();
-    let network = contact_network(&box_, &shapes, &bodies, gap);
-    let centres: Vec<Vector3<f64>> = bodies.iter().map(|b| b.position).collect();
-    // Structure: g(r) to just under half the shortest edge (at most five
-    // diameters),
-    // bond order over the neighbours within 1.4 of the largest bounding
-    // diameter (the first minimum of g(r) of dense spheres).
-    let diameter = shapes
-        .iter()
-        .map(|s| 2.0 * s.bounding_radius())
-        .fold(0.0, f64::max);
-    let r_max = (0.49 * box_.lengths().min()).min(5.0 * diameter);
-    let rdf = radial_distribution(&box_, &centres, 100, r_max);
-    // S(k) to 20 inverse diameters (the peaks of dense packings lie near
-    // 2π/σ).
-    let (k, s_k) = structure_factor(
-        &rdf,
-        centres.len() as f64 / box_.volume(),
-        20.0 * std::f64::consts::PI / diameter,
-        200,
-    );
+    let PackingReport {
+        network,
+        rdf,
+        structure_factor,
+        steinhardt_cutoff: cutoff,
+        steinhardt: bond_order,
+        nematic,
+        cubatic,
+    } = &report;
+    let (k, s_k) = (&structure_factor.k, &structure_factor.s);
+    // The last bin's centre plus half a bin (the first bin's centre).
+    let r_max = rdf.r.last().zip(rdf.r.first()).map_or(0.0, |(l, f)| l + f);
     if let Some(dir) = plot
-        && let Err(e) = packing_plots(dir, &rdf, (&k, &s_k), &network.contact_number_histogram)
+        && let Err(e) = packing_plots(dir, rdf, (k, s_k), &network.contact_number_histogram)
     {
         return bad_input(format!("--plot {}: {e}", dir.display()));
     }
-    let cutoff = 1.4 * diameter;
-    let bond_order = steinhardt(&neighbours(&box_, &centres, cutoff), &[4, 6]);
-    let axes: Vec<Option<Vector3<f64>>> = shapes.iter().map(molecular_axis).collect();
-    let nematic = nematic_director(
-        bodies
-            .iter()
-            .filter_map(|b| axes[b.shape].map(|u| b.orientation * u)),
-    );
-    // Cubatic order of the cuboids (the axes of other bodies mean nothing
-    // cubic).
-    let cuboids = bodies
-        .iter()
-        .filter(|b| matches!(shapes[b.shape], Shape::Cuboid(_)))
-        .map(|b| *b.orientation.to_rotation_matrix().matrix());
-    let cubatic = cubatic_order(cuboids);
     if json {
-        print_json(&serde_json::json!({
-            "frame": index,
-            "cubatic": cubatic,
-            "network": network,
-            "rdf": rdf,
-            "structure_factor": {"k": k, "s": s_k},
-            "steinhardt_cutoff": cutoff,
-            "steinhardt": bond_order,
-            "nematic": nematic.map(|(s2, director)| serde_json::json!({
-                "order": s2,
-                "director": [director.x, director.y, director.z],
-            })),
-        }));
+        let mut value = serde_json::to_value(&report).expect("a report serialises");
+        value["frame"] = index.into();
+        print_json(&value);
         return ExitCode::SUCCESS;
     }
     let at = match (state.sweep, state.time) {
@@ -587,23 +511,23 @@ pub(super) fn analyze_packing(
     ));
     let (k_peak, s_peak) =
         k.iter()
-            .zip(&s_k)
+            .zip(s_k.iter())
             .fold((f64::NAN, f64::NEG_INFINITY), |best, (&k, &s)| {
                 if s > best.1 { (k, s) } else { best }
             });
     say(&format!(
         "S(k): highest at k = {k_peak:.3} (S = {s_peak:.2}), from g(r)"
     ));
-    for q in &bond_order {
+    for q in bond_order {
         say(&format!(
             "Q{}: mean {:.4}, locally averaged {:.4}, global {:.4} (neighbours within {cutoff:.3})",
             q.l, q.mean, q.mean_local_average, q.global
         ));
     }
     match nematic {
-        Some((s2, d)) => say(&format!(
-            "nematic order S2 = {s2:.4}, director ({:.4}, {:.4}, {:.4})",
-            d.x, d.y, d.z
+        Some(n) => say(&format!(
+            "nematic order S2 = {:.4}, director ({:.4}, {:.4}, {:.4})",
+            n.order, n.director[0], n.director[1], n.director[2]
         )),
         None => say("nematic order: none (no body has a molecular axis)"),
     }

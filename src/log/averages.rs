@@ -9,7 +9,9 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::Stats;
+use super::read::LogContents;
 use crate::analysis::series::{Estimate, detect_equilibration};
+use crate::scene::Scene;
 
 /// Candidate equilibration starts tried per series.
 const CANDIDATE_STARTS: usize = 200;
@@ -242,6 +244,48 @@ pub fn stages_over_replicas(runs: &[Vec<StageAverages>]) -> Result<Vec<ReplicaSt
             }
         })
         .collect())
+}
+
+/// The stages of every replica and of all together.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Replicas {
+    /// Each replica's stages, in the order given.
+    pub runs: Vec<Vec<StageAverages>>,
+    /// The stages over all of them.
+    pub combined: Vec<ReplicaStage>,
+}
+
+/// Averages over the logs of replicas of one scene, `(name, contents)`
+/// each: refused (naming the log) where a log holds no readable scene, or
+/// a scene that differs from the first's other than in its seed and log.
+pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, String> {
+    let mut first: Option<(&str, Scene)> = None;
+    let mut runs = Vec::with_capacity(logs.len());
+    for (name, contents) in logs {
+        let scene = contents
+            .metadata
+            .get("scene_resolved")
+            .and_then(|t| Scene::parse(t).ok())
+            .map(|s| Scene {
+                seed: 0,
+                log: Default::default(),
+                ..s
+            })
+            .ok_or_else(|| format!("{name}: no readable scene in its metadata"))?;
+        match &first {
+            None => first = Some((name, scene)),
+            Some((first_name, f)) if *f != scene => {
+                return Err(format!(
+                    "{name}: its scene differs from that of {first_name} other than in the seed: not a replica"
+                ));
+            }
+            Some(_) => {}
+        }
+        let stats: Vec<Stats> = contents.stats.iter().map(|(_, s)| s.clone()).collect();
+        runs.push(stage_averages(&stats));
+    }
+    let combined = stages_over_replicas(&runs)?;
+    Ok(Replicas { runs, combined })
 }
 
 #[cfg(test)]

@@ -18,6 +18,7 @@
 pub mod averages;
 pub mod file;
 pub mod gsd;
+pub mod packing;
 pub mod read;
 pub mod view;
 
