@@ -15,6 +15,7 @@ Arrays are numpy; quaternions are [w, x, y, z] from body to lab. The
 README's "Python" section is the reference."""
 
 from . import _core
+from ._analyze import analyze
 from ._core import LogError, RunError, SceneError
 from ._log import Frame, RunLog, open_log
 from ._run import resume, run
@@ -49,5 +50,5 @@ __all__ = [
     "Accuracy", "Auto", "Cells", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
     "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere",
-    "Superellipsoid", "open_log", "resume", "run",
+    "Superellipsoid", "analyze", "open_log", "resume", "run",
 ]

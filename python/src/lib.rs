@@ -44,6 +44,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run::resume_log, m)?)?;
     m.add_function(wrap_pyfunction!(log::read_log, m)?)?;
     m.add_function(wrap_pyfunction!(log::export_gsd, m)?)?;
+    m.add_function(wrap_pyfunction!(log::analyze_logs, m)?)?;
+    m.add_function(wrap_pyfunction!(log::analyze_packing, m)?)?;
     m.add_class::<log::Frame>()?;
     m.add_class::<simulation::Simulation>()?;
     Ok(())

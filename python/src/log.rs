@@ -245,3 +245,90 @@ pub fn export_gsd(py: Python<'_>, path: PathBuf, out: PathBuf) -> PyResult<usize
     })
     .map_err(|e| log_error(&path, e))
 }
+
+/// `hardbody analyze` of the logs at `paths` as JSON: one log's stages
+/// (`{"log", "stages"}`), or several replicas' (`{"logs", "stages"}`
+/// over all of them, and `"replicas"`, each one's); with `damage`, what
+/// was said of damaged logs (their `/stats` before the damage are used).
+#[pyfunction]
+pub fn analyze_logs(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<String> {
+    use hardbody::log::averages::{replica_averages, stage_averages};
+    let mut contents = Vec::with_capacity(paths.len());
+    for path in &paths {
+        let c = py
+            .detach(|| read_contents(path, false))
+            .map_err(|e| log_error(path, e))?;
+        contents.push((path.display().to_string(), c));
+    }
+    let damage: Vec<String> = contents
+        .iter()
+        .filter_map(|(name, c)| c.damage.as_ref().map(|d| format!("{name}: {d}")))
+        .collect();
+    let value = match contents.as_slice() {
+        [] => {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "no logs to analyze",
+            ));
+        }
+        [(name, c)] => {
+            let stats: Vec<Stats> = c.stats.iter().map(|(_, s)| s.clone()).collect();
+            serde_json::json!({"log": name, "stages": stage_averages(&stats), "damage": damage})
+        }
+        many => {
+            let logs: Vec<_> = many.iter().map(|(name, c)| (name.clone(), c)).collect();
+            let replicas = replica_averages(&logs).map_err(LogError::new_err)?;
+            serde_json::json!({
+                "logs": logs.iter().map(|(name, _)| name).collect::<Vec<_>>(),
+                "stages": replicas.combined,
+                "replicas": replicas.runs,
+                "damage": damage,
+            })
+        }
+    };
+    Ok(value.to_string())
+}
+
+/// `hardbody analyze --packing` of frame `frame` (default the last) of
+/// the log at `path`, as JSON.
+#[pyfunction]
+#[pyo3(signature = (path, frame=None, gap=1e-2))]
+pub fn analyze_packing(
+    py: Python<'_>,
+    path: PathBuf,
+    frame: Option<isize>,
+    gap: f64,
+) -> PyResult<String> {
+    use hardbody::log::packing::PackingReport;
+    use pyo3::exceptions::{PyIndexError, PyValueError};
+    if !(gap.is_finite() && gap >= 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "gap must be a finite number >= 0, got {gap}"
+        )));
+    }
+    let contents = py
+        .detach(|| read_contents(&path, true))
+        .map_err(|e| log_error(&path, e))?;
+    let frames = contents.states.len() as isize;
+    let index = frame.unwrap_or(-1);
+    let index = if index < 0 { index + frames } else { index };
+    if !(0..frames).contains(&index) {
+        return Err(PyIndexError::new_err(format!(
+            "{}: frame {}: the log holds {frames} frames",
+            path.display(),
+            frame.unwrap_or(-1)
+        )));
+    }
+    let (_, state) = &contents.states[index as usize];
+    let walls = contents
+        .metadata
+        .get("scene_resolved")
+        .and_then(|text| hardbody::scene::Scene::parse(text).ok())
+        .map(|scene| scene.wall_axes())
+        .unwrap_or_default();
+    let report = py
+        .detach(|| PackingReport::of_frame(state, walls, gap))
+        .map_err(|e| LogError::new_err(format!("{}: frame {index}: {e}", path.display())))?;
+    let mut value = serde_json::to_value(&report).expect("a report serialises");
+    value["frame"] = index.into();
+    Ok(value.to_string())
+}
