@@ -241,7 +241,7 @@ pub fn read_log<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDi
 pub fn export_gsd(py: Python<'_>, path: PathBuf, out: PathBuf) -> PyResult<usize> {
     py.detach(|| {
         let contents = read_contents(&path, true)?;
-        hardbody::log::gsd::export(&contents.states, &out)
+        hardbody::log::gsd::export(&contents, &out)
     })
     .map_err(|e| log_error(&path, e))
 }

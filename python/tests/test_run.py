@@ -187,10 +187,39 @@ def test_gsd_export_and_frames_as_gsd(small_log, tmp_path):
     gsd_hoomd = pytest.importorskip("gsd.hoomd", reason="the gsd package is not installed")
     path = tmp_path / "small.gsd"
     assert small_log.to_gsd(path) == len(small_log.frames)
+    stats = small_log.stats
     with gsd_hoomd.open(path, "r") as trajectory:
         assert len(trajectory) == len(small_log.frames)
         last = trajectory[-1]
         assert np.allclose(last.particles.position, small_log.frames[-1].positions, atol=1e-6)
+        rods = small_log.frames[0].species_of == 0
+        for frame, g in zip(small_log.frames, trajectory):
+            # The exact time and stage, and the log time in ns as the step.
+            assert g.configuration.step == frame.log_time
+            assert g.log["hardbody/stage_index"][0] == frame.stage_index
+            if frame.time is None:
+                assert np.isnan(g.log["hardbody/time"][0]) and g.log["hardbody/sweep"][0] == frame.sweep
+            else:
+                assert g.log["hardbody/time"][0] == frame.time
+            # The pressure of the /stats message at the frame, where one is.
+            at = (stats["log_time"] == frame.log_time) & (stats["stage_index"] == frame.stage_index)
+            if at.any():
+                np.testing.assert_equal(g.log["hardbody/pressure"][0], stats["pressure"][at][0])
+            # Masses 1; rods 2 x 0.8 long turning as spherical tops with the
+            # mean moment of a solid ellipsoid; spheres not turning.
+            assert np.all(g.particles.mass == 1.0)
+            assert np.allclose(g.particles.diameter, np.where(rods, 1.6, 0.8))
+            mean = (2 * (0.8**2 + 0.4**2) + 2 * 0.4**2) / 5 / 3
+            assert np.allclose(g.particles.moment_inertia[rods], mean, rtol=1e-6)
+            assert np.all(g.particles.moment_inertia[~rods] == 0.0)
+            if frame.angular_velocities is not None:
+                # L_body from HOOMD's quaternion 2 q (0, L_body) is I w_body.
+                q, p = frame.orientations, g.particles.angmom.astype(float)
+                l_body = 0.5 * quaternion_product(q * [1, -1, -1, -1], p)
+                assert np.allclose(l_body[:, 0], 0.0, atol=1e-5)
+                w_body = rotate(q * [1, -1, -1, -1], frame.angular_velocities)
+                expected = w_body * g.particles.moment_inertia
+                assert np.allclose(l_body[rods, 1:], expected[rods], atol=1e-5)
     frame = small_log.frames[-1].to_gsd()
     assert frame.particles.N == 64 and frame.particles.types == ["rod", "ball"]
     out = tmp_path / "one.gsd"
@@ -198,6 +227,26 @@ def test_gsd_export_and_frames_as_gsd(small_log, tmp_path):
         f.append(frame)
     with gsd_hoomd.open(out, "r") as f:
         assert np.allclose(f[0].particles.orientation, small_log.frames[-1].orientations, atol=1e-6)
+
+
+def quaternion_product(a, b):
+    w1, x1, y1, z1 = a.T
+    w2, x2, y2, z2 = b.T
+    return np.stack(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ],
+        axis=1,
+    )
+
+
+def rotate(q, v):
+    """v rotated by the unit quaternions q (rows)."""
+    p = np.concatenate([np.zeros((len(v), 1)), v], axis=1)
+    return quaternion_product(quaternion_product(q, p), q * [1, -1, -1, -1])[:, 1:]
 
 
 def test_frames_go_to_freud(small_log):

@@ -380,7 +380,7 @@ pub(super) fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
             log.display()
         ));
     }
-    match hardbody::log::gsd::export(&contents.states, out) {
+    match hardbody::log::gsd::export(&contents, out) {
         Ok(frames) => match &contents.damage {
             // The intact frames are exported; the damage is an error.
             Some(d) => bad_input(format!(

@@ -4,17 +4,28 @@
 //! ellipsoids as `Ellipsoid`, cuboids as `ConvexPolyhedron`,
 //! superellipsoids as `Mesh`), which GSD readers take as the default for
 //! later frames. Orientations are written w, x, y, z (GSD's order, the same
-//! as `/state`). `configuration/step` is the frame's log time in
-//! milliseconds: the sweep in Monte Carlo stages, thousandths of simulated
-//! time in dynamics.
+//! as `/state`).
+//!
+//! Every frame also carries what the dynamics knows of each body: its mass,
+//! the principal moments it turns with (zero for bodies that do not turn,
+//! HOOMD's convention), its bounding diameter and, in dynamics frames, its
+//! angular momentum as HOOMD's quaternion 2 q ⊗ (0, L_body). HOOMD's
+//! `configuration/step` is the frame's log time in ns (README, "Logs");
+//! the exact stage, sweep and simulated time, the packing fraction and the
+//! `/stats` pressure at the frame are under `log/hardbody/`.
 
 use std::path::Path;
 
 use hoomd_gsd::file_layer::GsdFile;
 
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+use super::read::LogContents;
 use super::view::superellipsoid_mesh;
-use super::{LogError, StateRecord};
+use super::{LogError, StateRecord, Stats};
+use crate::edmd::dynamics::top_moments;
 use crate::geometry::Shape;
+use crate::scene::{Scene, Stage};
 
 /// Bytes per row of `particles/type_shapes` (JSON, zero-padded): room for
 /// the largest superellipsoid mesh.
@@ -74,9 +85,75 @@ fn row<const N: usize>(text: &str) -> Result<[u8; N], String> {
     Ok(std::array::from_fn(|i| bytes.get(i).copied().unwrap_or(0)))
 }
 
-/// Writes `frames` (log time, state) to `out` (via `<out>.partial`,
-/// renamed when complete); returns the number of frames written.
-pub fn export(frames: &[(u64, StateRecord)], out: &Path) -> Result<usize, LogError> {
+/// What the export knows of a body of each species in a frame.
+struct Body {
+    mass: f32,
+    moments: [f32; 3],
+    diameter: f32,
+}
+
+/// The bodies of `state`'s species in its stage of `scene` (masses 1 and
+/// spherical tops where the log holds no scene).
+fn bodies(state: &StateRecord, scene: Option<&Scene>) -> Vec<Body> {
+    let true_inertia = matches!(
+        scene.and_then(|s| s.stages.get(state.stage_index)),
+        Some(Stage::Dynamics {
+            true_inertia: true,
+            ..
+        })
+    );
+    state
+        .species
+        .iter()
+        .enumerate()
+        .map(|(k, species)| {
+            let mass = scene.and_then(|s| s.species.get(k)).map_or(1.0, |s| s.mass);
+            let turns = species.rotation && !species.shape.is_sphere();
+            let moments = top_moments(&species.shape, mass, true_inertia)
+                .or_else(|| top_moments(&species.shape, mass, false))
+                .map_or([0.0; 3], |(m, _)| m.into());
+            Body {
+                mass: mass as f32,
+                moments: if turns {
+                    moments.map(|x| x as f32)
+                } else {
+                    [0.0; 3]
+                },
+                diameter: (2.0 * species.shape.bounding_radius()) as f32,
+            }
+        })
+        .collect()
+}
+
+/// HOOMD's angular momentum quaternion 2 q ⊗ (0, L_body), with L_body =
+/// I ω_body.
+fn angular_momentum(orientation: &[f64; 4], omega_lab: &[f64; 3], moments: &[f32; 3]) -> [f32; 4] {
+    let [w, x, y, z] = *orientation;
+    let q = UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z));
+    let omega_body = q.inverse_transform_vector(&Vector3::from(*omega_lab));
+    let l_body = omega_body.component_mul(&Vector3::from(moments.map(f64::from)));
+    let p = q.quaternion() * Quaternion::from_imag(l_body) * 2.0;
+    [p.w, p.i, p.j, p.k].map(|v| v as f32)
+}
+
+/// The `/stats` pressure of `state`'s stage at `log_time`, if a message
+/// was written there.
+fn pressure_at(stats: &[(u64, Stats)], log_time: u64, stage_index: usize) -> f64 {
+    stats
+        .iter()
+        .find(|(t, s)| *t == log_time && s.stage_index == stage_index)
+        .and_then(|(_, s)| s.pressure)
+        .unwrap_or(f64::NAN)
+}
+
+/// Writes the frames of `contents` to `out` (via `<out>.partial`, renamed
+/// when complete); returns the number of frames written.
+pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
+    let frames = &contents.states;
+    let scene = contents
+        .metadata
+        .get("scene_resolved")
+        .and_then(|text| Scene::parse(text).ok());
     let partial = super::partial_path(out);
     let fail = |message: String| LogError::Content {
         path: out.to_path_buf(),
@@ -107,7 +184,7 @@ pub fn export(frames: &[(u64, StateRecord)], out: &Path) -> Result<usize, LogErr
         }
         let w = |e: hoomd_gsd::file_layer::WriteError| fail(format!("frame {k}: {e}"));
         let [lx, ly, lz] = state.box_lengths.map(|l| l as f32);
-        gsd.write_scalars("configuration/step", [log_time / 1_000_000])
+        gsd.write_scalars("configuration/step", [*log_time])
             .map_err(w)?;
         gsd.write_scalars("configuration/box", [lx, ly, lz, 0.0, 0.0, 0.0])
             .map_err(w)?;
@@ -131,6 +208,57 @@ pub fn export(frames: &[(u64, StateRecord)], out: &Path) -> Result<usize, LogErr
         if let Some(v) = &state.velocities {
             gsd.write_arrays("particles/velocity", v.iter().map(|p| p.map(|x| x as f32)))
                 .map_err(w)?;
+        }
+        let kinds = bodies(state, scene.as_ref());
+        let of = |k: &u16| &kinds[*k as usize];
+        gsd.write_scalars(
+            "particles/mass",
+            state.species_of.iter().map(|k| of(k).mass),
+        )
+        .map_err(w)?;
+        gsd.write_scalars(
+            "particles/diameter",
+            state.species_of.iter().map(|k| of(k).diameter),
+        )
+        .map_err(w)?;
+        gsd.write_arrays(
+            "particles/moment_inertia",
+            state.species_of.iter().map(|k| of(k).moments),
+        )
+        .map_err(w)?;
+        if let Some(omega) = &state.angular_velocities {
+            gsd.write_arrays(
+                "particles/angmom",
+                state
+                    .orientations
+                    .iter()
+                    .zip(omega)
+                    .zip(&state.species_of)
+                    .map(|((q, o), k)| angular_momentum(q, o, &of(k).moments)),
+            )
+            .map_err(w)?;
+        }
+        let volume: f64 = state.box_lengths.iter().product();
+        let packing_fraction = state
+            .species_of
+            .iter()
+            .map(|&k| state.species[k as usize].shape.volume())
+            .sum::<f64>()
+            / volume;
+        for (name, value) in [
+            ("log/hardbody/stage_index", state.stage_index as f64),
+            (
+                "log/hardbody/sweep",
+                state.sweep.map_or(f64::NAN, |s| s as f64),
+            ),
+            ("log/hardbody/time", state.time.unwrap_or(f64::NAN)),
+            ("log/hardbody/packing_fraction", packing_fraction),
+            (
+                "log/hardbody/pressure",
+                pressure_at(&contents.stats, *log_time, state.stage_index),
+            ),
+        ] {
+            gsd.write_scalars(name, [value]).map_err(w)?;
         }
         if k == 0 {
             gsd.write_arrays("particles/types", names.iter().copied())

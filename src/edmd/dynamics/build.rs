@@ -576,6 +576,19 @@ pub(super) fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
         .count()
 }
 
+/// The principal moments of inertia (along the body axes) a body of
+/// `shape` and `mass` turns with, and the axis of its top: with
+/// `true_inertia` its own (None unless a body of revolution, a symmetric
+/// top), else a spherical top with the mean moment (De Michele, eqs. 4–6).
+pub fn top_moments(shape: &Shape, mass: f64, true_inertia: bool) -> Option<(V3, usize)> {
+    let principal = shape.inertia_tensor(mass).diagonal();
+    if true_inertia {
+        shape.symmetric_top_axis().map(|k| (principal, k))
+    } else {
+        Some((V3::repeat(principal.sum() / 3.0), 2))
+    }
+}
+
 /// The per-species dynamics data, checked against the options.
 pub(super) fn kinds_for(
     species: &[Species],
@@ -594,19 +607,11 @@ pub(super) fn kinds_for(
     }
     let mut kinds = Vec::with_capacity(species.len());
     for (s, &m) in species.iter().zip(&masses) {
-        let principal = s.shape.inertia_tensor(m).diagonal();
-        let (moments, top_axis) = if options.true_inertia {
-            match s.shape.symmetric_top_axis() {
-                Some(k) => (principal, k),
-                None => {
-                    return Err(EdmdError::NotATop {
-                        species: s.name.clone(),
-                        moments: principal.into(),
-                    });
-                }
-            }
-        } else {
-            (V3::repeat(principal.sum() / 3.0), 2)
+        let Some((moments, top_axis)) = top_moments(&s.shape, m, options.true_inertia) else {
+            return Err(EdmdError::NotATop {
+                species: s.name.clone(),
+                moments: s.shape.inertia_tensor(m).diagonal().into(),
+            });
         };
         kinds.push(Kind {
             shape: s.shape,

@@ -20,6 +20,7 @@ mod events;
 mod observables;
 mod scheduling;
 
+pub use build::top_moments;
 use build::*;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use observables::*;
