@@ -14,7 +14,8 @@
 //! 6. [`scene`]: the scene file and the plan it implies;
 //! 7. [`log`]: MCAP logs, their reading and their averages;
 //! 8. [`run`]: a scene run stage by stage into its log;
-//! 9. [`bench`](mod@bench): the benchmark suites.
+//! 9. [`bench`](mod@bench): the benchmark suites;
+//! 10. [`sweep`]: parameter sweeps as signac workspaces run by row.
 //!
 //! The command line (`src/cli/`) is at the edge, outside the library.
 #![warn(missing_docs)]
@@ -29,6 +30,7 @@ pub mod run;
 pub mod scene;
 pub mod space;
 pub mod state;
+pub mod sweep;
 
 /// Deterministic numbers and small systems for unit tests.
 #[cfg(test)]

@@ -278,6 +278,7 @@ const FLOORS: &[&[&str]] = &[
     &["log"],
     &["run"],
     &["bench"],
+    &["sweep"],
 ];
 
 #[test]

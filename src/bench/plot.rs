@@ -216,6 +216,90 @@ pub fn bar_plot(
     root.present().map_err(|e| fail(&e))
 }
 
+/// A measured point with an error in x.
+pub struct ErrorPoint {
+    /// The measured value (a packing fraction).
+    pub x: f64,
+    /// Its standard error.
+    pub x_error: f64,
+    /// The imposed value (a pressure).
+    pub y: f64,
+}
+
+/// An equation of state as SVG: measured packing fractions with error
+/// bars against the imposed βP, and a reference curve through
+/// `reference` (Carnahan–Starling's packing fraction at each pressure)
+/// where given.
+pub fn eos_plot(
+    path: &Path,
+    points: &[ErrorPoint],
+    reference: &[(f64, f64)],
+) -> Result<(), String> {
+    let (x0, x1) = range(
+        points
+            .iter()
+            .flat_map(|p| [p.x - p.x_error, p.x + p.x_error])
+            .chain(reference.iter().map(|r| r.0)),
+        false,
+    );
+    let (y0, y1) = range(
+        points
+            .iter()
+            .map(|p| p.y)
+            .chain(reference.iter().map(|r| r.1)),
+        false,
+    );
+    let root = SVGBackend::new(path, (800, 520)).into_drawing_area();
+    let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| fail(&e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("equation of state", ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| fail(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("packing fraction")
+        .y_desc("βP (1/length³)")
+        .draw()
+        .map_err(|e| fail(&e))?;
+    if !reference.is_empty() {
+        let mut curve = reference.to_vec();
+        curve.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let grey = COLOURS[7];
+        chart
+            .draw_series(LineSeries::new(curve, grey.stroke_width(2)))
+            .map_err(|e| fail(&e))?
+            .label("Carnahan–Starling")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
+    }
+    let blue = COLOURS[0];
+    chart
+        .draw_series(points.iter().map(|p| {
+            ErrorBar::new_horizontal(p.y, p.x - p.x_error, p.x, p.x + p.x_error, blue.filled(), 8)
+        }))
+        .map_err(|e| fail(&e))?;
+    chart
+        .draw_series(
+            points
+                .iter()
+                .map(|p| Circle::new((p.x, p.y), 4, blue.filled())),
+        )
+        .map_err(|e| fail(&e))?
+        .label("measured (mean ± error over replicas)")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 4, blue.filled()));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| fail(&e))?;
+    root.present().map_err(|e| fail(&e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,10 +10,12 @@ mod analyze;
 mod bench;
 mod progress;
 mod run;
+mod sweep;
 
 use analyze::*;
 use bench::*;
 use run::*;
+use sweep::*;
 
 /// Exit code for bad input (flags, shapes, scenes, logs).
 const EXIT_BAD_INPUT: u8 = 2;
@@ -52,6 +54,15 @@ enum Command {
         /// (without a .partial suffix).
         #[arg(long, value_name = "LOG")]
         resume: Option<PathBuf>,
+        /// With --out: if OUT.partial holds a frame (a killed or stopped
+        /// run), resume it; if OUT is complete, there is nothing to do;
+        /// otherwise run from the start (what a job of a sweep runs).
+        #[arg(long = "continue", requires = "out", conflicts_with = "resume")]
+        continue_: bool,
+        /// Threads for the parallel Monte Carlo sweeps (default: every
+        /// core).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
     },
     /// Validate a scene and print the plan: stages, pair kernels, effects and why.
     Check {
@@ -117,6 +128,28 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// A parameter sweep as a signac workspace run by row: the product of
+    /// the values of --set (and --replicas seeds each), one job folder
+    /// each, with a workflow.toml to run, resume and analyze them.
+    #[command(args_conflicts_with_subcommands = true)]
+    Sweep {
+        #[command(subcommand)]
+        collect: Option<SweepCommand>,
+        /// The template scene (RON).
+        template: Option<PathBuf>,
+        /// KEY=V1,V2,...: a field of the scene by its path
+        /// (stages[1].ensemble.pressure, species[0].shape.a, seed) and its
+        /// values; repeat for more fields.
+        #[arg(long, value_name = "KEY=V1,V2")]
+        set: Vec<String>,
+        /// Seeds per state point: the template's seed and the next ones.
+        #[arg(long, default_value_t = 1)]
+        replicas: u64,
+        /// The folder to write the workspace in (new, empty, or this
+        /// sweep's, to which new jobs are added).
+        #[arg(long, value_name = "DIR")]
+        workspace: Option<PathBuf>,
+    },
     /// Run a benchmark suite.
     Bench {
         /// Suite to run.
@@ -132,6 +165,29 @@ enum Command {
         /// (all but scene and edmd, which are tables).
         #[arg(long, value_name = "DIR")]
         plot: Option<std::path::PathBuf>,
+    },
+}
+
+#[derive(Subcommand)]
+enum SweepCommand {
+    /// One row per state point: its values, its jobs finished, partial or
+    /// failed, and per observable of the measured stage the mean over the
+    /// finished replicas with its error.
+    Collect {
+        /// The sweep's folder (its --workspace).
+        dir: PathBuf,
+        /// The stage to average (default: the last that is not a
+        /// compression).
+        #[arg(long)]
+        stage: Option<usize>,
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Write the equation of state (pressure against packing
+        /// fraction, with errors) here as SVG, when the sweep varies a
+        /// pressure.
+        #[arg(long, value_name = "DIR")]
+        plot: Option<PathBuf>,
     },
 }
 
@@ -171,7 +227,45 @@ pub fn main() -> ExitCode {
             out,
             seed,
             resume,
-        } => run(scene, out, seed, resume),
+            continue_,
+            threads,
+        } => {
+            if let Some(n) = threads {
+                if n == 0 {
+                    return bad_input("--threads must be at least 1");
+                }
+                // Before any parallel work: the pool is made once.
+                let _ = rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build_global();
+            }
+            if continue_ {
+                continue_run(scene, out, seed)
+            } else {
+                run(scene, out, seed, resume)
+            }
+        }
+        Command::Sweep {
+            collect:
+                Some(SweepCommand::Collect {
+                    dir,
+                    stage,
+                    json,
+                    plot,
+                }),
+            ..
+        } => sweep_collect(&dir, stage, json, plot.as_deref()),
+        Command::Sweep {
+            collect: None,
+            template,
+            set,
+            replicas,
+            workspace,
+        } => match (template, workspace) {
+            (Some(t), Some(w)) => sweep(&t, &set, replicas, &w),
+            (None, _) => bad_input("sweep: give a TEMPLATE scene (or: sweep collect DIR)"),
+            (_, None) => bad_input("sweep: give --workspace DIR"),
+        },
         Command::Check { scene } => check(&scene),
         Command::Inspect { log } => inspect(&log),
         Command::Analyze {

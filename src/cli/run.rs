@@ -213,3 +213,47 @@ pub(super) fn check(path: &std::path::Path) -> ExitCode {
     .to_string());
     ExitCode::SUCCESS
 }
+
+/// `run [SCENE] --out OUT --continue`: a job that may have run before.
+/// A partial log with a frame is resumed (bit for bit as if never
+/// stopped); a complete log means there is nothing to do; otherwise the
+/// scene runs from the start. A run stopped by Ctrl-C leaves its log as
+/// OUT.partial, so that only a finished run puts OUT in place.
+pub(super) fn continue_run(
+    scene_path: Option<PathBuf>,
+    out: Option<PathBuf>,
+    seed: Option<u64>,
+) -> ExitCode {
+    let Some(out) = out else {
+        return bad_input("--continue needs --out");
+    };
+    let partial = hardbody::log::partial_path(&out);
+    if out.exists() && !partial.exists() {
+        say(&format!("{}: complete; nothing to do", out.display()));
+        return ExitCode::SUCCESS;
+    }
+    let resumable = partial.exists()
+        && hardbody::log::read::read_log(&partial, false)
+            .is_ok_and(|c| c.last_state.is_some_and(|(_, s)| s.resume.is_some()));
+    let code = if resumable {
+        resume_log(&partial, Some(out.clone()), seed)
+    } else {
+        run(scene_path, Some(out.clone()), seed, None)
+    };
+    if STOP.load(Ordering::SeqCst) && out.exists() && !partial.exists() {
+        // Stopped, not finished: kept where the next --continue resumes it.
+        if let Err(e) = std::fs::rename(&out, &partial) {
+            esay(&format!(
+                "hardbody: {}: could not be renamed to {}: {e}",
+                out.display(),
+                partial.display()
+            ));
+        } else {
+            esay(&format!(
+                "hardbody: stopped; {} is kept to continue from",
+                partial.display()
+            ));
+        }
+    }
+    code
+}

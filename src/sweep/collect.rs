@@ -1,0 +1,284 @@
+//! A sweep's results (`hardbody sweep collect`): each job's status from
+//! its log, and per state point the averages of one stage over the
+//! replicas that finished.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use serde_json::{Map, Value};
+
+use super::{JOB_LOG, STATEPOINT, SWEEP_FILE, SweepError, SweepRecord};
+use crate::analysis::eos::carnahan_starling_packing_fraction;
+use crate::geometry::Shape;
+use crate::log::averages::{ReplicaAverage, StageAverages, stage_averages, stages_over_replicas};
+use crate::log::partial_path;
+use crate::log::read::read_log;
+use crate::scene::{Ensemble, Scene, Stage};
+
+/// Where a job stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JobStatus {
+    /// Its log is complete, every stage run.
+    Finished,
+    /// A partial log (killed or stopped): submitting it again resumes it.
+    Partial,
+    /// A stage failed (the partial log holds why).
+    Failed,
+    /// No log yet.
+    NotStarted,
+}
+
+/// One job read back.
+#[derive(Debug, Clone)]
+pub struct JobResult {
+    /// The job's folder name (its id).
+    pub id: String,
+    /// Its state point.
+    pub statepoint: Map<String, Value>,
+    /// Where it stands.
+    pub status: JobStatus,
+    /// Its stages' averages, when finished.
+    pub stages: Option<Vec<StageAverages>>,
+    /// Its scene.
+    pub scene: Option<Scene>,
+}
+
+/// One state point: the replicas of one set of values.
+#[derive(Debug, Clone, Serialize)]
+pub struct StatePointRow {
+    /// The swept values (the state point without its seed).
+    pub parameters: Map<String, Value>,
+    /// Jobs by status.
+    pub finished: usize,
+    /// See [`JobStatus::Partial`].
+    pub partial: usize,
+    /// See [`JobStatus::Failed`].
+    pub failed: usize,
+    /// See [`JobStatus::NotStarted`].
+    pub not_started: usize,
+    /// The stage averaged.
+    pub stage_index: usize,
+    /// Its observables over the finished replicas (empty if none).
+    pub observables: BTreeMap<String, ReplicaAverage>,
+    /// Whether the stage equilibrated in every finished replica.
+    pub equilibrated: bool,
+    /// For one species of spheres in an NPT stage: the packing fraction
+    /// Carnahan–Starling gives at its pressure.
+    pub carnahan_starling: Option<f64>,
+}
+
+/// Reads every job of the sweep at `dir`.
+pub fn read_jobs(dir: &Path) -> Result<Vec<JobResult>, SweepError> {
+    let workspace = dir.join("workspace");
+    let entries = std::fs::read_dir(&workspace).map_err(|e| SweepError::Workspace {
+        path: workspace.clone(),
+        message: format!("{e} (is this a sweep's folder?)"),
+    })?;
+    let mut folders: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join(STATEPOINT).exists())
+        .collect();
+    folders.sort();
+    folders.iter().map(|folder| read_job(folder)).collect()
+}
+
+fn read_job(folder: &Path) -> Result<JobResult, SweepError> {
+    let sp_path = folder.join(STATEPOINT);
+    let bad = |message: String| SweepError::Workspace {
+        path: sp_path.clone(),
+        message,
+    };
+    let text = std::fs::read_to_string(&sp_path).map_err(|e| bad(e.to_string()))?;
+    let Value::Object(statepoint) = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?
+    else {
+        return Err(bad("not a JSON object".into()));
+    };
+    let id = folder
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let log = folder.join(JOB_LOG);
+    let partial = partial_path(&log);
+    let (status, contents) = if log.exists() {
+        match read_log(&log, false) {
+            Ok(c) => {
+                let scene = c
+                    .metadata
+                    .get("scene_resolved")
+                    .and_then(|t| Scene::parse(t).ok());
+                let complete = match (&scene, &c.last_state) {
+                    (Some(scene), Some((_, state))) => {
+                        state.stage_index + 1 == scene.stages.len()
+                            && state.resume.as_ref().is_some_and(|r| r.stage_complete)
+                    }
+                    _ => false,
+                };
+                let status = if complete {
+                    JobStatus::Finished
+                } else {
+                    JobStatus::Partial
+                };
+                (status, Some(c))
+            }
+            Err(_) => (JobStatus::Failed, None),
+        }
+    } else if partial.exists() {
+        match read_log(&partial, false) {
+            Ok(c) if c.failure.is_some() => (JobStatus::Failed, Some(c)),
+            _ => (JobStatus::Partial, None),
+        }
+    } else {
+        (JobStatus::NotStarted, None)
+    };
+    let scene = contents
+        .as_ref()
+        .and_then(|c| c.metadata.get("scene_resolved"))
+        .and_then(|t| Scene::parse(t).ok());
+    let stages = match (status, &contents) {
+        (JobStatus::Finished, Some(c)) => {
+            let stats: Vec<_> = c.stats.iter().map(|(_, s)| s.clone()).collect();
+            Some(stage_averages(&stats))
+        }
+        _ => None,
+    };
+    Ok(JobResult {
+        id,
+        statepoint,
+        status,
+        stages,
+        scene,
+    })
+}
+
+/// The record of the sweep at `dir`.
+pub fn sweep_record(dir: &Path) -> Result<SweepRecord, SweepError> {
+    let path = dir.join(SWEEP_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|e| SweepError::Workspace {
+        path: path.clone(),
+        message: format!("{e} (is this a sweep's folder?)"),
+    })?;
+    serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
+        path,
+        message: format!("not a sweep's record: {e}"),
+    })
+}
+
+/// The last stage of `scene` that is not a compression (the one a sweep
+/// measures, unless told).
+pub fn measured_stage(scene: &Scene) -> usize {
+    scene
+        .stages
+        .iter()
+        .rposition(|s| !matches!(s, Stage::Compress { .. }))
+        .unwrap_or(scene.stages.len().saturating_sub(1))
+}
+
+/// One row per state point (in the order of their first job), with the
+/// averages of stage `stage` (default: the last that is not a
+/// compression) over the finished replicas.
+pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Vec<StatePointRow>, SweepError> {
+    let record = sweep_record(dir)?;
+    let template = Scene::parse(&record.template).map_err(|e| SweepError::Workspace {
+        path: dir.join(SWEEP_FILE),
+        message: format!("its template: {e}"),
+    })?;
+    let stage = stage.unwrap_or_else(|| measured_stage(&template));
+    if stage >= template.stages.len() {
+        return Err(SweepError::Workspace {
+            path: dir.to_path_buf(),
+            message: format!(
+                "--stage {stage}: the template has {} stages",
+                template.stages.len()
+            ),
+        });
+    }
+    let jobs = read_jobs(dir)?;
+    let mut order: Vec<Map<String, Value>> = Vec::new();
+    let mut groups: BTreeMap<String, Vec<&JobResult>> = BTreeMap::new();
+    for job in &jobs {
+        let mut parameters = job.statepoint.clone();
+        parameters.remove("seed");
+        let key = super::signac::python_json(&Value::Object(parameters.clone()));
+        if !groups.contains_key(&key) {
+            order.push(parameters);
+        }
+        groups.entry(key).or_default().push(job);
+    }
+    let mut rows = Vec::with_capacity(order.len());
+    for parameters in order {
+        let key = super::signac::python_json(&Value::Object(parameters.clone()));
+        let group = &groups[&key];
+        let count = |s: JobStatus| group.iter().filter(|j| j.status == s).count();
+        let runs: Vec<Vec<StageAverages>> = group
+            .iter()
+            .filter_map(|j| j.stages.clone())
+            .filter(|stages| stages.iter().any(|s| s.stage_index == stage))
+            .collect();
+        let (observables, equilibrated) = if runs.is_empty() {
+            (BTreeMap::new(), false)
+        } else {
+            let combined =
+                stages_over_replicas(&runs).map_err(|message| SweepError::Workspace {
+                    path: dir.to_path_buf(),
+                    message,
+                })?;
+            combined
+                .into_iter()
+                .find(|s| s.stage_index == stage)
+                .map(|s| (s.observables, s.equilibrated))
+                .unwrap_or_default()
+        };
+        let scene = group.iter().find_map(|j| j.scene.as_ref());
+        rows.push(StatePointRow {
+            parameters,
+            finished: count(JobStatus::Finished),
+            partial: count(JobStatus::Partial),
+            failed: count(JobStatus::Failed),
+            not_started: count(JobStatus::NotStarted),
+            stage_index: stage,
+            observables,
+            equilibrated,
+            carnahan_starling: scene.and_then(|s| hard_sphere_density(s, stage)),
+        });
+    }
+    rows.sort_by(|a, b| compare_parameters(&a.parameters, &b.parameters));
+    Ok(rows)
+}
+
+/// State points in order of their values, field by field (numbers by
+/// value).
+fn compare_parameters(a: &Map<String, Value>, b: &Map<String, Value>) -> std::cmp::Ordering {
+    for (key, x) in a {
+        let y = b.get(key).unwrap_or(&Value::Null);
+        let order = match (x.as_f64(), y.as_f64()) {
+            (Some(p), Some(q)) => p.total_cmp(&q),
+            _ => x.to_string().cmp(&y.to_string()),
+        };
+        if order.is_ne() {
+            return order;
+        }
+    }
+    std::cmp::Ordering::Equal
+}
+
+/// Carnahan–Starling's packing fraction at the pressure of NPT stage
+/// `stage`, for a scene of one species of spheres.
+fn hard_sphere_density(scene: &Scene, stage: usize) -> Option<f64> {
+    let [species] = scene.species.as_slice() else {
+        return None;
+    };
+    let Shape::Sphere(sphere) = species.shape else {
+        return None;
+    };
+    let Some(Stage::MonteCarlo {
+        ensemble: Ensemble::Npt { pressure, .. },
+        ..
+    }) = scene.stages.get(stage)
+    else {
+        return None;
+    };
+    let sigma = 2.0 * sphere.radius();
+    Some(carnahan_starling_packing_fraction(pressure * sigma.powi(3)))
+}

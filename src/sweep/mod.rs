@@ -1,0 +1,593 @@
+//! Parameter sweeps as signac workspaces that row runs (`hardbody sweep`):
+//! a template scene, the values of some of its fields and replicas make
+//! one job folder each, with its state point and scene; `collect` reads
+//! their logs back into one row per state point.
+//!
+//! - `mod.rs`: fields addressed by path, the jobs of a sweep, the
+//!   workspace written;
+//! - `signac.rs`: job ids as signac computes them;
+//! - `collect.rs`: the jobs' status and averages over replicas.
+
+pub mod collect;
+pub mod signac;
+
+use std::path::{Path, PathBuf};
+
+use serde_json::{Map, Value};
+
+use crate::scene::Scene;
+
+/// Why a sweep cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// A `--set` that is not `KEY=V1,V2,...`.
+    #[error("--set {0:?}: expected KEY=V1,V2,... (e.g. stages[1].ensemble.pressure=1,2,4)")]
+    Syntax(String),
+    /// A key that names no field of the scene.
+    #[error("--set {key}: {message}")]
+    Key {
+        /// The key given.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value the scene refuses.
+    #[error("--set {key}={value}: {message}")]
+    Value {
+        /// The key.
+        key: String,
+        /// The value.
+        value: String,
+        /// The scene's refusal.
+        message: String,
+    },
+    /// Replicas and seeds both given, or none of either.
+    #[error("{0}")]
+    Replicas(String),
+    /// The workspace could not be written, or holds another sweep.
+    #[error("{path}: {message}")]
+    Workspace {
+        /// The file or folder.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// One segment of a field path: `stages[1]` is `stages` then index 1.
+#[derive(Debug, Clone, PartialEq)]
+enum Segment {
+    Field(String),
+    Index(usize),
+}
+
+fn parse_path(key: &str) -> Result<Vec<Segment>, String> {
+    let mut segments = Vec::new();
+    for part in key.split('.') {
+        let (name, mut rest) = match part.find('[') {
+            Some(i) => (&part[..i], &part[i..]),
+            None => (part, ""),
+        };
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(format!("{part:?} is not a field name"));
+        }
+        segments.push(Segment::Field(name.to_string()));
+        while let Some(stripped) = rest.strip_prefix('[') {
+            let close = stripped
+                .find(']')
+                .ok_or_else(|| format!("{part:?}: an unclosed ["))?;
+            let index = stripped[..close]
+                .parse()
+                .map_err(|_| format!("{part:?}: {:?} is not an index", &stripped[..close]))?;
+            segments.push(Segment::Index(index));
+            rest = &stripped[close + 1..];
+        }
+        if !rest.is_empty() {
+            return Err(format!("{part:?}: unexpected {rest:?}"));
+        }
+    }
+    Ok(segments)
+}
+
+/// The value at `path` in the JSON of a scene, looking through the tags
+/// of enum variants (`stages[1].ensemble.pressure` in `{"MonteCarlo":
+/// {"ensemble": {"Npt": {"pressure": ...}}}}`).
+fn field_mut<'v>(root: &'v mut Value, path: &[Segment]) -> Result<&'v mut Value, String> {
+    let mut here = root;
+    let mut walked = String::new();
+    for segment in path {
+        // Through a variant's tag: an object of one key, a capitalised
+        // variant name, holding its fields.
+        if let (Segment::Field(name), Value::Object(map)) = (segment, &*here)
+            && !map.contains_key(name)
+            && map.len() == 1
+            && map
+                .keys()
+                .next()
+                .is_some_and(|k| k.starts_with(|c: char| c.is_ascii_uppercase()))
+        {
+            here = here
+                .as_object_mut()
+                .and_then(|m| m.values_mut().next())
+                .expect("one key");
+        }
+        here = match (segment, here) {
+            (Segment::Field(name), Value::Object(map)) => {
+                let fields: Vec<String> = map.keys().cloned().collect();
+                map.get_mut(name).ok_or_else(|| {
+                    format!(
+                        "{} has no field {name:?} (its fields: {})",
+                        if walked.is_empty() {
+                            "the scene"
+                        } else {
+                            &walked
+                        },
+                        fields.join(", ")
+                    )
+                })?
+            }
+            (Segment::Index(i), Value::Array(items)) => {
+                let n = items.len();
+                items
+                    .get_mut(*i)
+                    .ok_or_else(|| format!("{walked} has {n} entries, no [{i}]"))?
+            }
+            (Segment::Field(name), _) => {
+                return Err(format!("{walked} is a value, not a table with {name:?}"));
+            }
+            (Segment::Index(i), _) => {
+                return Err(format!("{walked} is not a list to take [{i}] of"));
+            }
+        };
+        match segment {
+            Segment::Field(name) if walked.is_empty() => walked.push_str(name),
+            Segment::Field(name) => {
+                walked.push('.');
+                walked.push_str(name);
+            }
+            Segment::Index(i) => walked.push_str(&format!("[{i}]")),
+        }
+    }
+    Ok(here)
+}
+
+/// A value as written after `=`: an integer, a float, true or false, or
+/// else a string.
+fn parse_value(text: &str) -> Value {
+    let t = text.trim();
+    if let Ok(i) = t.parse::<i64>() {
+        return Value::from(i);
+    }
+    if let Ok(x) = t.parse::<f64>()
+        && x.is_finite()
+    {
+        return Value::from(x);
+    }
+    match t {
+        "true" => Value::Bool(true),
+        "false" => Value::Bool(false),
+        _ => Value::String(t.to_string()),
+    }
+}
+
+/// One swept field: its path in the scene, its name in the state point
+/// and its values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Swept {
+    /// The path given (`stages[1].ensemble.pressure`).
+    pub key: String,
+    /// The state point's name for it (`pressure`).
+    pub name: String,
+    /// The values, in the order given.
+    pub values: Vec<Value>,
+}
+
+/// Reads `--set KEY=V1,V2,...` arguments and checks every value against
+/// the template: each must give a scene the template's validation
+/// accepts.
+pub fn parse_sets(template: &Scene, sets: &[String]) -> Result<Vec<Swept>, SweepError> {
+    let base = serde_json::to_value(template).expect("a scene serialises");
+    let mut swept: Vec<Swept> = Vec::new();
+    for set in sets {
+        let (key, values) = set
+            .split_once('=')
+            .ok_or_else(|| SweepError::Syntax(set.clone()))?;
+        let key = key.trim();
+        let values: Vec<&str> = values.split(',').map(str::trim).collect();
+        if key.is_empty() || values.iter().any(|v| v.is_empty()) {
+            return Err(SweepError::Syntax(set.clone()));
+        }
+        let path = parse_path(key).map_err(|message| SweepError::Key {
+            key: key.into(),
+            message,
+        })?;
+        if swept.iter().any(|s| s.key == key) {
+            return Err(SweepError::Key {
+                key: key.into(),
+                message: "given twice".into(),
+            });
+        }
+        let mut parsed = Vec::with_capacity(values.len());
+        for value in values {
+            let v = parse_value(value);
+            let mut scene = base.clone();
+            *field_mut(&mut scene, &path).map_err(|message| SweepError::Key {
+                key: key.into(),
+                message,
+            })? = v.clone();
+            scene_of(scene).map_err(|message| SweepError::Value {
+                key: key.into(),
+                value: value.into(),
+                message,
+            })?;
+            if parsed.contains(&v) {
+                return Err(SweepError::Value {
+                    key: key.into(),
+                    value: value.into(),
+                    message: "given twice".into(),
+                });
+            }
+            parsed.push(v);
+        }
+        swept.push(Swept {
+            key: key.into(),
+            name: String::new(),
+            values: parsed,
+        });
+    }
+    name_swept(&mut swept);
+    Ok(swept)
+}
+
+/// State-point names: each key's last field, or as many of its last
+/// fields as tell it from the others (`ensemble_pressure`), joined by
+/// `_`, indices included (`species_0_shape_a`).
+fn name_swept(swept: &mut [Swept]) {
+    let words = |key: &str| -> Vec<String> {
+        parse_path(key)
+            .expect("checked")
+            .into_iter()
+            .map(|s| match s {
+                Segment::Field(f) => f,
+                Segment::Index(i) => i.to_string(),
+            })
+            .collect()
+    };
+    let all: Vec<Vec<String>> = swept.iter().map(|s| words(&s.key)).collect();
+    for (k, s) in swept.iter_mut().enumerate() {
+        let mine = &all[k];
+        let mut take = 1;
+        // The shortest tail no other key shares (indices count as fields
+        // but never stand alone).
+        loop {
+            let tail = |w: &Vec<String>| w[w.len().saturating_sub(take)..].to_vec();
+            let unique = all
+                .iter()
+                .enumerate()
+                .all(|(j, other)| j == k || tail(other) != tail(mine));
+            let starts_with_index = mine[mine.len().saturating_sub(take)]
+                .chars()
+                .all(|c| c.is_ascii_digit());
+            if (unique && !starts_with_index) || take >= mine.len() {
+                break;
+            }
+            take += 1;
+        }
+        s.name = mine[mine.len().saturating_sub(take)..].join("_");
+    }
+}
+
+fn scene_of(value: Value) -> Result<Scene, String> {
+    let scene: Scene = serde_json::from_value(value).map_err(|e| e.to_string())?;
+    scene.check().map_err(|e| e.to_string())?;
+    Ok(scene)
+}
+
+/// One job of a sweep: its state point, its id and its scene.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// The swept values by name, and the seed.
+    pub statepoint: Value,
+    /// signac's id of the state point.
+    pub id: String,
+    /// The template with the values and the seed set, logging to
+    /// `log.mcap` in the job's folder.
+    pub scene: Scene,
+}
+
+/// The jobs of a sweep: the product of the swept values, each with
+/// `replicas` seeds (the template's seed, then the next ones), unless
+/// the seed itself is swept.
+pub fn jobs(template: &Scene, swept: &[Swept], replicas: u64) -> Result<Vec<Job>, SweepError> {
+    let seed_swept = swept.iter().any(|s| s.key == "seed");
+    if replicas == 0 {
+        return Err(SweepError::Replicas("--replicas must be at least 1".into()));
+    }
+    if seed_swept && replicas > 1 {
+        return Err(SweepError::Replicas(
+            "--replicas with --set seed=...: the seeds given are the replicas".into(),
+        ));
+    }
+    let base = serde_json::to_value(template).expect("a scene serialises");
+    let mut combinations: Vec<Vec<&Value>> = vec![Vec::new()];
+    for s in swept {
+        combinations = combinations
+            .into_iter()
+            .flat_map(|c| {
+                s.values.iter().map(move |v| {
+                    let mut c = c.clone();
+                    c.push(v);
+                    c
+                })
+            })
+            .collect();
+    }
+    let mut out = Vec::new();
+    for combination in combinations {
+        for replica in 0..replicas {
+            let mut value = base.clone();
+            let mut statepoint = Map::new();
+            for (s, v) in swept.iter().zip(&combination) {
+                let path = parse_path(&s.key).expect("checked");
+                *field_mut(&mut value, &path).expect("checked") = (*v).clone();
+                statepoint.insert(s.name.clone(), (*v).clone());
+            }
+            if !seed_swept {
+                let seed = template.seed.wrapping_add(replica);
+                value["seed"] = Value::from(seed);
+                statepoint.insert("seed".into(), Value::from(seed));
+            }
+            value["log"]["path"] = Value::from(JOB_LOG);
+            let scene = scene_of(value).map_err(|message| SweepError::Value {
+                key: swept
+                    .iter()
+                    .map(|s| s.key.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                value: combination
+                    .iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                message,
+            })?;
+            let statepoint = Value::Object(statepoint);
+            out.push(Job {
+                id: signac::job_id(&statepoint),
+                statepoint,
+                scene,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// A job's log, in its folder.
+pub const JOB_LOG: &str = "log.mcap";
+/// A job's scene, in its folder.
+pub const JOB_SCENE: &str = "scene.ron";
+/// A job's state point, in its folder (signac's name).
+pub const STATEPOINT: &str = "signac_statepoint.json";
+/// The sweep's description, at the workspace's root.
+pub const SWEEP_FILE: &str = "sweep.json";
+
+/// What `sweep.json` records of a sweep.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SweepRecord {
+    /// The template's text.
+    pub template: String,
+    /// Swept fields: state-point name to scene path.
+    pub keys: Vec<(String, String)>,
+    /// The hardbody that made it.
+    pub version: String,
+}
+
+/// The `workflow.toml` of a sweep, running `hardbody` at `exe`.
+pub fn workflow_toml(exe: &Path) -> String {
+    let exe = exe.display().to_string();
+    let quoted = if exe
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || "/._-+".contains(c))
+    {
+        exe
+    } else {
+        format!("'{}'", exe.replace('\'', r"'\''"))
+    };
+    format!(
+        r#"# A hardbody sweep, for row (https://row.readthedocs.io): `row submit`
+# runs every job; a job killed part way (preempted, out of time) resumes
+# from its partial log when submitted again. `hardbody sweep collect .`
+# gathers the results.
+
+[workspace]
+path = "workspace"
+value_file = "{STATEPOINT}"
+
+[[action]]
+name = "run"
+command = "{quoted} run {{workspace_path}}/{{directory}}/{JOB_SCENE} --out {{workspace_path}}/{{directory}}/{JOB_LOG} --continue --threads $ACTION_THREADS_PER_PROCESS"
+products = ["{JOB_LOG}"]
+[action.resources]
+threads_per_process = 1
+walltime.per_directory = "01:00:00"
+
+[[action]]
+name = "analyze"
+command = "{quoted} analyze {{workspace_path}}/{{directory}}/{JOB_LOG} --json > {{workspace_path}}/{{directory}}/analysis.json.partial && mv {{workspace_path}}/{{directory}}/analysis.json.partial {{workspace_path}}/{{directory}}/analysis.json"
+previous_actions = ["run"]
+products = ["analysis.json"]
+[action.resources]
+walltime.per_directory = "00:05:00"
+"#
+    )
+}
+
+/// What `write_workspace` did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Written {
+    /// Job folders made.
+    pub made: usize,
+    /// Job folders already there (left as they were).
+    pub kept: usize,
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> SweepError + '_ {
+    move |e| SweepError::Workspace {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Writes the sweep at `dir`: the signac project marker, `sweep.json`,
+/// `workflow.toml` (kept if there: it may have been edited) and a folder
+/// per job (kept if there: it may hold a run). A `dir` holding another
+/// sweep (another template or other keys) is refused.
+pub fn write_workspace(
+    dir: &Path,
+    template_text: &str,
+    swept: &[Swept],
+    jobs: &[Job],
+    exe: &Path,
+) -> Result<Written, SweepError> {
+    let record = SweepRecord {
+        template: template_text.to_string(),
+        keys: swept
+            .iter()
+            .map(|s| (s.name.clone(), s.key.clone()))
+            .collect(),
+        version: env!("CARGO_PKG_VERSION").into(),
+    };
+    let sweep_path = dir.join(SWEEP_FILE);
+    if sweep_path.exists() {
+        let text = std::fs::read_to_string(&sweep_path).map_err(io(&sweep_path))?;
+        let old: SweepRecord = serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
+            path: sweep_path.clone(),
+            message: format!("not a sweep's record: {e}"),
+        })?;
+        if old.template != record.template || old.keys != record.keys {
+            return Err(SweepError::Workspace {
+                path: dir.to_path_buf(),
+                message: "holds another sweep (another template or other --set keys): choose another --workspace".into(),
+            });
+        }
+    } else if dir.exists() && std::fs::read_dir(dir).map_err(io(dir))?.next().is_some() {
+        return Err(SweepError::Workspace {
+            path: dir.to_path_buf(),
+            message: "exists and is not a sweep's workspace: choose a new or empty folder".into(),
+        });
+    }
+    let signac_dir = dir.join(".signac");
+    std::fs::create_dir_all(&signac_dir).map_err(io(&signac_dir))?;
+    let config = signac_dir.join("config");
+    if !config.exists() {
+        write_new(&config, signac::PROJECT_CONFIG)?;
+    }
+    let record_text = serde_json::to_string_pretty(&record).expect("a record serialises");
+    if !sweep_path.exists() {
+        write_new(&sweep_path, &record_text)?;
+    }
+    let workflow = dir.join("workflow.toml");
+    if !workflow.exists() {
+        write_new(&workflow, &workflow_toml(exe))?;
+    }
+    let workspace = dir.join("workspace");
+    let mut written = Written { made: 0, kept: 0 };
+    for job in jobs {
+        let folder = workspace.join(&job.id);
+        if folder.join(STATEPOINT).exists() {
+            written.kept += 1;
+            continue;
+        }
+        std::fs::create_dir_all(&folder).map_err(io(&folder))?;
+        write_new(&folder.join(JOB_SCENE), &job.scene.to_ron())?;
+        // The state point last: a folder with one is complete.
+        write_new(
+            &folder.join(STATEPOINT),
+            &signac::python_json(&job.statepoint),
+        )?;
+        written.made += 1;
+    }
+    Ok(written)
+}
+
+/// Writes `text` to `path` through a temporary file renamed into place.
+fn write_new(path: &Path, text: &str) -> Result<(), SweepError> {
+    let partial = crate::log::partial_path(path);
+    std::fs::write(&partial, text).map_err(io(path))?;
+    std::fs::rename(&partial, path).map_err(io(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEMPLATE: &str = r#"Scene(
+        box: (8.0, 8.0, 8.0),
+        species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+        stages: [
+            Compress(packing_fraction: 0.2),
+            MonteCarlo(ensemble: Npt(pressure: 1.0), sweeps: 100),
+        ],
+    )"#;
+
+    #[test]
+    fn keys_address_fields_through_enum_tags() {
+        let template = Scene::parse(TEMPLATE).unwrap();
+        let sets = vec![
+            "stages[1].ensemble.pressure=1,2.5".to_string(),
+            "species[0].shape.radius=0.5, 0.45".to_string(),
+        ];
+        let swept = parse_sets(&template, &sets).unwrap();
+        assert_eq!(swept[0].name, "pressure");
+        assert_eq!(swept[1].name, "radius");
+        let jobs = jobs(&template, &swept, 3).unwrap();
+        assert_eq!(jobs.len(), 2 * 2 * 3);
+        let last = &jobs[11];
+        assert_eq!(
+            last.statepoint,
+            serde_json::json!({"pressure": 2.5, "radius": 0.45, "seed": 3})
+        );
+        assert_eq!(last.scene.seed, 3);
+        assert_eq!(last.scene.log.path, JOB_LOG);
+        let ids: std::collections::BTreeSet<_> = jobs.iter().map(|j| &j.id).collect();
+        assert_eq!(ids.len(), jobs.len());
+    }
+
+    #[test]
+    fn bad_keys_and_values_are_refused_naming_them() {
+        let template = Scene::parse(TEMPLATE).unwrap();
+        let refuse = |set: &str| {
+            parse_sets(&template, &[set.to_string()])
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(refuse("stages[1].ensemble.presure=1").contains("no field \"presure\""));
+        assert!(refuse("stages[5].sweeps=1").contains("has 2 entries"));
+        assert!(refuse("stages[1].ensemble.pressure=-1").contains("pressure"));
+        assert!(refuse("stages[1].sweeps=many").contains("sweeps=many"));
+        assert!(refuse("stages[1].sweeps").contains("KEY=V1,V2"));
+        assert!(refuse("stages[1].sweeps=1,,2").contains("KEY=V1,V2"));
+        assert!(refuse("stages[1].sweeps=5,5").contains("given twice"));
+        let swept = parse_sets(&template, &["seed=1,2".to_string()]).unwrap();
+        assert!(jobs(&template, &swept, 2).is_err());
+    }
+
+    #[test]
+    fn names_tell_keys_with_the_same_last_field_apart() {
+        let template = Scene::parse(&TEMPLATE.replace(
+            "sweeps: 100),",
+            "sweeps: 100), MonteCarlo(ensemble: Npt(pressure: 2.0), sweeps: 100),",
+        ))
+        .unwrap();
+        let swept = parse_sets(
+            &template,
+            &[
+                "stages[1].ensemble.pressure=1".into(),
+                "stages[2].ensemble.pressure=3".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(swept[0].name, "stages_1_ensemble_pressure");
+        assert_eq!(swept[1].name, "stages_2_ensemble_pressure");
+    }
+}
