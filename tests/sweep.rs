@@ -274,17 +274,26 @@ fn unsafe_kill_group(pid: u32) {
     assert!(status.success());
 }
 
-/// `run --continue`, what a sweep's job runs: stopped by Ctrl-C, its log
-/// stays partial (so row does not take it as done); run again, it
-/// resumes to the log of the run in one go, bit for bit; run once more,
-/// there is nothing to do.
+/// `run --continue`, what a sweep's job runs: stopped by SIGTERM (what a
+/// scheduler sends a job it preempts or that ran out of time; Ctrl-C
+/// stops it the same way), its log stays partial (so row does not take
+/// it as done); run again, it resumes to the log of the run in one go, bit
+/// for bit; run once more, there is nothing to do.
 #[test]
 fn a_job_stopped_and_continued_ends_as_the_run_in_one_go() {
     let dir = scratch("continue");
     let scene = TEMPLATE.replace("sweeps: 12000", "sweeps: 60000");
     std::fs::write(dir.join("t.ron"), &scene).unwrap();
-    let args = ["run", "t.ron", "--out", "job.mcap", "--continue", "--threads", "1"];
-    let mut child = Command::new(HARDBODY)
+    let args = [
+        "run",
+        "t.ron",
+        "--out",
+        "job.mcap",
+        "--continue",
+        "--threads",
+        "1",
+    ];
+    let child = Command::new(HARDBODY)
         .args(args)
         .current_dir(&dir)
         .stdout(Stdio::null())
@@ -298,20 +307,32 @@ fn a_job_stopped_and_continued_ends_as_the_run_in_one_go() {
         std::thread::sleep(Duration::from_millis(20));
     }
     let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args(["-TERM", &child.id().to_string()])
         .status()
         .unwrap();
     assert!(status.success());
     let out = child.wait_with_output().unwrap();
-    assert_eq!(out.status.code(), Some(130), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(partial.exists() && !dir.join("job.mcap").exists());
     // Continued: resumed, complete.
     let out = hardbody(&args, &dir);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(String::from_utf8_lossy(&out.stderr).contains("resuming"));
     assert!(dir.join("job.mcap").exists() && !partial.exists());
     // The same as the run in one go.
-    let whole = hardbody(&["run", "t.ron", "--out", "whole.mcap", "--threads", "1"], &dir);
+    let whole = hardbody(
+        &["run", "t.ron", "--out", "whole.mcap", "--threads", "1"],
+        &dir,
+    );
     assert!(whole.status.success());
     let read = |name: &str| hardbody::log::read::read_log(&dir.join(name), true).unwrap();
     let (a, b) = (read("job.mcap"), read("whole.mcap"));

@@ -90,8 +90,9 @@ pub(super) fn run(
 
 pub(super) static STOP: AtomicBool = AtomicBool::new(false);
 
-/// A first Ctrl-C ends the run cleanly at the next sweep or output event;
-/// a second one exits at once.
+/// A first Ctrl-C (or SIGTERM, what a scheduler sends a job it preempts)
+/// ends the run cleanly at the next sweep or output event; a second one
+/// exits at once.
 pub(super) fn handle_ctrl_c() {
     let _ = ctrlc::set_handler(|| {
         if STOP.swap(true, Ordering::SeqCst) {

@@ -395,9 +395,11 @@ pub fn workflow_toml(exe: &Path) -> String {
     };
     format!(
         r#"# A hardbody sweep, for row (https://row.readthedocs.io): `row submit`
-# runs every job; a job killed part way (preempted, out of time) resumes
-# from its partial log when submitted again. `hardbody sweep collect .`
-# gathers the results.
+# runs every job (`--cluster=none`: here, one after the other); a job
+# killed part way (preempted, out of time) resumes from its partial log
+# when submitted again. `hardbody sweep collect .` gathers the results.
+# Each job is one submission of one core; docs/CLUSTER.md in hardbody's
+# repository shows how to pack many jobs into one submission instead.
 
 [workspace]
 path = "workspace"
@@ -410,6 +412,8 @@ products = ["{JOB_LOG}"]
 [action.resources]
 threads_per_process = 1
 walltime.per_directory = "01:00:00"
+[action.group]
+maximum_size = 1
 
 [[action]]
 name = "analyze"
