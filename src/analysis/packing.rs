@@ -9,7 +9,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use crate::geometry::{DistanceOptions, Relative, Shape, distance};
-use crate::space::PeriodicBox;
+use crate::space::{PeriodicBox, pairs_within};
 
 type V3 = Vector3<f64>;
 
@@ -92,27 +92,37 @@ pub fn contact_network(
     let options = DistanceOptions::default();
     let mut contacts = Vec::new();
     let mut overlaps = 0;
-    for i in 0..n {
-        let (a, shape_a) = (&bodies[i], &shapes[bodies[i].shape]);
-        for (j, b) in bodies.iter().enumerate().skip(i + 1) {
-            let shape_b = &shapes[b.shape];
-            let d = box_.minimum_image(&(b.position - a.position));
-            let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
-            let tolerance = gap_tolerance * scale;
-            let reach = shape_a.bounding_radius() + shape_b.bounding_radius() + tolerance;
-            if d.norm_squared() > reach * reach {
-                continue;
-            }
-            let rel = Relative::new(&d, &a.orientation, &b.orientation);
-            let gap = distance(shape_a, shape_b, &rel, &options, None).distance;
-            if gap < -tolerance {
-                overlaps += 1;
-            }
-            if gap < tolerance {
-                contacts.push((i, j));
-            }
+    // Pairs whose bounding spheres come within the largest tolerance.
+    let largest = shapes
+        .iter()
+        .map(Shape::bounding_radius)
+        .fold(0.0, f64::max);
+    let widest_gap = gap_tolerance
+        * shapes
+            .iter()
+            .map(Shape::min_half_extent)
+            .fold(0.0, f64::max);
+    let centres: Vec<_> = bodies.iter().map(|b| b.position).collect();
+    pairs_within(box_, &centres, 2.0 * largest + widest_gap, |i, j, d| {
+        let (a, b) = (&bodies[i], &bodies[j]);
+        let (shape_a, shape_b) = (&shapes[a.shape], &shapes[b.shape]);
+        let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
+        let tolerance = gap_tolerance * scale;
+        let reach = shape_a.bounding_radius() + shape_b.bounding_radius() + tolerance;
+        if d.norm_squared() > reach * reach {
+            return;
         }
-    }
+        let rel = Relative::new(&d, &a.orientation, &b.orientation);
+        let gap = distance(shape_a, shape_b, &rel, &options, None).distance;
+        if gap < -tolerance {
+            overlaps += 1;
+        }
+        if gap < tolerance {
+            contacts.push((i, j));
+        }
+    });
+    // In index order, whatever order the cells gave them in.
+    contacts.sort_unstable();
     let mut contact_numbers = vec![0; n];
     for &(i, j) in &contacts {
         contact_numbers[i] += 1;

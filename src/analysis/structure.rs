@@ -7,7 +7,7 @@
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use crate::space::PeriodicBox;
+use crate::space::{PeriodicBox, pairs_within};
 
 type V3 = Vector3<f64>;
 
@@ -28,14 +28,9 @@ pub fn radial_distribution(box_: &PeriodicBox, centres: &[V3], bins: usize, r_ma
     let n = centres.len();
     let width = r_max / bins as f64;
     let mut counts = vec![0u64; bins];
-    for i in 0..n {
-        for j in i + 1..n {
-            let r = box_.minimum_image(&(centres[j] - centres[i])).norm();
-            if r < r_max {
-                counts[((r / width) as usize).min(bins - 1)] += 1;
-            }
-        }
-    }
+    pairs_within(box_, centres, r_max, |_, _, d| {
+        counts[((d.norm() / width) as usize).min(bins - 1)] += 1;
+    });
     let density = (n as f64 - 1.0) / box_.volume();
     let shell = |k: usize| {
         let (r1, r2) = (k as f64 * width, (k + 1) as f64 * width);
@@ -98,16 +93,14 @@ pub struct Steinhardt {
 /// The neighbours of each centre: those closer than `cutoff` (minimum
 /// image), with the bond vectors.
 pub fn neighbours(box_: &PeriodicBox, centres: &[V3], cutoff: f64) -> Vec<Vec<(usize, V3)>> {
-    let n = centres.len();
-    let mut out = vec![Vec::new(); n];
-    for i in 0..n {
-        for j in i + 1..n {
-            let d = box_.minimum_image(&(centres[j] - centres[i]));
-            if d.norm_squared() < cutoff * cutoff {
-                out[i].push((j, d));
-                out[j].push((i, -d));
-            }
-        }
+    let mut out = vec![Vec::new(); centres.len()];
+    pairs_within(box_, centres, cutoff, |i, j, d| {
+        out[i].push((j, d));
+        out[j].push((i, -d));
+    });
+    // In index order, as the neighbours of a centre were found before.
+    for list in &mut out {
+        list.sort_by_key(|(j, _)| *j);
     }
     out
 }

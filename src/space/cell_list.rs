@@ -212,6 +212,23 @@ impl CellList {
         self.cell_of[i] = new as u32;
     }
 
+    /// Calls `f(i, j)` once for every pair i < j whose cells are
+    /// neighbours: every pair closer than the range, and some farther.
+    pub fn for_each_near_pair(&self, mut f: impl FnMut(usize, usize)) {
+        for i in 0..self.cell_of.len() {
+            let c = self.cell_of[i] as usize;
+            let used = self.neighbour_counts[c] as usize;
+            for &n in &self.neighbours[27 * c..27 * c + used] {
+                let base = n as usize * self.capacity;
+                for &j in &self.slots[base..base + self.counts[n as usize] as usize] {
+                    if (j as usize) > i {
+                        f(i, j as usize);
+                    }
+                }
+            }
+        }
+    }
+
     /// Calls `f` with every particle in the cells around `r` (including the
     /// particle at `r` itself if it is listed); stops early and returns true
     /// as soon as `f` does.
