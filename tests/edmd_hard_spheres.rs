@@ -6,6 +6,7 @@
 mod common;
 
 use common::compressed_state;
+use hardbody::analysis::eos::carnahan_starling_pressure;
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::state::System;
 use rand::SeedableRng;
@@ -16,8 +17,9 @@ fn mc_state(phi: f64, seed: u64) -> System {
     compressed_state(&["Sphere(radius: 0.5)"], 8, phi, seed)
 }
 
+/// The compressibility factor βP/ρ of Carnahan–Starling.
 fn carnahan_starling(phi: f64) -> f64 {
-    (1.0 + phi + phi * phi - phi.powi(3)) / (1.0 - phi).powi(3)
+    carnahan_starling_pressure(phi) / (6.0 * phi / std::f64::consts::PI)
 }
 
 /// Collisions per particle per unit time, Enskog with g(σ) from

@@ -3,6 +3,7 @@
 //! reporting the hard-sphere equation of state within its errors and
 //! flagging a stage that never equilibrated.
 
+use hardbody::analysis::eos::carnahan_starling_packing_fraction;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -29,24 +30,6 @@ fn stats_of(text: &str, log: &Path) -> Vec<Stats> {
         .into_iter()
         .map(|(_, s)| s)
         .collect()
-}
-
-/// βP σ³ of Carnahan–Starling at packing fraction φ, and the φ at βP.
-fn carnahan_starling(phi: f64) -> f64 {
-    6.0 * phi / std::f64::consts::PI * (1.0 + phi + phi * phi - phi.powi(3)) / (1.0 - phi).powi(3)
-}
-
-fn carnahan_starling_density(pressure: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, 0.6);
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if carnahan_starling(mid) < pressure {
-            lo = mid
-        } else {
-            hi = mid
-        }
-    }
-    lo
 }
 
 /// 216 hard spheres from a dilute lattice (φ = 0.06) at βP = 6, 6000
@@ -86,7 +69,7 @@ fn npt_from_a_dilute_start_reaches_the_equilibrium_density() {
     let dir = scratch("npt");
     let stats = stats_of(&dilute_npt(""), &dir.join("dilute.mcap"));
     let (acceptance, phi) = last_stretch(&stats);
-    let expected = carnahan_starling_density(6.0);
+    let expected = carnahan_starling_packing_fraction(6.0);
     assert!((acceptance - 0.3).abs() < 0.05, "{acceptance}");
     assert!(
         (phi / expected - 1.0).abs() < 0.02,
@@ -142,7 +125,7 @@ fn analyze_flags_a_stage_that_never_equilibrated() {
 #[test]
 fn analyze_gives_two_pressure_routes_that_agree_within_their_errors() {
     let dir = scratch("routes");
-    let phi = carnahan_starling_density(4.0);
+    let phi = carnahan_starling_packing_fraction(4.0);
     let text = format!(
         r#"Scene(
     seed: 11,
@@ -218,7 +201,7 @@ fn analyze_reports_the_hard_sphere_equation_of_state() {
             .map(|r| stage(r, index).observables["packing_fraction"].estimate)
             .collect();
         let phi = over_replicas(&estimates);
-        let expected = carnahan_starling_density(*pressure);
+        let expected = carnahan_starling_packing_fraction(*pressure);
         let line = format!(
             "betaP {pressure}: phi {:.5} +- {:.5} over {} replicas (Carnahan-Starling {expected:.5}, {:+.2} %)",
             phi.mean,

@@ -3,6 +3,7 @@
 //! cuboid–sphere mixture; the end state is checked by the independent
 //! all-pairs test. Parameters that cannot work are errors.
 
+use hardbody::analysis::eos::carnahan_starling_packing_fraction;
 use hardbody::geometry::Shape;
 use hardbody::mc::compress::{CompressError, CompressOptions, compress};
 use hardbody::mc::moves::MoveSizes;
@@ -300,25 +301,6 @@ fn sweeps_to_a_target_do_not_grow_with_n() {
     );
 }
 
-/// The Carnahan–Starling packing fraction of hard spheres (diameter 1) at
-/// βP, by bisection.
-fn carnahan_starling_phi(pressure: f64) -> f64 {
-    let beta_p = |phi: f64| {
-        6.0 * phi / std::f64::consts::PI * (1.0 + phi + phi * phi - phi.powi(3))
-            / (1.0 - phi).powi(3)
-    };
-    let (mut lo, mut hi) = (1e-6, 0.7);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if beta_p(mid) < pressure {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
-}
-
 /// A pressure target: from a dilute fluid to where the measured βP is the
 /// target within 3 %, then one more secant step. For hard spheres that lies
 /// near Carnahan–Starling's: within 2 % at βP = 6 (dlnP/dlnφ ≈ 3.4),
@@ -333,7 +315,7 @@ fn a_pressure_target_reaches_its_density() {
         let opts = CompressOptions::to_pressure(pressure, 0.74);
         let report = compress(&mut system, sizes(), &opts, &mut rng).unwrap();
         let phi = system.packing_fraction();
-        let expected = carnahan_starling_phi(pressure);
+        let expected = carnahan_starling_packing_fraction(pressure);
         let measured = report.pressure.expect("the pressure measured");
         eprintln!(
             "spheres betaP = {pressure}: phi {phi:.4} (CS {expected:.4}), measured {measured:.3}, {} sweeps",

@@ -2,6 +2,7 @@
 //! state, the ideal-gas check of the ln V box move, and overlap-free states
 //! checked by the independent all-pairs test.
 
+use hardbody::analysis::eos::carnahan_starling_packing_fraction;
 use std::f64::consts::PI;
 
 use hardbody::geometry::Shape;
@@ -44,22 +45,6 @@ fn cubic_spheres(n: usize, phi: f64) -> System {
         particles,
     )
     .unwrap()
-}
-
-/// βPσ³ = ρσ³ (1 + η + η² − η³)/(1 − η)³ with ρσ³ = 6η/π, solved for η.
-fn carnahan_starling_packing_fraction(beta_p: f64) -> f64 {
-    let pressure =
-        |eta: f64| 6.0 * eta / PI * (1.0 + eta + eta * eta - eta.powi(3)) / (1.0 - eta).powi(3);
-    let (mut lo, mut hi) = (0.0, 0.7);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if pressure(mid) < beta_p {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
 }
 
 /// Means of consecutive blocks of `size` samples.

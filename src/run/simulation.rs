@@ -166,6 +166,11 @@ impl Simulation {
         }
     }
 
+    fn stage_to_run(&self) -> Result<usize, RunError> {
+        self.stage_index()
+            .ok_or(RunError::Request("every stage of the scene has run".into()))
+    }
+
     /// Whether the stage the next step runs has begun (and paused).
     pub fn paused(&self) -> bool {
         matches!(self.held, Held::Paused(..))
@@ -189,9 +194,7 @@ impl Simulation {
         progress: &mut dyn Progress,
         stop: &AtomicBool,
     ) -> Result<Step, RunError> {
-        let index = self
-            .stage_index()
-            .ok_or(RunError::Request("every stage of the scene has run".into()))?;
+        let index = self.stage_to_run()?;
         let stage = &self.runner.scene.stages[index];
         let now = self.log_time();
         let length = match (stage, by) {
@@ -220,9 +223,7 @@ impl Simulation {
         progress: &mut dyn Progress,
         stop: &AtomicBool,
     ) -> Result<Step, RunError> {
-        let index = self
-            .stage_index()
-            .ok_or(RunError::Request("every stage of the scene has run".into()))?;
+        let index = self.stage_to_run()?;
         let (phase, resume) = match std::mem::replace(&mut self.held, Held::Failed) {
             Held::Between(phase) => (phase, None),
             Held::Paused(_, record) => {
