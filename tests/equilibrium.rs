@@ -160,18 +160,15 @@ fn analyze_gives_two_pressure_routes_that_agree_within_their_errors() {
     assert!(stage(&averages, 2).observables["temperature"].constant);
 }
 
-/// The hard-sphere equation of state scene, three replicas (seeds 2, 3,
-/// 4) averaged by `analyze`, against Carnahan–Starling: every stage
-/// equilibrated in every replica, every density within 0.5 % and within
-/// three errors. (A long run: `HARDBODY_LONG=1`, about 80 s on two cores;
-/// one run alone is not enough: seed 2 alone puts βP = 4 0.84 % low.)
+/// The hard-sphere equation of state scene, one log, through `analyze`,
+/// against Carnahan–Starling: every stage equilibrated, every density
+/// within 0.5 % and within three errors. (A long run: `HARDBODY_LONG=1`,
+/// about two and a half minutes on one core.)
 #[test]
 fn analyze_reports_the_hard_sphere_equation_of_state() {
-    use hardbody::log::averages::over_replicas;
-    use rayon::prelude::*;
     if std::env::var_os("HARDBODY_LONG").is_none() {
         eprintln!(
-            "skipped: set HARDBODY_LONG=1 to run the equation-of-state scene (three replicas, about 80 s)"
+            "skipped: set HARDBODY_LONG=1 to run the equation-of-state scene (about two and a half minutes)"
         );
         return;
     }
@@ -179,13 +176,7 @@ fn analyze_reports_the_hard_sphere_equation_of_state() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/hard_sphere_eos.ron");
     let text = std::fs::read_to_string(path).unwrap();
     let scene = Scene::parse(&text).unwrap();
-    let replicas: Vec<Vec<StageAverages>> = [2u64, 3, 4]
-        .par_iter()
-        .map(|seed| {
-            let text = text.replace("seed: 2,", &format!("seed: {seed},"));
-            stage_averages(&stats_of(&text, &dir.join(format!("eos-{seed}.mcap"))))
-        })
-        .collect();
+    let averages = stage_averages(&stats_of(&text, &dir.join("eos.mcap")));
     let mut table = Vec::new();
     let mut wrong = Vec::new();
     for (index, st) in scene.stages.iter().enumerate() {
@@ -196,22 +187,18 @@ fn analyze_reports_the_hard_sphere_equation_of_state() {
         else {
             continue;
         };
-        let estimates: Vec<_> = replicas
-            .iter()
-            .map(|r| stage(r, index).observables["packing_fraction"].estimate)
-            .collect();
-        let phi = over_replicas(&estimates);
+        let s = stage(&averages, index);
+        let phi = s.observables["packing_fraction"].estimate;
         let expected = carnahan_starling_packing_fraction(*pressure);
         let line = format!(
-            "betaP {pressure}: phi {:.5} +- {:.5} over {} replicas (Carnahan-Starling {expected:.5}, {:+.2} %)",
+            "betaP {pressure}: phi {:.5} +- {:.5} (Carnahan-Starling {expected:.5}, {:+.2} %)",
             phi.mean,
             phi.error,
-            phi.replicas,
             100.0 * (phi.mean / expected - 1.0),
         );
         eprintln!("{line}");
         let off = (phi.mean - expected).abs();
-        if !phi.equilibrated || off > 0.005 * expected || off > 3.0 * phi.error {
+        if !s.equilibrated || off > 0.005 * expected || off > 3.0 * phi.error {
             wrong.push(line.clone());
         }
         table.push(line);
