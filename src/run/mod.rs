@@ -7,7 +7,8 @@
 //! (velocities rescaled if the temperature changes); a Monte Carlo stage
 //! after dynamics takes the final positions and orientations.
 //!
-//! - `mod.rs`: running and resuming a scene, the stage loop, errors;
+//! - `mod.rs`: running and resuming a scene, errors, the runner;
+//! - `simulation.rs`: a run a step at a time (the stage loop);
 //! - `start.rs`: the first state (or the last of another log);
 //! - `cadence.rs`: the rhythm of stats, frames, stops and ends every
 //!   stage keeps, and the seam (`StageRun`) each stage kind implements;
