@@ -168,6 +168,7 @@ fn a_sweep_runs_with_row_resumes_a_killed_job_and_matches_carnahan_starling() {
         use std::os::unix::process::CommandExt;
         submit(&row, &project)
             .stdout(Stdio::null())
+            .stderr(Stdio::null())
             .process_group(0)
             .spawn()
             .unwrap()
