@@ -256,11 +256,13 @@ fn a_scene_jams_and_resumes_bit_for_bit() {
 }
 
 /// `hardbody bench jam --quick`: every row jammed, overlap-free (the
-/// suite fails otherwise) and dense.
+/// suite fails otherwise) and dense; its plots drawn.
 #[test]
 fn the_jam_bench_runs() {
+    let plots = std::env::temp_dir().join(format!("hardbody-jam-plots-{}", std::process::id()));
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["bench", "jam", "--quick", "--json"])
+        .args(["bench", "jam", "--quick", "--json", "--plot"])
+        .arg(&plots)
         .output()
         .unwrap();
     assert!(
@@ -275,6 +277,16 @@ fn the_jam_bench_runs() {
         assert!(r["packing_fraction"].as_f64().unwrap() > 0.55, "{r}");
         assert!(r["pressure"].as_f64().unwrap() >= 1e6, "{r}");
         assert!(r["seconds"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    for (file, label) in [
+        ("jam-packing-fraction.svg", "packing fraction at the jam"),
+        ("jam-contact-number.svg", "contact number z of the backbone"),
+    ] {
+        let svg = std::fs::read_to_string(plots.join(file)).unwrap();
+        assert!(
+            svg.contains(label) && svg.contains("growth rate") && svg.contains("Sphere"),
+            "{file}"
+        );
     }
 }
 

@@ -12,8 +12,11 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use std::path::{Path, PathBuf};
+
 use super::compress::dilute_start;
 use super::markdown_table;
+use super::plot::{Figure, Series, line_plot};
 use crate::edmd::DynamicsOptions;
 use crate::edmd::jam::{DEFAULT_GROWTH_RATE, JamEnd, JamOptions, jam};
 use crate::geometry::Shape;
@@ -122,6 +125,60 @@ fn timed(shape: Shape, side: usize, rate: f64, pressure: f64) -> Result<JamRow, 
             other => format!("{other:?} ({})", out.last_failure.unwrap_or_default()),
         },
     })
+}
+
+/// `--plot`: the jammed packing fraction and the backbone's contact
+/// number against the growth rate, a series per shape (slower growth:
+/// denser, and closer to isostatic).
+pub fn plot(rows: &[JamRow], dir: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let series = |value: &dyn Fn(&JamRow) -> f64| {
+        let mut out: Vec<Series> = Vec::new();
+        for r in rows {
+            let point = (r.growth_rate, value(r));
+            match out.iter_mut().find(|s| s.name == r.shape) {
+                Some(s) => s.points.push(point),
+                None => out.push(Series {
+                    name: r.shape.clone(),
+                    points: vec![point],
+                }),
+            }
+        }
+        for s in &mut out {
+            s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        out
+    };
+    let mut written = Vec::new();
+    for (file, title, y_label, value) in [
+        (
+            "jam-packing-fraction.svg",
+            "Jammed packing fraction against the growth rate",
+            "packing fraction at the jam",
+            &(|r: &JamRow| r.packing_fraction) as &dyn Fn(&JamRow) -> f64,
+        ),
+        (
+            "jam-contact-number.svg",
+            "Backbone contact number against the growth rate (isostatic: 6 spheres, 10 spheroids, 12 others)",
+            "mean contact number z of the backbone",
+            &(|r: &JamRow| r.backbone_contact_number) as &dyn Fn(&JamRow) -> f64,
+        ),
+    ] {
+        let path = dir.join(file);
+        line_plot(
+            &path,
+            &Figure {
+                title,
+                x_label: "growth rate (per unit time)",
+                y_label,
+                log_x: true,
+                log_y: false,
+            },
+            &series(value),
+        )?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 /// The rows as a Markdown table.

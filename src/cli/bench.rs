@@ -35,7 +35,12 @@ pub(super) fn bench(suite: Suite, quick: bool, json: bool, plot: Option<&Path>) 
             Some(&|rows, dir| compress::plot(rows, dir)),
         ),
         Suite::Scene => out.report("scene", scene::run(quick), scene::table, None),
-        Suite::Jam => out.report("jam", jam::run(quick), jam::table, None),
+        Suite::Jam => out.report(
+            "jam",
+            jam::run(quick),
+            jam::table,
+            Some(&|rows, dir| jam::plot(rows, dir)),
+        ),
         Suite::Edmd => out.report("edmd", edmd_speed::speed(quick), edmd_speed::table, None),
         Suite::EdmdShell => out.report(
             "edmd-shell",
