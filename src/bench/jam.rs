@@ -82,6 +82,21 @@ pub fn run(quick: bool) -> Result<Vec<JamRow>, String> {
         .collect()
 }
 
+/// `hardbody bench jam-rate`: 1000 spheres jammed at four growth rates
+/// (slower, denser); `quick`, 64 spheres at two rates to βPV/N = 10⁶.
+pub fn rates(quick: bool) -> Result<Vec<JamRow>, String> {
+    let sphere: Shape = "Sphere(radius: 0.5)".parse().map_err(|e| format!("{e}"))?;
+    let (side, rates, pressure): (usize, &[f64], f64) = if quick {
+        (4, &[1e-2, 3e-3], 1e6)
+    } else {
+        (10, &[1e-2, 3e-3, 1e-3, 3e-4], 1e12)
+    };
+    rates
+        .iter()
+        .map(|&rate| timed(sphere, side, rate, pressure))
+        .collect()
+}
+
 /// Jams `side`³ bodies of `shape` at `rate` to `pressure` and times it.
 fn timed(shape: Shape, side: usize, rate: f64, pressure: f64) -> Result<JamRow, String> {
     let start = dilute_start(&[shape], side, 3)?;

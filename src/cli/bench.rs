@@ -41,6 +41,12 @@ pub(super) fn bench(suite: Suite, quick: bool, json: bool, plot: Option<&Path>) 
             jam::table,
             Some(&|rows, dir| jam::plot(rows, dir)),
         ),
+        Suite::JamRate => out.report(
+            "jam-rate",
+            jam::rates(quick),
+            jam::table,
+            Some(&|rows, dir| jam::plot(rows, dir)),
+        ),
         Suite::Edmd => out.report("edmd", edmd_speed::speed(quick), edmd_speed::table, None),
         Suite::EdmdShell => out.report(
             "edmd-shell",

@@ -201,6 +201,8 @@ enum Suite {
     Compress,
     /// Jammed packings by event-driven growth: phi_J, contacts and seconds by shape and rate.
     Jam,
+    /// 1000 spheres jammed at four growth rates: phi_J and z against the rate.
+    JamRate,
     /// Hard-sphere dynamics through the full scene path against the library directly.
     Scene,
     /// Event-driven dynamics: time per collision for spheres, ellipsoids and cubes.
