@@ -288,6 +288,23 @@ fn the_jam_bench_runs() {
             "{file}"
         );
     }
+    // The rate suite: one row per rate, each jammed.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .args(["bench", "jam-rate", "--quick", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let rates: Vec<f64> = rows
+        .iter()
+        .map(|r| r["growth_rate"].as_f64().unwrap())
+        .collect();
+    assert_eq!(rates, [1e-2, 3e-3]);
+    assert!(rows.iter().all(|r| r["end"] == "jammed"), "{rows:?}");
 }
 
 /// `analyze --packing` reports the cubatic order of cuboids: near 0 for
