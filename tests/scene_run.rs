@@ -162,6 +162,16 @@ fn a_scene_runs_every_stage_and_its_log_reads_back() {
         assert!(stats.iter().all(|s| s.stage == *kind));
         let last = stats.last().unwrap();
         assert!(last.nematic_order.is_some(), "rods turn: S2 is measured");
+        // Undecided overlap tests are counted by the Monte Carlo stages
+        // (none here: no test of rods and spheres is left to GJK), the
+        // solver's work by the dynamics.
+        let monte_carlo = index < 3;
+        assert!(
+            stats
+                .iter()
+                .all(|s| s.overlap_strains.is_some() == monte_carlo)
+        );
+        assert!(stats.iter().all(|s| s.solver.is_some() != monte_carlo));
         match index {
             0 => assert!((last.packing_fraction - 0.30).abs() < 1e-9),
             1 => assert_eq!(last.pressure, Some(2.0)),

@@ -180,6 +180,11 @@ pub struct Stats {
     /// round-off contacts). Absent in logs of earlier versions.
     #[serde(default)]
     pub solver: Option<crate::edmd::SolverWork>,
+    /// Overlap tests over the interval that the boolean test could not
+    /// decide (Monte Carlo): settled by the distance, or taken as
+    /// overlaps. Absent in logs of earlier versions.
+    #[serde(default)]
+    pub overlap_strains: Option<crate::geometry::pair::OverlapStrains>,
 }
 
 /// A species as `/state` records it.
@@ -411,7 +416,8 @@ const STATS_SCHEMA: &str = r#"{
     "nematic_order": {"type": ["number", "null"]},
     "msd": {"type": ["number", "null"]},
     "c2": {"type": ["number", "null"]},
-    "solver": {"type": ["object", "null"], "description": "dynamics: distances, iterations, fallbacks, iteration_caps, grazing_refinements, roundoff_contacts since the stage began"}
+    "solver": {"type": ["object", "null"], "description": "dynamics: distances, iterations, fallbacks, iteration_caps, grazing_refinements, roundoff_contacts since the stage began"},
+    "overlap_strains": {"type": ["object", "null"], "description": "Monte Carlo, over the interval: overlap tests GJK left undecided, settled_by_distance or taken_as_overlap"}
   }
 }"#;
 

@@ -8,6 +8,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
+use crate::geometry::pair::{OverlapStrains, take_overlap_strains};
 use crate::state::System;
 
 /// Attempts and acceptances of one kind of move; counts add.
@@ -49,6 +50,19 @@ pub struct Counts {
     pub rotate: Count,
     /// Box moves.
     pub volume: Count,
+    /// Overlap tests the boolean test left undecided (counted on the
+    /// threads that ran them, see [`take_overlap_strains`]).
+    #[serde(default)]
+    pub strains: OverlapStrains,
+}
+
+impl Counts {
+    /// These counts with the overlap strains of this thread's tests since
+    /// they were last taken.
+    pub fn with_this_threads_strains(mut self) -> Counts {
+        self.strains += take_overlap_strains();
+        self
+    }
 }
 
 impl Add for Counts {
@@ -58,6 +72,7 @@ impl Add for Counts {
             translate: self.translate + o.translate,
             rotate: self.rotate + o.rotate,
             volume: self.volume + o.volume,
+            strains: self.strains + o.strains,
         }
     }
 }
@@ -80,6 +95,7 @@ impl Sub for Counts {
             translate: self.translate - o.translate,
             rotate: self.rotate - o.rotate,
             volume: self.volume - o.volume,
+            strains: self.strains - o.strains,
         }
     }
 }

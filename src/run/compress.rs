@@ -3,6 +3,7 @@
 
 use rand_pcg::Pcg64;
 
+use crate::geometry::pair::{OverlapStrains, take_overlap_strains};
 use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::compress::{CompressOptions, CompressReport, Compressor};
 use crate::mc::moves::Counts;
@@ -28,6 +29,8 @@ pub(super) struct CompressStage<'a> {
     stats_every: u64,
     frames_every: u64,
     report: Option<CompressReport>,
+    /// Undecided overlap tests of the stage (in this run of it).
+    strains: OverlapStrains,
 }
 
 impl<'a> CompressStage<'a> {
@@ -75,6 +78,7 @@ impl<'a> CompressStage<'a> {
             stats_every: runner.scene.log.stats_every,
             frames_every: runner.scene.log.frames_every,
             report: None,
+            strains: OverlapStrains::default(),
         })
     }
 }
@@ -84,6 +88,7 @@ impl StageRun for CompressStage<'_> {
         let step = self.compressor.sweep(&mut self.system, self.rng);
         let state = self.compressor.state();
         self.window += state.counts - self.last_counts;
+        self.window.strains += take_overlap_strains();
         self.last_counts = state.counts;
         let s = state.sweeps;
         let time = runner.clock + s * NS_PER_SWEEP;
@@ -115,6 +120,7 @@ impl StageRun for CompressStage<'_> {
     fn stats(&mut self, runner: &Runner) -> Stats {
         let s = self.compressor.state().sweeps;
         let stats = runner.mc_stats(self.index, &self.system, s, &self.window, None);
+        self.strains += self.window.strains;
         if self.report.is_none() {
             self.window = Counts::default();
         }
@@ -154,6 +160,7 @@ impl StageRun for CompressStage<'_> {
     }
 
     fn finish(self, runner: &mut Runner, _stopped: bool) -> (Phase, String) {
+        runner.note_overlap_strains(self.index, self.strains);
         let s = self.compressor.state().sweeps;
         runner.sizes = self.compressor.state().sizes;
         runner.clock += s * NS_PER_SWEEP;

@@ -4,6 +4,7 @@
 use rand::RngCore;
 use rand_pcg::Pcg64;
 
+use crate::geometry::pair::OverlapStrains;
 use crate::log::{NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
@@ -54,6 +55,8 @@ pub(super) struct MonteCarloStage<'a> {
     pressure: Option<f64>,
     /// What the approach to an NPT stage's pressure did.
     approach: Option<String>,
+    /// Undecided overlap tests of the stage (in this run of it).
+    strains: OverlapStrains,
 }
 
 impl<'a> MonteCarloStage<'a> {
@@ -134,6 +137,7 @@ impl<'a> MonteCarloStage<'a> {
             acceptance: f64::NAN,
             pressure: None,
             approach,
+            strains: OverlapStrains::default(),
         })
     }
 
@@ -198,7 +202,8 @@ impl StageRun for MonteCarloStage<'_> {
                 self.sweep += 1;
                 sweep(&mut self.system, &runner.sizes, &self.mc_ensemble, self.rng)
             }
-        };
+        }
+        .with_this_threads_strains();
         let s = self.sweep;
         self.window += counts;
         self.tune_window += counts;
@@ -228,6 +233,7 @@ impl StageRun for MonteCarloStage<'_> {
         self.pressure = runner.interval_pressure(&self.ensemble, &mut self.sdf);
         let stats = runner.mc_stats(self.index, &self.system, s, &self.window, self.pressure);
         self.acceptance = self.window.translate.rate();
+        self.strains += self.window.strains;
         // The counts restart with each interval (a stage's last, shorter
         // interval keeps them in its final frame).
         if s.is_multiple_of(self.stats_every) {
@@ -267,6 +273,7 @@ impl StageRun for MonteCarloStage<'_> {
 
     fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String) {
         runner.clock += self.sweep * NS_PER_SWEEP;
+        runner.note_overlap_strains(self.index, self.strains);
         let line = format!(
             "{}{} sweeps, packing fraction {:.4}{}{}",
             self.approach.unwrap_or_default(),

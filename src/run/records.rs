@@ -100,9 +100,25 @@ impl Runner {
                     rate(&window.volume),
                 ],
                 nematic_order: self.system_nematic_order(system),
+                overlap_strains: Some(window.strains),
                 ..Interval::default()
             },
         )
+    }
+
+    /// Tells the user, at the end of the run, of stage `index`'s overlap
+    /// tests that the boolean test could not decide.
+    pub(super) fn note_overlap_strains(
+        &mut self,
+        index: usize,
+        strains: crate::geometry::pair::OverlapStrains,
+    ) {
+        if let Some(words) = strains.in_words() {
+            let kind = self.scene.stages[index].kind();
+            self.notes.push(format!(
+                "stage {index} ({kind}): {words} (counted in /stats.overlap_strains; every move was decided, but the numerics were strained)"
+            ));
+        }
     }
 
     /// The `/stats` message of stage `index` over `interval`: every stage
@@ -127,6 +143,7 @@ impl Runner {
             msd: interval.msd,
             c2: interval.c2,
             solver: interval.solver,
+            overlap_strains: interval.overlap_strains,
         }
     }
 }
@@ -152,4 +169,6 @@ pub(super) struct Interval {
     pub(super) msd: Option<f64>,
     pub(super) c2: Option<f64>,
     pub(super) solver: Option<crate::edmd::SolverWork>,
+    /// Monte Carlo: undecided overlap tests over the interval.
+    pub(super) overlap_strains: Option<crate::geometry::pair::OverlapStrains>,
 }

@@ -14,6 +14,7 @@ mod cuboid_sphere;
 mod quadric_quadric;
 mod smooth_smooth;
 mod sphere_sphere;
+mod strains;
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -25,6 +26,7 @@ use super::shape::Shape;
 pub use cuboid_cuboid::ContactPatch;
 pub use quadric_quadric::{Spheroid, perram_wertheim, spheroid_overlap};
 pub use smooth_smooth::support_points_start;
+pub use strains::{OverlapStrains, take_overlap_strains};
 
 type V3 = Vector3<f64>;
 

@@ -17,12 +17,9 @@ type V3 = Vector3<f64>;
 pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
     match convex::intersect(a, b, rel, 200) {
         Some(answer) => answer,
+        // Within rounding of touching: ask Newton; touching counts.
         None => {
-            // Within rounding of touching: ask Newton; touching counts.
-            let c = distance(a, b, rel, &DistanceOptions::default(), None);
-            // NaN (failed) counts as overlap too: a move is never accepted on
-            // an undecided test.
-            c.distance.is_nan() || c.distance <= 0.0
+            super::strains::settle(distance(a, b, rel, &DistanceOptions::default(), None).distance)
         }
     }
 }

@@ -367,7 +367,9 @@ pub(super) fn shared_sweeps(
             return Default::default();
         }
         let _member = Member(&barrier);
-        shared_member_sweeps((me, team), &barrier, &reports, &shared, work)
+        let (counts, shared_counts) =
+            shared_member_sweeps((me, team), &barrier, &reports, &shared, work);
+        (counts.with_this_threads_strains(), shared_counts)
     });
     let counts = per_thread.iter().fold(Counts::default(), |a, c| a + c.0);
     (counts, per_thread[0].1)
