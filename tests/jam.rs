@@ -255,14 +255,12 @@ fn a_scene_jams_and_resumes_bit_for_bit() {
     }
 }
 
-/// `hardbody bench jam --quick`: every row jammed, overlap-free (the
-/// suite fails otherwise) and dense; its plots drawn.
-#[test]
-fn the_jam_bench_runs() {
-    let plots = std::env::temp_dir().join(format!("hardbody-jam-plots-{}", std::process::id()));
+/// The rows `hardbody bench ARGS --quick --json` prints.
+fn bench_rows(args: &[&std::ffi::OsStr]) -> Vec<serde_json::Value> {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["bench", "jam", "--quick", "--json", "--plot"])
-        .arg(&plots)
+        .arg("bench")
+        .args(args)
+        .args(["--quick", "--json"])
         .output()
         .unwrap();
     assert!(
@@ -270,7 +268,16 @@ fn the_jam_bench_runs() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// `hardbody bench jam --quick`: every row jammed, overlap-free (the
+/// suite fails otherwise) and dense; its plots drawn; and the rate suite,
+/// a row per rate.
+#[test]
+fn the_jam_bench_runs() {
+    let plots = std::env::temp_dir().join(format!("hardbody-jam-plots-{}", std::process::id()));
+    let rows = bench_rows(&["jam".as_ref(), "--plot".as_ref(), plots.as_os_str()]);
     assert_eq!(rows.len(), 2);
     for r in &rows {
         assert_eq!(r["end"], "jammed", "{r}");
@@ -288,17 +295,7 @@ fn the_jam_bench_runs() {
             "{file}"
         );
     }
-    // The rate suite: one row per rate, each jammed.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .args(["bench", "jam-rate", "--quick", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = bench_rows(&["jam-rate".as_ref()]);
     let rates: Vec<f64> = rows
         .iter()
         .map(|r| r["growth_rate"].as_f64().unwrap())
