@@ -255,12 +255,10 @@ fn a_scene_jams_and_resumes_bit_for_bit() {
     }
 }
 
-/// The rows `hardbody bench ARGS --quick --json` prints.
-fn bench_rows(args: &[&std::ffi::OsStr]) -> Vec<serde_json::Value> {
+/// The JSON `hardbody ARGS` prints (it must succeed).
+fn hardbody_json(args: &[&std::ffi::OsStr]) -> serde_json::Value {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
-        .arg("bench")
         .args(args)
-        .args(["--quick", "--json"])
         .output()
         .unwrap();
     assert!(
@@ -269,6 +267,15 @@ fn bench_rows(args: &[&std::ffi::OsStr]) -> Vec<serde_json::Value> {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The rows `hardbody bench ARGS --quick --json` prints.
+fn bench_rows(args: &[&std::ffi::OsStr]) -> Vec<serde_json::Value> {
+    let args: Vec<&std::ffi::OsStr> = std::iter::once("bench".as_ref())
+        .chain(args.iter().copied())
+        .chain(["--quick".as_ref(), "--json".as_ref()])
+        .collect();
+    serde_json::from_value(hardbody_json(&args)).unwrap()
 }
 
 /// `hardbody bench jam --quick`: every row jammed, overlap-free (the
@@ -321,18 +328,13 @@ fn analyze_reports_the_cubatic_order_of_cubes() {
     let scene = Scene::parse(text).unwrap();
     run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
     let cubatic = |frame: &str| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
-            .args(["analyze", "--packing", "--json", "--frame", frame])
-            .arg(&path)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        v["cubatic"].as_f64().unwrap()
+        let args = ["analyze", "--packing", "--json", "--frame", frame];
+        let args: Vec<&std::ffi::OsStr> = args
+            .iter()
+            .map(|a| a.as_ref())
+            .chain([path.as_os_str()])
+            .collect();
+        hardbody_json(&args)["cubatic"].as_f64().unwrap()
     };
     let start = cubatic("0");
     assert!(start.abs() < 0.1, "{start}");

@@ -13,7 +13,7 @@ use crate::analysis::eos::carnahan_starling_packing_fraction;
 use crate::geometry::Shape;
 use crate::log::averages::{ReplicaAverage, StageAverages, stage_averages, stages_over_replicas};
 use crate::log::partial_path;
-use crate::log::read::read_log;
+use crate::log::read::{LogContents, read_log};
 use crate::scene::{Ensemble, Scene, Stage};
 
 /// Where a job stands.
@@ -101,13 +101,15 @@ fn read_job(folder: &Path) -> Result<JobResult, SweepError> {
         .unwrap_or_default();
     let log = folder.join(JOB_LOG);
     let partial = partial_path(&log);
-    let (status, contents) = if log.exists() {
+    let scene_of = |c: &LogContents| {
+        c.metadata
+            .get("scene_resolved")
+            .and_then(|t| Scene::parse(t).ok())
+    };
+    let (status, contents, scene) = if log.exists() {
         match read_log(&log, false) {
             Ok(c) => {
-                let scene = c
-                    .metadata
-                    .get("scene_resolved")
-                    .and_then(|t| Scene::parse(t).ok());
+                let scene = scene_of(&c);
                 let complete = match (&scene, &c.last_state) {
                     (Some(scene), Some((_, state))) => {
                         state.stage_index + 1 == scene.stages.len()
@@ -120,22 +122,21 @@ fn read_job(folder: &Path) -> Result<JobResult, SweepError> {
                 } else {
                     JobStatus::Partial
                 };
-                (status, Some(c))
+                (status, Some(c), scene)
             }
-            Err(_) => (JobStatus::Failed, None),
+            Err(_) => (JobStatus::Failed, None, None),
         }
     } else if partial.exists() {
         match read_log(&partial, false) {
-            Ok(c) if c.failure.is_some() => (JobStatus::Failed, Some(c)),
-            _ => (JobStatus::Partial, None),
+            Ok(c) if c.failure.is_some() => {
+                let scene = scene_of(&c);
+                (JobStatus::Failed, Some(c), scene)
+            }
+            _ => (JobStatus::Partial, None, None),
         }
     } else {
-        (JobStatus::NotStarted, None)
+        (JobStatus::NotStarted, None, None)
     };
-    let scene = contents
-        .as_ref()
-        .and_then(|c| c.metadata.get("scene_resolved"))
-        .and_then(|t| Scene::parse(t).ok());
     let stages = match (status, &contents) {
         (JobStatus::Finished, Some(c)) => {
             let stats: Vec<_> = c.stats.iter().map(|(_, s)| s.clone()).collect();
@@ -195,20 +196,20 @@ pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Vec<StatePointRow>, S
         });
     }
     let jobs = read_jobs(dir)?;
-    let mut order: Vec<Map<String, Value>> = Vec::new();
+    // State points in the order of their first job, keyed by their JSON.
+    let mut order: Vec<(String, Map<String, Value>)> = Vec::new();
     let mut groups: BTreeMap<String, Vec<&JobResult>> = BTreeMap::new();
     for job in &jobs {
         let mut parameters = job.statepoint.clone();
         parameters.remove("seed");
         let key = super::signac::python_json(&Value::Object(parameters.clone()));
         if !groups.contains_key(&key) {
-            order.push(parameters);
+            order.push((key.clone(), parameters));
         }
         groups.entry(key).or_default().push(job);
     }
     let mut rows = Vec::with_capacity(order.len());
-    for parameters in order {
-        let key = super::signac::python_json(&Value::Object(parameters.clone()));
+    for (key, parameters) in order {
         let group = &groups[&key];
         let count = |s: JobStatus| group.iter().filter(|j| j.status == s).count();
         let runs: Vec<Vec<StageAverages>> = group
