@@ -49,6 +49,7 @@ fn shortened(mut scene: Scene) -> Scene {
             Stage::Jam {
                 growth_rate,
                 pressure,
+                ..
             } => {
                 *growth_rate = Some(growth_rate.unwrap_or(0.0).max(1e-2));
                 *pressure = Some(pressure.unwrap_or(1e4).min(1e4));

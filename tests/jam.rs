@@ -342,3 +342,108 @@ fn analyze_reports_the_cubatic_order_of_cubes() {
     let end = cubatic(&last.to_string());
     assert!((0.0..=1.0).contains(&end), "{end}");
 }
+
+const GROW_THEN_RUN: &str = r#"Scene(
+    seed: 4,
+    box: (8.12, 8.12, 8.12),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 256)],
+    stages: [
+        Jam(growth_rate: 0.01, packing_fraction: 0.45),
+        Dynamics(duration: 30.0),
+        MonteCarlo(ensemble: Nvt, sweeps: 3000),
+    ],
+)"#;
+
+/// A Jam stage grown to a packing fraction hands its grown bodies on: the
+/// stages after it run at that packing fraction, their frames hold the
+/// grown species, the pressure of both drivers is Carnahan–Starling's at
+/// the grown diameter, a run resumed from a frame after the growth writes
+/// the uninterrupted run's frames bit for bit, and the log exports to GSD
+/// with the sizes of each frame.
+#[test]
+fn stages_after_a_jam_go_on_with_the_grown_bodies() {
+    let dir = std::env::temp_dir().join(format!("hardbody-grown-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("grown.mcap");
+    let scene = Scene::parse(GROW_THEN_RUN).unwrap();
+    let summary = run_scene(
+        &scene,
+        GROW_THEN_RUN,
+        &path,
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert!(
+        summary.stages[0].contains("grown to packing fraction 0.4500"),
+        "{:?}",
+        summary.stages
+    );
+    let whole = read_log(&path, true).unwrap();
+    // The radius at which 256 spheres fill 0.45 of the box.
+    let volume = 8.12_f64.powi(3);
+    let grown = (0.45 * volume / 256.0 * 3.0 / (4.0 * std::f64::consts::PI)).cbrt();
+    for (t, state) in &whole.states {
+        if state.stage_index == 0 {
+            continue;
+        }
+        let r = state.species[0].shape.bounding_radius();
+        assert!(
+            (r - grown).abs() < 1e-9 * grown,
+            "frame at {t}: radius {r}, not {grown}"
+        );
+    }
+    for stage in [1, 2] {
+        let pressures: Vec<f64> = whole
+            .stats
+            .iter()
+            .map(|(_, s)| s)
+            .filter(|s| s.stage_index == stage)
+            .inspect(|s| assert!((s.packing_fraction - 0.45).abs() < 1e-9, "{s:?}"))
+            .filter_map(|s| s.pressure)
+            .collect();
+        let estimate = hardbody::analysis::series::estimate_from(&pressures, pressures.len() / 5);
+        let sigma3 = (2.0 * grown).powi(3);
+        let measured = estimate.mean * sigma3;
+        let expected = hardbody::analysis::eos::carnahan_starling_pressure(0.45);
+        let error = estimate.error * sigma3;
+        eprintln!(
+            "stage {stage}: βPσ³ = {measured:.3} ± {error:.3}, Carnahan–Starling {expected:.3}"
+        );
+        assert!(
+            (measured - expected).abs() < 3.0 * error + 0.01 * expected,
+            "stage {stage}: βPσ³ = {measured} ± {error}, Carnahan–Starling {expected}"
+        );
+    }
+    let bytes = std::fs::read(&path).unwrap();
+    for stage in [1, 2] {
+        let k = whole
+            .states
+            .iter()
+            .rposition(|(_, s)| s.stage_index == stage)
+            .unwrap()
+            - 1;
+        let cut = dir.join(format!("cut-{k}.mcap.partial"));
+        std::fs::write(&cut, &bytes[..cut_after_frames(&bytes, k + 1)]).unwrap();
+        let out = dir.join(format!("resumed-{k}.mcap"));
+        resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
+        let resumed = read_log(&out, true).unwrap();
+        assert_eq!(
+            resumed.states.len(),
+            whole.states.len(),
+            "cut after frame {k}"
+        );
+        for ((t, s), (tw, sw)) in resumed.states.iter().zip(&whole.states) {
+            assert_eq!(t, tw);
+            assert_eq!(
+                serde_json::to_string(s).unwrap(),
+                serde_json::to_string(sw).unwrap(),
+                "cut after frame {k}"
+            );
+        }
+    }
+    let gsd = dir.join("grown.gsd");
+    let written = hardbody::log::gsd::export(&whole, &gsd).unwrap();
+    assert_eq!(written, whole.states.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -242,10 +242,13 @@ class Dynamics:
 @_variant
 @dataclass
 class Jam:
-    """Event-driven growth to a jammed packing (the last stage)."""
+    """Event-driven growth to a jammed packing (to βPV/N = `pressure`), or
+    to `packing_fraction`; the stages after it go on with the grown
+    bodies."""
 
     growth_rate: Optional[float] = None
     pressure: Optional[float] = None
+    packing_fraction: Optional[float] = None
 
 
 Stage = Union[Compress, MonteCarlo, Dynamics, Jam]

@@ -264,3 +264,35 @@ def test_frames_go_to_freud(small_log):
     r = np.linalg.norm(d, axis=2)
     brute = {(i, j) for i, j in zip(*np.nonzero((r < r_max) & (r > 0)))}
     assert pairs == brute
+
+
+def test_stages_after_a_jam_and_their_gsd_frames_have_the_grown_sizes(tmp_path):
+    gsd_hoomd = pytest.importorskip("gsd.hoomd", reason="the gsd package is not installed")
+    scene = hb.Scene(
+        seed=3,
+        box=(6.0, 6.0, 6.0),
+        species=[hb.Species("rod", hb.Ellipsoid(0.6, 0.3, 0.3), 64)],
+        stages=[
+            hb.Jam(growth_rate=0.01, packing_fraction=0.35),
+            hb.Dynamics(duration=0.5, stats_every=0.1, frames_every=0.25),
+        ],
+        log=hb.Log(path="grown.mcap"),
+    )
+    log = hb.run(scene, out=tmp_path / "grown.mcap", progress=False)
+    # The a of the ellipsoids at which 64 of them fill 0.35 of the box.
+    grown = 0.6 * (0.35 * 216.0 / (64 * 4 / 3 * np.pi * 0.6 * 0.3 * 0.3)) ** (1 / 3)
+    after = [f for f in log.frames if f.stage_index == 1]
+    assert after, "frames of the dynamics"
+    stats = log.stats
+    dynamics = stats["stage_index"] == 1
+    assert np.allclose(stats["packing_fraction"][dynamics], 0.35, rtol=1e-9)
+    path = tmp_path / "grown.gsd"
+    assert log.to_gsd(path) == len(log.frames)
+    with gsd_hoomd.open(path, "r") as trajectory:
+        # The jam stage's first frame holds the scene's size.
+        assert trajectory[0].particles.type_shapes[0]["a"] == pytest.approx(0.6)
+        for frame, g in zip(log.frames, trajectory):
+            a = g.particles.type_shapes[0]["a"]
+            assert np.allclose(g.particles.diameter, 2 * a, rtol=1e-6)
+            if frame.stage_index == 1:
+                assert a == pytest.approx(grown, rel=1e-9)

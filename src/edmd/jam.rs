@@ -217,6 +217,12 @@ impl JamRun {
             return Ok(None);
         }
         let n = self.state.len() as u64;
+        if let Some(target) = self.options.packing_fraction
+            && self.state.packing_fraction() >= target * (1.0 - 1e-12)
+        {
+            self.end = Some(JamEnd::PackingFraction);
+            return Ok(None);
+        }
         let p = &mut self.progress;
         loop {
             if self.options.max_collisions > 0 && p.collisions >= self.options.max_collisions {

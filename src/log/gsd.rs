@@ -172,16 +172,30 @@ pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
         .map(|s| row(&s.name))
         .collect::<Result<_, _>>()
         .map_err(|e| fail(format!("species name: {e}")))?;
-    let shapes: Vec<[u8; SHAPE_BYTES]> = first
-        .species
-        .iter()
-        .map(|s| row(&type_shape(&s.shape)))
-        .collect::<Result<_, _>>()
-        .map_err(|e| fail(format!("type shape: {e}")))?;
+    let type_shapes = |state: &StateRecord| -> Result<Vec<[u8; SHAPE_BYTES]>, LogError> {
+        state
+            .species
+            .iter()
+            .map(|s| row(&type_shape(&s.shape)))
+            .collect::<Result<_, _>>()
+            .map_err(|e| fail(format!("type shape: {e}")))
+    };
+    let shapes = type_shapes(first)?;
     for (k, (log_time, state)) in frames.iter().enumerate() {
-        if state.species != first.species {
+        // The same species throughout; their sizes may change (a jam
+        // stage grows them), and a frame whose shapes differ from frame
+        // 0's carries its own (GSD takes a chunk missing from a frame
+        // from frame 0).
+        let kinds_differ = state.species.len() != first.species.len()
+            || state.species.iter().zip(&first.species).any(|(a, b)| {
+                a.name != b.name || a.rotation != b.rotation || a.shape.kind() != b.shape.kind()
+            });
+        if kinds_differ {
             return Err(fail(format!("frame {k} has other species than frame 0")));
         }
+        let own_shapes = (k > 0 && state.species != first.species)
+            .then(|| type_shapes(state))
+            .transpose()?;
         let w = |e: hoomd_gsd::file_layer::WriteError| fail(format!("frame {k}: {e}"));
         let [lx, ly, lz] = state.box_lengths.map(|l| l as f32);
         gsd.write_scalars("configuration/step", [*log_time])
@@ -264,6 +278,9 @@ pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
             gsd.write_arrays("particles/types", names.iter().copied())
                 .map_err(w)?;
             gsd.write_arrays("particles/type_shapes", shapes.iter().copied())
+                .map_err(w)?;
+        } else if let Some(own) = &own_shapes {
+            gsd.write_arrays("particles/type_shapes", own.iter().copied())
                 .map_err(w)?;
         }
         gsd.end_frame()

@@ -88,6 +88,12 @@ impl SceneView {
             .zip(&state.species_of)
         {
             let look = &self.looks[s as usize];
+            // A frame's own species: a jam stage's and those after it are
+            // grown.
+            let shape = state
+                .species
+                .get(s as usize)
+                .map_or(look.shape, |species| species.shape);
             let pose = Some(Pose {
                 position: Some(FVector3 {
                     x: p[0],
@@ -109,7 +115,7 @@ impl SceneView {
                     z: 2.0 * h.z,
                 })
             };
-            match &look.shape {
+            match &shape {
                 Shape::Sphere(sp) => particles.spheres.push(SpherePrimitive {
                     pose,
                     size: size(Vector3::repeat(sp.radius())),
@@ -126,7 +132,11 @@ impl SceneView {
                     color,
                 }),
                 Shape::Superellipsoid(_) => {
-                    let (points, indices) = look.mesh.clone().expect("made in new()");
+                    let (points, indices) = if shape == look.shape {
+                        look.mesh.clone().expect("made in new()")
+                    } else {
+                        superellipsoid_mesh(&shape)
+                    };
                     particles.triangles.push(TriangleListPrimitive {
                         pose,
                         points,
@@ -308,5 +318,62 @@ mod tests {
         assert_eq!((q.w, q.x), (0.5, 0.5));
         assert_eq!(u.entities[1].lines[0].points.len(), 24);
         assert_eq!(p.timestamp, Some(Timestamp::new(1, 500_000_000)));
+    }
+
+    #[test]
+    fn a_frame_with_grown_species_is_drawn_at_their_size() {
+        let shapes: [Shape; 2] = [
+            "Superellipsoid(a: 0.5, b: 0.4, c: 0.3, exponents: (4.0, 4.0, 4.0))"
+                .parse()
+                .unwrap(),
+            "Sphere(radius: 0.5)".parse().unwrap(),
+        ];
+        let species = |factor: f64| -> Vec<Species> {
+            shapes
+                .iter()
+                .map(|s| Species {
+                    name: s.kind().into(),
+                    shape: s.scaled(factor),
+                    rotation: true,
+                })
+                .collect()
+        };
+        let state = StateRecord {
+            stage_index: 1,
+            stage: "jam".into(),
+            sweep: None,
+            time: Some(1.0),
+            box_lengths: [10.0, 10.0, 10.0],
+            species: species(1.5)
+                .into_iter()
+                .map(|s| crate::log::SpeciesRecord {
+                    name: s.name,
+                    shape: s.shape,
+                    rotation: s.rotation,
+                })
+                .collect(),
+            species_of: vec![0, 1],
+            positions: vec![[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]],
+            orientations: vec![[1.0, 0.0, 0.0, 0.0]; 2],
+            velocities: None,
+            angular_velocities: None,
+            resume: None,
+        };
+        let view = SceneView::new(&species(1.0));
+        let u = view.update(0, &state);
+        let p = &u.entities[0];
+        assert_eq!(p.spheres[0].size.unwrap().x, 1.5);
+        let farthest = |points: &[Point3]| points.iter().map(|q| q.x.abs()).fold(0.0, f64::max);
+        assert!((farthest(&p.triangles[0].points) - 0.75).abs() < 1e-12);
+        // A frame without species of its own is drawn with the log's.
+        let plain = view.update(
+            0,
+            &StateRecord {
+                species: Vec::new(),
+                ..state
+            },
+        );
+        assert_eq!(plain.entities[0].spheres[0].size.unwrap().x, 1.0);
+        assert!((farthest(&plain.entities[0].triangles[0].points) - 0.5).abs() < 1e-12);
     }
 }

@@ -51,8 +51,7 @@ impl Runner {
             .zip(w)
             .map(|(v, w)| (Vector3::from(*v), Vector3::from(*w)))
             .collect();
-        let options =
-            self.dynamics_options(d.temperature, *true_inertia, system.packing_fraction());
+        let options = self.dynamics_options(d.temperature, *true_inertia, &system);
         let dynamics = Dynamics::from_parts(&system, &velocities, &options, d.time, d.collisions)
             .map_err(|e| e.to_string())?;
         Ok(Phase::Dynamics {
@@ -62,18 +61,22 @@ impl Runner {
         })
     }
 
+    /// The dynamics' options for `system` (its bodies as they are: grown,
+    /// after a jam stage).
     pub(super) fn dynamics_options(
         &self,
         temperature: f64,
         true_inertia: bool,
-        packing_fraction: f64,
+        system: &System,
     ) -> DynamicsOptions {
         DynamicsOptions {
             temperature,
             masses: self.plan.masses(),
             predictor: self.predictor_options(),
             true_inertia,
-            neighbour_shell: self.scene.neighbour_shell(packing_fraction),
+            neighbour_shell: self
+                .scene
+                .neighbour_shell_of(system.species(), system.packing_fraction()),
         }
     }
 
@@ -115,7 +118,7 @@ impl Runner {
             }),
             ..StateRecord::of_particles(
                 dynamics.periodic_box(),
-                &self.plan.mc_species(),
+                &dynamics.species_now(),
                 &dynamics.particles(),
             )
             .with_velocities(&dynamics.velocities())
@@ -198,8 +201,7 @@ impl DynamicsStage {
             }
             other => {
                 let system = runner.to_system(other)?;
-                let options =
-                    runner.dynamics_options(temperature, true_inertia, system.packing_fraction());
+                let options = runner.dynamics_options(temperature, true_inertia, &system);
                 fresh = true;
                 Box::new(Dynamics::from_state(&system, &options, rng)?)
             }

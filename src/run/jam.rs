@@ -41,6 +41,7 @@ impl JamStage {
         let Stage::Jam {
             growth_rate,
             pressure,
+            packing_fraction,
         } = runner.scene.stages[index]
         else {
             unreachable!("called for jam stages")
@@ -48,6 +49,7 @@ impl JamStage {
         let options = JamOptions {
             growth_rate: growth_rate.unwrap_or(DEFAULT_GROWTH_RATE),
             pressure: pressure.unwrap_or(DEFAULT_JAM_PRESSURE),
+            packing_fraction,
             ..JamOptions::default()
         };
         let resumed = resume.and_then(|r| r.jam);
@@ -60,14 +62,14 @@ impl JamStage {
                     angular_velocities,
                 },
             ) => {
-                let dynamics = runner.dynamics_options(1.0, false, system.packing_fraction());
+                let dynamics = runner.dynamics_options(1.0, false, &system);
                 let moving: Vec<_> = velocities.into_iter().zip(angular_velocities).collect();
                 JamRun::resume(&system, &moving, &options, &dynamics, progress)?
             }
             (Some(_), _) => return Err(StageError::NoJamVelocities),
             (None, phase) => {
                 let system = runner.to_system(phase)?;
-                let dynamics = runner.dynamics_options(1.0, false, system.packing_fraction());
+                let dynamics = runner.dynamics_options(1.0, false, &system);
                 let run = JamRun::new(&system, &options, &dynamics, rng)?;
                 runner.start_frame(log, &record(runner, &run, index, false))?;
                 run

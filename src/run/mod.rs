@@ -355,10 +355,17 @@ fn describe(stage: &Stage) -> String {
             temperature,
             ..
         } => format!("dynamics, t = {duration} at kT = {temperature}"),
-        Stage::Jam { pressure, .. } => format!(
-            "jam to betaPV/N = {:e}",
-            pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE)
-        ),
+        Stage::Jam {
+            pressure,
+            packing_fraction,
+            ..
+        } => {
+            let bound = pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE);
+            match packing_fraction {
+                Some(phi) => format!("jam to betaPV/N = {bound:e} or packing fraction {phi}"),
+                None => format!("jam to betaPV/N = {bound:e}"),
+            }
+        }
     }
 }
 

@@ -436,11 +436,9 @@ impl Simulation {
                 temperature,
                 true_inertia,
             }) => {
-                let options = self.runner.dynamics_options(
-                    temperature,
-                    true_inertia,
-                    system.packing_fraction(),
-                );
+                let options = self
+                    .runner
+                    .dynamics_options(temperature, true_inertia, &system);
                 let rebuilt = Dynamics::from_parts(
                     &system,
                     &dynamics.velocities(),

@@ -119,11 +119,12 @@ pub enum RecordError {
     State(#[from] StateError),
 }
 
-/// A system from a logged state, checked against the scene's species: a
-/// jam stage's frame holds them grown, all by one factor, and its touching
-/// pairs to round-off (as the dynamics hands them on).
+/// A system from a logged state, checked against the scene's species: the
+/// frames of a jam stage and of the stages after it hold them grown, all by
+/// one factor, and their touching pairs to round-off (as the dynamics
+/// hands them on).
 pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, RecordError> {
-    let grown = record.stage == "jam";
+    let grown = record.stage == "jam" || plan.first_jam.is_some_and(|j| j <= record.stage_index);
     let mut species = plan.mc_species();
     let factor = record
         .species

@@ -178,7 +178,8 @@ pub enum Stage {
     /// as Donev, Torquato and Stillinger): every body's linear size grows
     /// at `growth_rate` relative to its size (ten times faster until
     /// βPV/N = 10³) while the bodies move at kT = 1, until βPV/N passes
-    /// `pressure`. The last stage: the species' sizes change in it.
+    /// `pressure` (or the packing fraction reaches `packing_fraction`).
+    /// The stages after it go on with the grown bodies.
     Jam {
         /// γ, per unit time (default 10⁻³).
         #[serde(default)]
@@ -186,6 +187,10 @@ pub enum Stage {
         /// The bound on βPV/N that ends it (default 10¹²).
         #[serde(default)]
         pressure: Option<f64>,
+        /// Stop growing at this packing fraction if the pressure bound is
+        /// not reached first (default: grow to the bound).
+        #[serde(default)]
+        packing_fraction: Option<f64>,
     },
 }
 
@@ -487,10 +492,17 @@ impl Scene {
     /// `accuracy.neighbours` asks, for a dynamics stage that starts at
     /// `packing_fraction`.
     pub fn neighbour_shell(&self, packing_fraction: f64) -> Option<f64> {
+        self.neighbour_shell_of(&self.mc_species(), packing_fraction)
+    }
+
+    /// The same for bodies of `species` (the scene's grown by a jam stage).
+    pub fn neighbour_shell_of(
+        &self,
+        species: &[crate::state::Species],
+        packing_fraction: f64,
+    ) -> Option<f64> {
         match self.accuracy.neighbours {
-            Neighbours::Auto => {
-                crate::edmd::automatic_neighbour_shell(&self.mc_species(), packing_fraction)
-            }
+            Neighbours::Auto => crate::edmd::automatic_neighbour_shell(species, packing_fraction),
             Neighbours::Cells => None,
             Neighbours::Lists { shell } => Some(shell),
         }

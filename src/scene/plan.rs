@@ -72,6 +72,9 @@ pub struct Plan {
     /// or aligns them with the box because its sites are closer than a
     /// bounding diameter (`Some(false)`); `None` for other starts.
     pub random_orientations: Option<bool>,
+    /// The first jam stage: from it on the bodies are the species grown
+    /// (all by one factor), not the scene's.
+    pub first_jam: Option<usize>,
 }
 
 impl Plan {
@@ -128,6 +131,10 @@ impl Plan {
             .iter()
             .any(|s| matches!(s, Stage::Dynamics { .. } | Stage::Jam { .. }));
         let asks = |f: fn(&Stage) -> bool| scene.stages.iter().any(f);
+        let first_jam = scene
+            .stages
+            .iter()
+            .position(|s| matches!(s, Stage::Jam { .. }));
         Plan {
             mc_neighbours: NeighbourPlan::for_species(&mc_species),
             species,
@@ -145,7 +152,11 @@ impl Plan {
                 .enumerate()
                 .filter(|(_, s)| matches!(s, Stage::Dynamics { .. }))
                 .map(|(i, _)| {
+                    let grown = first_jam.is_some_and(|j| j < i);
                     let shell = match scene.packing_fraction_before(i) {
+                        // The automatic choice follows the bodies' size,
+                        // which a jam stage before changes.
+                        _ if grown && scene.accuracy.neighbours == Neighbours::Auto => None,
                         Some(phi) => Some(scene.neighbour_shell(phi)),
                         // Known all the same where the choice does not depend
                         // on it (all but the automatic choice for spheres).
@@ -166,6 +177,7 @@ impl Plan {
                 Start::Random => Some(true),
                 Start::Resume(_) => None,
             },
+            first_jam,
         }
     }
 
@@ -446,10 +458,14 @@ impl fmt::Display for Report<'_> {
                 Stage::Jam {
                     growth_rate,
                     pressure,
+                    packing_fraction,
                 } => {
                     let rate = growth_rate.unwrap_or(crate::edmd::jam::DEFAULT_GROWTH_RATE);
+                    let packing = packing_fraction
+                        .map(|phi| format!(" or the packing fraction reaches {phi}"))
+                        .unwrap_or_default();
                     format!(
-                        "jam by event-driven growth: sizes grow at {:e} per unit time ({rate:e} from betaPV/N = {:e}) at kT = 1, until betaPV/N passes {:e}",
+                        "jam by event-driven growth: sizes grow at {:e} per unit time ({rate:e} from betaPV/N = {:e}) at kT = 1, until betaPV/N passes {:e}{packing}",
                         crate::edmd::jam::FLUID_SPEED_UP * rate,
                         crate::edmd::jam::SETTLE_FROM,
                         pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE)

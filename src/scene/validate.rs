@@ -163,13 +163,8 @@ impl Scene {
                 Stage::Jam {
                     growth_rate,
                     pressure,
+                    packing_fraction,
                 } => {
-                    if i + 1 != self.stages.len() {
-                        return bad(
-                            &format!("stages[{i}]"),
-                            "a Jam stage must be the last: the bodies' sizes change in it".into(),
-                        );
-                    }
                     if let Some(rate) = growth_rate
                         && !(rate.is_finite() && *rate > 0.0 && *rate <= 0.1)
                     {
@@ -185,6 +180,26 @@ impl Scene {
                             &f("pressure"),
                             format!("must lie in (1, 1e14] (βPV/N), got {p:e}"),
                         );
+                    }
+                    if let Some(target) = packing_fraction {
+                        if !(target.is_finite() && *target > 0.0 && *target < densest) {
+                            return bad(
+                                &f("packing_fraction"),
+                                format!(
+                                    "must lie in (0, {densest:.4}), the densest packing of these shapes; got {target}"
+                                ),
+                            );
+                        }
+                        if let Some(phi) = known_phi
+                            && *target <= phi
+                        {
+                            return bad(
+                                &f("packing_fraction"),
+                                format!(
+                                    "{target} is not above the packing fraction {phi:.4} the stage starts from: nothing to grow"
+                                ),
+                            );
+                        }
                     }
                     known_phi = None;
                 }
