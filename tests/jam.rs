@@ -147,6 +147,14 @@ fn bodies_and_walls_grow_into_overlap_free_packings() {
         assert_eq!(out.end, JamEnd::Jammed, "{shape}");
         let last = out.last.unwrap();
         assert!(last.pressure >= 1e5, "{shape}");
+        // Bodies other than spheres are searched for, and counted.
+        let searched = out.solver.distances > last.collisions;
+        assert_eq!(
+            searched,
+            !shape.starts_with("Sphere"),
+            "{shape}: {:?}",
+            out.solver
+        );
         // Every pair by the exact distance, to round-off (the touching
         // pairs of a packing at Z = 10⁵ are about 10⁻⁶ apart).
         assert_eq!(network(&out.system, 1e-12).overlaps, 0, "{shape}");
@@ -221,6 +229,13 @@ fn a_scene_jams_and_resumes_bit_for_bit() {
     );
     let phi = jam_stats.last().unwrap().packing_fraction;
     assert!(phi > 0.6, "{phi}");
+    // The solver's counts are there, cumulative over the stage (spheres
+    // are predicted in closed form: no distances).
+    let solver: Vec<_> = jam_stats
+        .iter()
+        .map(|s| s.solver.expect("solver counts in a jam stage's /stats"))
+        .collect();
+    assert!(solver.iter().all(|w| w.distances == 0 && w.fallbacks == 0));
     let jam_frames = whole
         .states
         .iter()

@@ -28,6 +28,7 @@ use nalgebra::Vector3;
 use rand::Rng;
 
 use super::dynamics::{Dynamics, DynamicsOptions, EdmdError, automatic_neighbour_shell};
+use super::predict::SolverWork;
 use crate::state::System;
 
 type V3 = Vector3<f64>;
@@ -145,6 +146,10 @@ pub struct JamProgress {
     pub start_size: f64,
     /// The last chunk's figures.
     pub last: Option<JamChunk>,
+    /// What the contact searches of every chunk run (those run again
+    /// included) have cost, and their strains.
+    #[serde(default)]
+    pub solver: SolverWork,
 }
 
 /// A jamming run, chunk by chunk.
@@ -181,6 +186,7 @@ impl JamRun {
             retries: 0,
             start_size: system.species()[0].shape.bounding_radius(),
             last: None,
+            solver: SolverWork::default(),
         };
         Self::resume(system, &velocities, options, dynamics, progress)
     }
@@ -260,23 +266,23 @@ impl JamRun {
                 let size = (target / self.state.packing_fraction()).cbrt();
                 ends = ends.min((size - 1.0) / p.rate);
             }
-            let outcome = md
-                .run_collisions_until(self.options.collisions_per_body * n, ends)
-                .map_err(|e| e.to_string())
-                .and_then(|()| {
-                    let sample = md.sample();
-                    // Collisions that all fall at one instant: bodies
-                    // caught at gaps the arithmetic no longer resolves.
-                    if sample.pressure.is_none() && md.collisions() > 0 {
-                        return Err(format!(
-                            "{} collisions without time advancing at βPV/N ≈ {:.3e}",
-                            md.collisions(),
-                            p.last.map_or(0.0, |c| c.pressure)
-                        ));
-                    }
-                    let system = md.to_system().map_err(|e| e.to_string())?;
-                    Ok((sample.pressure.unwrap_or(0.0), system))
-                });
+            md.continue_solver_work(p.solver);
+            let run = md.run_collisions_until(self.options.collisions_per_body * n, ends);
+            p.solver = md.solver_work();
+            let outcome = run.map_err(|e| e.to_string()).and_then(|()| {
+                let sample = md.sample();
+                // Collisions that all fall at one instant: bodies
+                // caught at gaps the arithmetic no longer resolves.
+                if sample.pressure.is_none() && md.collisions() > 0 {
+                    return Err(format!(
+                        "{} collisions without time advancing at βPV/N ≈ {:.3e}",
+                        md.collisions(),
+                        p.last.map_or(0.0, |c| c.pressure)
+                    ));
+                }
+                let system = md.to_system().map_err(|e| e.to_string())?;
+                Ok((sample.pressure.unwrap_or(0.0), system))
+            });
             let (pressure, next) = match outcome {
                 Ok(done) => done,
                 Err(e) => {
@@ -387,6 +393,8 @@ pub struct Jammed {
     pub retries: u64,
     /// The last failure that made a chunk run again (reported, not lost).
     pub last_failure: Option<String>,
+    /// What the contact searches cost, and their strains.
+    pub solver: SolverWork,
 }
 
 /// Grows the bodies of `system` (Lubachevsky–Stillinger) until jammed, from
@@ -413,5 +421,6 @@ pub fn jam<R: Rng>(
         end: run.end.expect("ended"),
         retries: run.progress.retries,
         last_failure: run.last_failure,
+        solver: run.progress.solver,
     })
 }

@@ -155,6 +155,7 @@ impl StageRun for JamStage {
                 collisions: Some(chunk.collisions),
                 temperature: Some(chunk.temperature),
                 nematic_order: runner.system_nematic_order(system),
+                solver: Some(self.run.progress().solver),
                 ..Interval::default()
             },
         )
@@ -200,6 +201,11 @@ impl StageRun for JamStage {
                 "stage {index} (jam): {} chunks run again at a lower growth rate after a numerical failure (the last: {})",
                 p.retries,
                 self.run.last_failure().unwrap_or("-")
+            ));
+        }
+        if let Some(strains) = p.solver.strains_in_words() {
+            runner.notes.push(format!(
+                "stage {index} (jam): {strains} (counted in /stats.solver; each answer was certified, but the numerics were strained)"
             ));
         }
         let system = self.run.system();
