@@ -424,7 +424,10 @@ impl<'a> ContactSearch<'a> {
     /// the contact normal, and then φ′(0) = ḋ (so a receding pair is
     /// cleared at once, and an approaching one is followed to its
     /// contact in steps that shrink quadratically, not geometrically).
-    fn apart_for(&mut self, t: f64, normal: &V3) -> f64 {
+    ///
+    /// Returns that time and the level the separation stays above until
+    /// then.
+    fn apart_for(&mut self, t: f64, normal: &V3) -> (f64, f64) {
         let (qa_t, qb_t) = self.orientations(t);
         let n = qa_t * normal;
         // n in A's frame is `normal`; in B's, −n turned back.
@@ -448,13 +451,14 @@ impl<'a> ContactSearch<'a> {
         let phi = n.dot(&(self.d + self.dv * t)) - ga.value - gb.value;
         // (NaN included: no time is sure then.)
         if phi.is_nan() || phi <= 0.0 {
-            return 0.0;
+            return (0.0, 0.0);
         }
         // Until the bound falls to a level short of zero (half of φ, at
         // most ε_d/2): a step never lands on a contact the bound sees
         // exactly (a face meeting a face along n), where the distance
         // may round to zero.
-        let phi = phi - (0.5 * phi).min(0.5 * self.eps);
+        let level = (0.5 * phi).min(0.5 * self.eps);
+        let phi = phi - level;
         let approach = n.dot(self.dv);
         let mut kinks = [(0.0, 0.0, 0.0); 6];
         kinks[..3].copy_from_slice(&ga.kinks);
@@ -466,7 +470,7 @@ impl<'a> ContactSearch<'a> {
             ga.curvature + gb.curvature,
         );
         let linear = time_to_zero(phi, approach - ga.lipschitz - gb.lipschitz, 0.0);
-        quadratic.max(linear)
+        (quadratic.max(linear), level)
     }
 
     /// The speed at which the contact points close along the normal
@@ -616,7 +620,7 @@ impl<'a> ContactSearch<'a> {
             .0
             .inverse_transform_vector(&(self.d + self.dv * t));
         if let Some(across) = across.try_normalize(0.0)
-            && t + self.apart_for(t, &across) >= t2
+            && t + self.apart_for(t, &across).0 >= t2
         {
             return Ok(Start::Ended(Found::Apart));
         }
@@ -677,7 +681,21 @@ impl<'a> ContactSearch<'a> {
             // longer where the support planes keep the bodies apart; close
             // to contact with neither long enough, ε_d/ḋ_max and a look for
             // a grazing contact within it.
-            let safe = (d_t.max(0.0) / rate_bound).max(self.apart_for(t, &normal_t));
+            let (apart, level) = self.apart_for(t, &normal_t);
+            let safe = (d_t.max(0.0) / rate_bound).max(apart);
+            // Apart until t2 by more than the contact tolerance (so no
+            // contact this search could report comes before t2): nothing
+            // to step through. The grid of the steps is unchanged, so is
+            // the contact found within any horizon.
+            let margin = 2.0 * self.tol;
+            let clear = ((d_t - margin).max(0.0) / rate_bound).max(if level > margin {
+                apart
+            } else {
+                0.0
+            });
+            if t + clear >= t2 {
+                break;
+            }
             let sure = d_t > eps || safe >= eps / rate_bound;
             let step = if sure { safe } else { eps / rate_bound };
             if sure && t + step >= t2 {
