@@ -33,8 +33,8 @@ pub enum Found {
     Contact(f64),
     /// They stay apart up to the horizon.
     Apart,
-    /// Out of budget; no contact the search reports comes before this
-    /// time (its progress, in the caller's slot, may stand earlier).
+    /// Out of budget, apart up to this time at least; the progress to
+    /// resume from is in the caller's slot.
     Stopped(f64),
 }
 

@@ -166,9 +166,6 @@ struct ContactSearch<'a> {
     eps: f64,
     /// The distance below which the bodies touch.
     tol: f64,
-    /// Where the search ends (its horizon, or where the bounding spheres
-    /// part): a contact found later is of no use.
-    until: f64,
     /// Below this the step uses the distance, above it the cheap bound.
     exact_below: f64,
     /// Both orientations at τ, kept for the last τ asked (the pose, the
@@ -266,7 +263,6 @@ impl<'a> ContactSearch<'a> {
             rate_bound,
             eps: options.grazing_threshold * scale,
             tol: options.contact_tolerance * scale,
-            until: f64::INFINITY,
             // Far from contact the cheap lower bound is enough to step
             // with (a step d/ḋ_max is safe for any d below the distance).
             exact_below: options.exact_below * scale,
@@ -585,13 +581,6 @@ impl<'a> ContactSearch<'a> {
             self.failed(d_next)?;
             if d_next >= 0.0 {
                 lo = (next, d_next);
-                // The contact lies past the search's end: no need to
-                // find where.
-                let normal = self.last.expect("just computed").1.normal;
-                let apart = self.apart_for(next, &normal);
-                if self.clear_until_horizon(next, d_next, apart) {
-                    return Ok(Found::Apart);
-                }
             } else {
                 hi = (next, d_next);
                 break;
@@ -673,19 +662,8 @@ impl<'a> ContactSearch<'a> {
         stopped: &mut Option<Progress>,
     ) -> Result<Found, SearchError> {
         let (eps, rate_bound) = (self.eps, self.rate_bound);
-        self.until = t2;
         let mut steps = 0u32;
         while t < t2 {
-            // A step that cannot jump over a contact: d/ḋ_max (eq. 39), or
-            // longer where the support planes keep the bodies apart; close
-            // to contact with neither long enough, ε_d/ḋ_max and a look for
-            // a grazing contact within it.
-            let (apart, level) = self.apart_for(t, &normal_t);
-            let safe = (d_t.max(0.0) / rate_bound).max(apart);
-            let clear = self.clear_for(d_t, (apart, level));
-            if t + clear >= t2 {
-                break;
-            }
             if steps >= budget {
                 *stopped = Some(Progress {
                     t,
@@ -696,9 +674,28 @@ impl<'a> ContactSearch<'a> {
                     last: self.last,
                     earlier: self.earlier,
                 });
-                return Ok(Found::Stopped(t + clear));
+                return Ok(Found::Stopped(t));
             }
             steps += 1;
+            // A step that cannot jump over a contact: d/ḋ_max (eq. 39), or
+            // longer where the support planes keep the bodies apart; close
+            // to contact with neither long enough, ε_d/ḋ_max and a look for
+            // a grazing contact within it.
+            let (apart, level) = self.apart_for(t, &normal_t);
+            let safe = (d_t.max(0.0) / rate_bound).max(apart);
+            // Apart until t2 by more than the contact tolerance (so no
+            // contact this search could report comes before t2): nothing
+            // to step through. The grid of the steps is unchanged, so is
+            // the contact found within any horizon.
+            let margin = 2.0 * self.tol;
+            let clear = ((d_t - margin).max(0.0) / rate_bound).max(if level > margin {
+                apart
+            } else {
+                0.0
+            });
+            if t + clear >= t2 {
+                break;
+            }
             let sure = d_t > eps || safe >= eps / rate_bound;
             let step = if sure { safe } else { eps / rate_bound };
             if sure && t + step >= t2 {
@@ -725,28 +722,6 @@ impl<'a> ContactSearch<'a> {
             normal_t = normal_next;
         }
         Ok(Found::Apart)
-    }
-
-    /// Whether the pair, at distance (or lower bound) `d_t` at τ = t and
-    /// kept apart for `apart` above `level` by [`ContactSearch::apart_for`],
-    /// stays apart by more than twice the contact tolerance until the
-    /// search's end `until`: then no contact this search could report
-    /// comes before it, and there is nothing to step through or narrow.
-    /// The grid of the steps is not changed by this, so neither is the
-    /// contact found within any horizon.
-    #[inline]
-    fn clear_until_horizon(&self, t: f64, d_t: f64, apart: (f64, f64)) -> bool {
-        t + self.clear_for(d_t, apart) >= self.until
-    }
-
-    /// How long the pair surely stays apart by more than twice the
-    /// contact tolerance (see [`ContactSearch::clear_until_horizon`]).
-    #[inline]
-    fn clear_for(&self, d_t: f64, (apart, level): (f64, f64)) -> f64 {
-        let margin = 2.0 * self.tol;
-        let by_distance = (d_t - margin).max(0.0) / self.rate_bound;
-        let by_planes = if level > margin { apart } else { 0.0 };
-        by_distance.max(by_planes)
     }
 
     /// A step from τ = t (distance d_t) into overlap at t_next.

@@ -508,18 +508,14 @@ enum PairSearch {
     Contact(f64, Option<WarmStart>),
     /// None before the horizon.
     Apart,
-    /// Out of budget, with no contact before this time; the progress to
-    /// resume from is in the caller's slot.
+    /// Out of budget at this time; the progress to resume from is in the
+    /// caller's slot.
     Unfinished(f64),
 }
 
-/// Steps a pair's contact search may take at a time once it is put off
-/// behind the other pairs of the same body.
+/// Steps a pair's contact search may take before it is put off behind the
+/// other pairs of the same body.
 const CHEAP_SEARCH: u32 = 16;
-/// Steps each pair's search takes before the pairs race (see
-/// `Dynamics::schedule_collisions`): none, only the look at where it
-/// starts that clears most pairs and bounds when the rest can touch.
-const FIRST_LOOK: u32 = 0;
 
 /// Body `b`'s centre and orientation at time `t`, by free motion from its
 /// stored pose.

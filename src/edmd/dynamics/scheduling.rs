@@ -114,7 +114,7 @@ impl Dynamics {
             // Past j's own horizon, j's first event will have changed it
             // or renewed its search (which covers this pair).
             let horizon = horizon_i.min(self.bodies[j].horizon);
-            match self.predict_pair(i, j, horizon, FIRST_LOOK, None, &mut stopped)? {
+            match self.predict_pair(i, j, horizon, CHEAP_SEARCH, None, &mut stopped)? {
                 PairSearch::Contact(t, warm) => {
                     earliest = Some((t, j, warm));
                     horizon_i = t;
@@ -126,22 +126,17 @@ impl Dynamics {
             }
         }
         self.candidates = candidates;
-        // The put-off searches race: the one whose contact could come
-        // first takes the next few steps, so that the first contact among
-        // them is found before any of them searches past it (it becomes
-        // everyone's horizon), and those that cannot touch before it are
-        // not searched further. A search resumes with its solver state:
-        // the same steps as if it had not stopped (see `predict_pair`).
+        // The put-off searches race: the least advanced one takes the next
+        // few steps, so that the first contact among them is found before
+        // any of them searches past it (it becomes everyone's horizon). A
+        // search resumes with its solver state: the same steps as if it
+        // had not stopped (see `predict_pair`).
         while !deferred.is_empty() {
-            let (k, &(j, soonest, progress)) = deferred
+            let (k, &(j, _, progress)) = deferred
                 .iter()
                 .enumerate()
                 .min_by(|a, b| a.1.1.total_cmp(&b.1.1))
                 .expect("not empty");
-            if soonest >= horizon_i {
-                deferred.clear();
-                break;
-            }
             let j = j as usize;
             let horizon = horizon_i.min(self.bodies[j].horizon);
             match self.predict_pair(i, j, horizon, CHEAP_SEARCH, Some(&progress), &mut stopped)? {
