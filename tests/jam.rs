@@ -242,32 +242,12 @@ fn a_scene_jams_and_resumes_bit_for_bit() {
         .filter(|(_, s)| s.stage == "jam")
         .count();
     assert!(jam_frames >= 3, "{jam_frames} jam frames");
-    let bytes = std::fs::read(&path).unwrap();
     let first_jam = whole
         .states
         .iter()
         .position(|(_, s)| s.stage == "jam")
         .unwrap();
-    for k in [first_jam + 1, whole.states.len() - 1] {
-        let cut = dir.join(format!("cut-{k}.mcap.partial"));
-        std::fs::write(&cut, &bytes[..cut_after_frames(&bytes, k + 1)]).unwrap();
-        let out = dir.join(format!("resumed-{k}.mcap"));
-        resume_run(&cut, &out, &mut Silent, &AtomicBool::new(false)).unwrap();
-        let resumed = read_log(&out, true).unwrap();
-        assert_eq!(
-            resumed.states.len(),
-            whole.states.len(),
-            "cut after frame {k}"
-        );
-        for ((t, s), (tw, sw)) in resumed.states.iter().zip(&whole.states) {
-            assert_eq!(t, tw);
-            assert_eq!(
-                serde_json::to_string(s).unwrap(),
-                serde_json::to_string(sw).unwrap(),
-                "cut after frame {k}"
-            );
-        }
-    }
+    resumes_bit_for_bit(&dir, &path, &whole, [first_jam + 1, whole.states.len() - 1]);
 }
 
 /// The JSON `hardbody ARGS` prints (it must succeed).
@@ -430,14 +410,33 @@ fn stages_after_a_jam_go_on_with_the_grown_bodies() {
             "stage {stage}: βPσ³ = {measured} ± {error}, Carnahan–Starling {expected}"
         );
     }
-    let bytes = std::fs::read(&path).unwrap();
-    for stage in [1, 2] {
-        let k = whole
+    // The frame before the last of each stage after the growth.
+    let cuts = [1, 2].map(|stage| {
+        whole
             .states
             .iter()
             .rposition(|(_, s)| s.stage_index == stage)
             .unwrap()
-            - 1;
+            - 1
+    });
+    resumes_bit_for_bit(&dir, &path, &whole, cuts);
+    let gsd = dir.join("grown.gsd");
+    let written = hardbody::log::gsd::export(&whole, &gsd).unwrap();
+    assert_eq!(written, whole.states.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The log at `path` (read whole as `whole`) cut after each frame of
+/// `frames` and resumed (in `dir`) writes the uninterrupted run's frames
+/// bit for bit.
+fn resumes_bit_for_bit(
+    dir: &std::path::Path,
+    path: &std::path::Path,
+    whole: &hardbody::log::read::LogContents,
+    frames: impl IntoIterator<Item = usize>,
+) {
+    let bytes = std::fs::read(path).unwrap();
+    for k in frames {
         let cut = dir.join(format!("cut-{k}.mcap.partial"));
         std::fs::write(&cut, &bytes[..cut_after_frames(&bytes, k + 1)]).unwrap();
         let out = dir.join(format!("resumed-{k}.mcap"));
@@ -457,8 +456,4 @@ fn stages_after_a_jam_go_on_with_the_grown_bodies() {
             );
         }
     }
-    let gsd = dir.join("grown.gsd");
-    let written = hardbody::log::gsd::export(&whole, &gsd).unwrap();
-    assert_eq!(written, whole.states.len());
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -182,24 +182,7 @@ impl Scene {
                         );
                     }
                     if let Some(target) = packing_fraction {
-                        if !(target.is_finite() && *target > 0.0 && *target < densest) {
-                            return bad(
-                                &f("packing_fraction"),
-                                format!(
-                                    "must lie in (0, {densest:.4}), the densest packing of these shapes; got {target}"
-                                ),
-                            );
-                        }
-                        if let Some(phi) = known_phi
-                            && *target <= phi
-                        {
-                            return bad(
-                                &f("packing_fraction"),
-                                format!(
-                                    "{target} is not above the packing fraction {phi:.4} the stage starts from: nothing to grow"
-                                ),
-                            );
-                        }
+                        packing_target(&f("packing_fraction"), *target, densest, known_phi, true)?;
                     }
                     known_phi = None;
                 }
@@ -239,24 +222,7 @@ impl Scene {
                         }
                         (Some(target), None) => target,
                     };
-                    if !(target.is_finite() && *target > 0.0 && *target < densest) {
-                        return bad(
-                            &f("packing_fraction"),
-                            format!(
-                                "must lie in (0, {densest:.4}), the densest packing of these shapes; got {target}"
-                            ),
-                        );
-                    }
-                    if let Some(phi) = known_phi
-                        && *target < phi
-                    {
-                        return bad(
-                            &f("packing_fraction"),
-                            format!(
-                                "{target} is below the packing fraction {phi:.4} the stage starts from: nothing to compress"
-                            ),
-                        );
-                    }
+                    packing_target(&f("packing_fraction"), *target, densest, known_phi, false)?;
                     // The box edge at the target must still allow the minimum image.
                     let scale = (phi0 / target).cbrt();
                     if shortest * scale < 2.0 * diameter {
@@ -420,5 +386,33 @@ impl Scene {
             );
         }
         Ok(())
+    }
+}
+
+/// A stage's packing-fraction `target` (its field `field`): below the
+/// densest packing of the shapes, and not below `start`, the packing
+/// fraction the stage starts from where it is known (a growth, `grows`,
+/// must go above it).
+fn packing_target(
+    field: &str,
+    target: f64,
+    densest: f64,
+    start: Option<f64>,
+    grows: bool,
+) -> Result<(), (String, String)> {
+    let bad = |message: String| Err((field.to_string(), message));
+    if !(target.is_finite() && target > 0.0 && target < densest) {
+        return bad(format!(
+            "must lie in (0, {densest:.4}), the densest packing of these shapes; got {target}"
+        ));
+    }
+    match start {
+        Some(phi) if grows && target <= phi => bad(format!(
+            "{target} is not above the packing fraction {phi:.4} the stage starts from: nothing to grow"
+        )),
+        Some(phi) if target < phi => bad(format!(
+            "{target} is below the packing fraction {phi:.4} the stage starts from: nothing to compress"
+        )),
+        _ => Ok(()),
     }
 }
