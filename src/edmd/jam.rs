@@ -78,8 +78,8 @@ pub const SETTLE_FROM: f64 = 1e3;
 /// The contact tolerance of the predictions while growing (relative to
 /// the smaller body's smallest half-extent), at most: with the default
 /// 10⁻¹⁰, 1000 spheroids 1.5:1 stalled near βPV/N = 5×10⁹ (collisions at
-/// one instant); with this and [`JAM_NEWTON_TOLERANCE`], 125 of them
-/// jammed to 1.2×10¹².
+/// one instant); with this and [`JAM_NEWTON_TOLERANCE`] they jam to
+/// 10¹² (docs/benchmarks/jam-bodies-2026-11-26.md).
 pub const JAM_CONTACT_TOLERANCE: f64 = 1e-13;
 /// Newton's tolerance on the distance while growing, at most.
 pub const JAM_NEWTON_TOLERANCE: f64 = 1e-14;
