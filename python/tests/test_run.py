@@ -160,6 +160,9 @@ def test_the_seed_changes_the_run(in_tmp):
 def test_ctrl_c_stops_the_run_with_its_log_complete(in_tmp):
     script = (
         "import hardbody as hb, os, signal, sys\n"
+        # Python's own handler, even where SIGINT came ignored (a job
+        # started in the background with nohup).
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "sys.path.insert(0, sys.argv[1])\n"
         "from conftest import small_scene\n"
         "s = small_scene()\n"
