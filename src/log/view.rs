@@ -81,6 +81,24 @@ impl SceneView {
             id: "particles".into(),
             ..SceneEntity::default()
         };
+        // A frame's own species: a jam stage's and those after it are
+        // grown. Their shapes, and the meshes of those that differ from
+        // the looks', once per frame.
+        let shapes: Vec<Shape> = self
+            .looks
+            .iter()
+            .enumerate()
+            .map(|(k, look)| state.species.get(k).map_or(look.shape, |s| s.shape))
+            .collect();
+        let grown_meshes: Vec<Option<(Vec<Point3>, Vec<u32>)>> = self
+            .looks
+            .iter()
+            .zip(&shapes)
+            .map(|(look, shape)| {
+                (matches!(shape, Shape::Superellipsoid(_)) && *shape != look.shape)
+                    .then(|| superellipsoid_mesh(shape))
+            })
+            .collect();
         for ((p, q), &s) in state
             .positions
             .iter()
@@ -88,12 +106,7 @@ impl SceneView {
             .zip(&state.species_of)
         {
             let look = &self.looks[s as usize];
-            // A frame's own species: a jam stage's and those after it are
-            // grown.
-            let shape = state
-                .species
-                .get(s as usize)
-                .map_or(look.shape, |species| species.shape);
+            let shape = shapes[s as usize];
             let pose = Some(Pose {
                 position: Some(FVector3 {
                     x: p[0],
@@ -132,11 +145,10 @@ impl SceneView {
                     color,
                 }),
                 Shape::Superellipsoid(_) => {
-                    let (points, indices) = if shape == look.shape {
-                        look.mesh.clone().expect("made in new()")
-                    } else {
-                        superellipsoid_mesh(&shape)
-                    };
+                    let (points, indices) = grown_meshes[s as usize]
+                        .clone()
+                        .or_else(|| look.mesh.clone())
+                        .expect("made in new()");
                     particles.triangles.push(TriangleListPrimitive {
                         pose,
                         points,
