@@ -265,31 +265,45 @@ impl Dynamics {
                 dv[a][k] = bj.velocity[a] - bi.velocity[a];
             }
         }
-        let mut times = [0.0; LANES];
+        // The products of each lane: the image nearest now (as
+        // `closed_form_contact`), in the order of nalgebra's (from zero, x,
+        // y, z).
+        let mut b = [0.0; LANES];
+        let mut dd = [0.0; LANES];
+        let mut v2 = [0.0; LANES];
         for k in 0..LANES {
-            // The image nearest now (as `closed_form_contact`), and the
-            // products in the order of nalgebra's (from zero, x, y, z).
             let dt = self.now - t0[k];
-            let (mut b, mut dd, mut v2) = (0.0, 0.0, 0.0);
             for a in 0..3 {
                 let x = d[a][k] + self.box_.image_shift_along(a, d[a][k] + dv[a][k] * dt);
-                b += x * dv[a][k];
-                dd += x * x;
-                v2 += dv[a][k] * dv[a][k];
+                b[k] += x * dv[a][k];
+                dd[k] += x * x;
+                v2[k] += dv[a][k] * dv[a][k];
             }
-            let t = match self.growth {
-                None => {
-                    crate::geometry::pair::sphere_contact_time_from_products(b, dd, v2, sigma[k])
+        }
+        let mut times = [0.0; LANES];
+        // Growth is decided once for the lanes, outside their loop, which
+        // the compiler then keeps in vector registers.
+        match self.growth {
+            None => {
+                for k in 0..LANES {
+                    let t = crate::geometry::pair::sphere_contact_time_from_products(
+                        b[k], dd[k], v2[k], sigma[k],
+                    );
+                    times[k] = (t0[k] + t).max(self.now); // t0 + ∞ stays ∞
                 }
-                Some(g) => crate::geometry::pair::grown_sphere_contact_time(
-                    b,
-                    dd,
-                    v2,
-                    sigma[k] * g.at(t0[k]),
-                    sigma[k] * g.rate,
-                ),
-            };
-            times[k] = (t0[k] + t).max(self.now); // t0 + ∞ stays ∞
+            }
+            Some(g) => {
+                for k in 0..LANES {
+                    let t = crate::geometry::pair::grown_sphere_contact_time(
+                        b[k],
+                        dd[k],
+                        v2[k],
+                        sigma[k] * g.at(t0[k]),
+                        sigma[k] * g.rate,
+                    );
+                    times[k] = (t0[k] + t).max(self.now);
+                }
+            }
         }
         times
     }
