@@ -353,8 +353,9 @@ const GROW_THEN_RUN: &str = r#"Scene(
 /// stages after it run at that packing fraction, their frames hold the
 /// grown species, the pressure of both drivers is Carnahan–Starling's at
 /// the grown diameter, a run resumed from a frame after the growth writes
-/// the uninterrupted run's frames bit for bit, and the log exports to GSD
-/// with the sizes of each frame.
+/// the uninterrupted run's frames bit for bit, another scene starts from
+/// its last frame with the grown bodies, and the log exports to GSD with
+/// the sizes of each frame.
 #[test]
 fn stages_after_a_jam_go_on_with_the_grown_bodies() {
     let dir = std::env::temp_dir().join(format!("hardbody-grown-{}", std::process::id()));
@@ -420,6 +421,31 @@ fn stages_after_a_jam_go_on_with_the_grown_bodies() {
             - 1
     });
     resumes_bit_for_bit(&dir, &path, &whole, cuts);
+    // A scene of its own, without a jam stage, starts from the log's last
+    // frame (of the stage after the growth) with the grown bodies.
+    let after = format!(
+        r#"Scene(
+    seed: 5,
+    box: (8.12, 8.12, 8.12),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 256)],
+    start: Resume({:?}),
+    stages: [MonteCarlo(ensemble: Nvt, sweeps: 20)],
+)"#,
+        path.to_str().unwrap()
+    );
+    let next = dir.join("next.mcap");
+    run_scene(
+        &Scene::parse(&after).unwrap(),
+        &after,
+        &next,
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let first = &read_log(&next, true).unwrap().states[0].1;
+    let r = first.species[0].shape.bounding_radius();
+    assert!((r - grown).abs() < 1e-9 * grown, "resumed at radius {r}");
+    assert_eq!(first.positions, whole.states.last().unwrap().1.positions);
     let gsd = dir.join("grown.gsd");
     let written = hardbody::log::gsd::export(&whole, &gsd).unwrap();
     assert_eq!(written, whole.states.len());

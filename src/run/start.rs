@@ -77,7 +77,16 @@ pub(super) fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError>
             None => format!("{path} holds no complete state"),
         })
     })?;
-    system_from_record(&record, plan).map_err(|e| RunError::Resume(format!("{path}: {e}")))
+    // Whether the frame holds grown bodies is decided by the scene that
+    // wrote it, whose stages are not this scene's (a log whose scene cannot
+    // be read has only its jam stages' frames taken as grown).
+    let logged_first_jam = contents
+        .metadata
+        .get("scene_resolved")
+        .and_then(|text| Scene::parse(text).ok())
+        .and_then(|scene| scene.first_jam());
+    system_from_logged(&record, logged_first_jam, plan)
+        .map_err(|e| RunError::Resume(format!("{path}: {e}")))
 }
 
 /// Why a logged state cannot be this scene's state.
@@ -124,7 +133,17 @@ pub enum RecordError {
 /// one factor, and their touching pairs to round-off (as the dynamics
 /// hands them on).
 pub fn system_from_record(record: &StateRecord, plan: &Plan) -> Result<System, RecordError> {
-    let grown = record.stage == "jam" || plan.first_jam.is_some_and(|j| j <= record.stage_index);
+    system_from_logged(record, plan.first_jam, plan)
+}
+
+/// [`system_from_record`] for a frame written by a scene whose first jam
+/// stage is `first_jam` (another log's, for a `Resume` start).
+fn system_from_logged(
+    record: &StateRecord,
+    first_jam: Option<usize>,
+    plan: &Plan,
+) -> Result<System, RecordError> {
+    let grown = record.stage == "jam" || first_jam.is_some_and(|j| j <= record.stage_index);
     let mut species = plan.mc_species();
     let factor = record
         .species

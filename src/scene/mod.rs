@@ -364,6 +364,14 @@ pub enum SceneError {
 }
 
 impl Scene {
+    /// The index of the first `Jam` stage: its frames and those of the
+    /// stages after it hold the grown species.
+    pub fn first_jam(&self) -> Option<usize> {
+        self.stages
+            .iter()
+            .position(|s| matches!(s, Stage::Jam { .. }))
+    }
+
     /// Parses and validates a scene.
     pub fn parse(text: &str) -> Result<Scene, SceneError> {
         let options = ron::Options::default()

@@ -131,10 +131,7 @@ impl Plan {
             .iter()
             .any(|s| matches!(s, Stage::Dynamics { .. } | Stage::Jam { .. }));
         let asks = |f: fn(&Stage) -> bool| scene.stages.iter().any(f);
-        let first_jam = scene
-            .stages
-            .iter()
-            .position(|s| matches!(s, Stage::Jam { .. }));
+        let first_jam = scene.first_jam();
         Plan {
             mc_neighbours: NeighbourPlan::for_species(&mc_species),
             species,
