@@ -75,6 +75,13 @@ impl Default for JamOptions {
 pub const DEFAULT_GROWTH_RATE: f64 = 1e-3;
 /// The reduced pressure from which the bodies grow at γ (below it, 10γ).
 pub const SETTLE_FROM: f64 = 1e3;
+
+/// The neighbour shell from [`SETTLE_FROM`] on, as a fraction of the
+/// automatic one. There every body rattles in a cage about 1/Z of its size
+/// (Z = βPV/N): a thinner shell lists fewer partners to search at each
+/// collision, for the same events (the lists hold every pair that can
+/// meet before an escape), and its escapes stay rare.
+const SETTLED_SHELL: f64 = 0.25;
 /// The contact tolerance of the predictions while growing (relative to
 /// the smaller body's smallest half-extent), at most: with the default
 /// 10⁻¹⁰, 1000 spheroids 1.5:1 stalled near βPV/N = 5×10⁹ (collisions at
@@ -235,11 +242,13 @@ impl JamRun {
                 self.end = Some(JamEnd::Budget);
                 return Ok(None);
             }
+            let settled = if p.settling { SETTLED_SHELL } else { 1.0 };
             let mut dynamics = DynamicsOptions {
                 neighbour_shell: automatic_neighbour_shell(
                     self.state.species(),
                     self.state.packing_fraction(),
-                ),
+                )
+                .map(|shell| shell * settled),
                 ..self.dynamics.clone()
             };
             // Gaps near the bound are 1/Z of the size: contacts of bodies
