@@ -8,7 +8,9 @@
 //!
 //! Run with `taskset -c 0 cargo bench --bench edmd` from `benches/peers/`
 //! (one core for both; `QUICK=1`: a short run; `REPEATS=N`, default 3;
-//! `ONLY_OURS=1`: hardbody's list run alone, to profile). His source is read from
+//! `ONLY_OURS=1`: hardbody's list run alone, to profile; `N=32000`,
+//! `PHI=0.45`: another count or packing fraction, from a start written
+//! here the way `gen_sc.py` writes its own). His source is read from
 //! `../shared/peers/smallenburg-edmd` beside the repository (or
 //! `SMALLENBURG_EDMD`), copied under `target/`, patched with its
 //! measurement patch (command-line run time, shell and input; the wall
@@ -79,6 +81,28 @@ fn their_time_per_collision(output: &str) -> (f64, u64) {
     let (first, last) = (points.first().unwrap(), points.last().unwrap());
     let collisions = last.1 - first.1;
     ((last.0 - first.0) * 1e6 / collisions as f64, collisions)
+}
+
+/// A start in the peer's format as its `gen_sc.py` makes them, for any
+/// `n` and `phi`: `n` spheres of diameter 1 on randomly chosen sites of
+/// the smallest simple-cubic lattice with room for them, in the cube
+/// that they fill to `phi`.
+fn write_simple_cubic(path: &Path, n: usize, phi: f64, seed: u64) {
+    use rand::seq::SliceRandom;
+    let edge = (n as f64 * std::f64::consts::PI / 6.0 / phi).cbrt();
+    let sites_per_edge = (1..).find(|a: &usize| a.pow(3) >= n).unwrap();
+    let spacing = edge / sites_per_edge as f64;
+    assert!(spacing > 1.0, "phi = {phi} leaves no room on a lattice");
+    let mut sites: Vec<usize> = (0..sites_per_edge.pow(3)).collect();
+    sites.shuffle(&mut rand_pcg::Pcg64::seed_from_u64(seed));
+    let mut text = format!("{n}\n{edge:.12} {edge:.12} {edge:.12}\n");
+    for &site in &sites[..n] {
+        let a = sites_per_edge;
+        let (i, j, k) = (site % a, (site / a) % a, site / (a * a));
+        let at = |x: usize| (x as f64 + 0.5) * spacing;
+        text += &format!("a {:.12} {:.12} {:.12} 0.5\n", at(i), at(j), at(k));
+    }
+    std::fs::write(path, text).unwrap();
 }
 
 /// The start the peer reads, as a hardbody system.
@@ -155,10 +179,20 @@ fn main() {
     let duration = if quick { 10.0 } else { 75.0 };
     let peer = build_peer();
     let only_ours = std::env::var_os("ONLY_OURS").is_some();
-    run(Command::new("python3")
-        .args(["gen_sc.py", "1", "init.sph"])
-        .current_dir(&peer));
     let init = peer.join("init.sph");
+    let n: Option<usize> = std::env::var("N")
+        .ok()
+        .map(|n| n.parse().expect("N: a count"));
+    let phi: Option<f64> = std::env::var("PHI")
+        .ok()
+        .map(|p| p.parse().expect("PHI: a packing fraction"));
+    if n.is_none() && phi.is_none() {
+        run(Command::new("python3")
+            .args(["gen_sc.py", "1", "init.sph"])
+            .current_dir(&peer));
+    } else {
+        write_simple_cubic(&init, n.unwrap_or(4000), phi.unwrap_or(0.5), 1);
+    }
     let system = read_sph(&init);
     println!(
         "hard spheres N = {}, phi = {:.4}, t = 1 to {duration}, one core, {repeats} interleaved repeats",
