@@ -79,8 +79,10 @@ pub const SETTLE_FROM: f64 = 1e3;
 /// The neighbour shell from [`SETTLE_FROM`] on, as a fraction of the
 /// automatic one. There every body rattles in a cage about 1/Z of its size
 /// (Z = βPV/N): a thinner shell lists fewer partners to search at each
-/// collision, for the same events (the lists hold every pair that can
-/// meet before an escape), and its escapes stay rare.
+/// collision, and its escapes stay rare. The events are the same (the
+/// lists hold every pair that can meet before an escape): to the bit for
+/// spheres, to within the contact tolerance for bodies, whose searches an
+/// escape renews from another start.
 const SETTLED_SHELL: f64 = 0.25;
 /// The contact tolerance of the predictions while growing (relative to
 /// the smaller body's smallest half-extent), at most: with the default
