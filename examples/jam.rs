@@ -61,8 +61,8 @@ fn main() {
             chunks += 1;
             if chunks % 10 == 0 {
                 eprintln!(
-                    "chunk {}: phi {:.4}, betaPV/N {:.3e}, {} collisions",
-                    c.chunk, c.packing_fraction, c.pressure, c.collisions
+                    "chunk {}: phi {:.4}, betaPV/N {:.3e}, {} collisions, rate {:e}",
+                    c.chunk, c.packing_fraction, c.pressure, c.collisions, c.growth_rate
                 );
             }
             true
