@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use hardbody::edmd::DynamicsOptions;
-use hardbody::edmd::jam::{JamOptions, jam};
+use hardbody::edmd::jam::{JamOptions, JamRun};
 use hardbody::geometry::Shape;
 use hardbody::space::PeriodicBox;
 use hardbody::state::Species;
@@ -51,32 +51,39 @@ fn main() {
         ..JamOptions::default()
     };
     let clock = Instant::now();
-    let mut chunks = 0;
-    let out = jam(
-        &start,
-        &options,
-        &DynamicsOptions::default(),
-        &mut rng,
-        |c| {
-            chunks += 1;
-            if chunks % 10 == 0 {
-                eprintln!(
-                    "chunk {}: phi {:.4}, betaPV/N {:.3e}, {} collisions, rate {:e}",
-                    c.chunk, c.packing_fraction, c.pressure, c.collisions, c.growth_rate
-                );
-            }
-            true
-        },
-    )
-    .expect("a jam");
+    let mut run =
+        JamRun::new(&start, &options, &DynamicsOptions::default(), &mut rng).expect("a jam");
+    let mut retries = 0;
+    while let Some(c) = run.chunk().expect("a jam") {
+        // A chunk that failed numerically ran again at half the rate.
+        if run.progress().retries > retries {
+            retries = run.progress().retries;
+            eprintln!(
+                "chunk {}: run again at rate {:e} after: {}",
+                c.chunk,
+                c.growth_rate,
+                run.last_failure().unwrap_or("?")
+            );
+        }
+        if c.chunk % 10 == 0 {
+            eprintln!(
+                "chunk {}: phi {:.4}, betaPV/N {:.3e}, {} collisions, rate {:e}",
+                c.chunk, c.packing_fraction, c.pressure, c.collisions, c.growth_rate
+            );
+        }
+    }
+    let end = run.end().expect("ended");
+    if let Some(failure) = run.last_failure() {
+        eprintln!("the last failure: {failure}");
+    }
     let seconds = clock.elapsed().as_secs_f64();
-    let system = &out.system;
+    let system = run.system();
     let net = system.contact_network(1e-9);
-    let last = out.last.expect("a chunk");
+    let last = run.progress().last.expect("a chunk");
     println!(
         "{shape}, N = {n}, growth rate {rate:e}: {:?} at phi = {:.4}, betaPV/N = {:.3e}, \
          z = {:.3} (isostatic {}), {:.1} % rattlers, {} overlaps, {} collisions, {seconds:.1} s",
-        out.end,
+        end,
         system.packing_fraction(),
         last.pressure,
         net.backbone_contact_number,

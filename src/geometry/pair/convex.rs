@@ -40,6 +40,21 @@ fn length(a: &Shape, b: &Shape) -> f64 {
 
 /// Signed distance by GJK (separated) or EPA (overlapping).
 pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) -> Contact {
+    distance_bounded(a, b, rel, opts).0
+}
+
+/// [`distance`], and the lower bound on the distance that GJK proved
+/// (−∞ unless it found the bodies apart). GJK on two polytopes can stop
+/// with no new support point (a face whose vertices tie in the support
+/// map) while its distance is still well above that bound, and report
+/// convergence: the gap between the two says how far to trust it.
+pub fn distance_bounded(
+    a: &Shape,
+    b: &Shape,
+    rel: &Relative,
+    opts: &DistanceOptions,
+) -> (Contact, f64) {
+    let unbounded = |c: Contact| (c, f64::NEG_INFINITY);
     let tol = opts.gjk_tolerance * length(a, b);
     let (sa, sb) = supports(a, b, rel);
     let g = gjk_distance(&sa, &sb, rel.translation, tol, opts.gjk_max_iterations);
@@ -88,13 +103,15 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
                 // overlapping by 1e-10, as apart by 6e-13). Decide with the
                 // boolean GJK and measure the depth from its tetrahedron.
                 match gjk_enclose(&sa, &sb, rel.translation, opts.gjk_max_iterations) {
-                    Enclosure::Enclosed(Some(simplex)) => return penetration(&simplex, iterations),
+                    Enclosure::Enclosed(Some(simplex)) => {
+                        return unbounded(penetration(&simplex, iterations));
+                    }
                     Enclosure::Enclosed(None) => {
                         // On a face of M: overlapping to rounding.
-                        return Contact {
+                        return unbounded(Contact {
                             distance: -tol,
                             ..touching
-                        };
+                        });
                     }
                     Enclosure::Separated | Enclosure::Undecided => {}
                 }
@@ -106,7 +123,12 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
             } else {
                 rel.translation.normalize()
             };
-            Contact {
+            let lower = if g.outcome == GjkOutcome::Separated {
+                g.lower_bound
+            } else {
+                f64::NEG_INFINITY
+            };
+            let contact = Contact {
                 distance: g.distance,
                 point_a: g.point_a,
                 point_b: g.point_b,
@@ -118,14 +140,15 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
                 },
                 method: Method::Gjk,
                 warm_start: None,
-            }
+            };
+            (contact, lower)
         }
         GjkOutcome::Overlapping => {
             if g.simplex_len < 4 {
                 // The origin is on the simplex: within rounding of touching.
-                return touching;
+                return unbounded(touching);
             }
-            penetration(&g.simplex, iterations)
+            unbounded(penetration(&g.simplex, iterations))
         }
     }
 }

@@ -65,7 +65,7 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
         if sep > 0.0 {
             // Apart, within the guard of the overlap test: GJK's witness
             // points are exact here.
-            let g = convex::distance(&Shape::Cuboid(*a), &Shape::Cuboid(*b), rel, opts);
+            let g = gjk(a, b, rel, opts);
             if g.is_converged() && g.distance > 0.0 {
                 return g;
             }
@@ -81,7 +81,7 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
         }
         return by_axes(feature_points(a, b, rel, sep, &axis, feature));
     }
-    let g = convex::distance(&Shape::Cuboid(*a), &Shape::Cuboid(*b), rel, opts);
+    let g = gjk(a, b, rel, opts);
     match g.status {
         // Stalled short of the tolerance (its distance is only an upper
         // bound: 2.1e-9 for two nearly parallel edges 3.5e-12 apart, which
@@ -90,6 +90,23 @@ pub fn distance(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) 
         Status::IterationCap { iterations } | Status::Failed { iterations, .. } => {
             closest_features(&ha, &hb, rel, iterations)
         }
+        _ => g,
+    }
+}
+
+/// GJK's distance, converged only where it proved it: stopped with its
+/// distance and its lower bound within its tolerance. On two boxes whose
+/// faces tie in the support map it can stop short (5.4e-9 for a corner
+/// 1.6e-15 from an edge, its edge lying on the face to 3e-9 rad, which
+/// ended a cube jam near βPV/N = 10⁷); that is an `IterationCap`.
+fn gjk(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) -> Contact {
+    let (g, lower) = convex::distance_bounded(&Shape::Cuboid(*a), &Shape::Cuboid(*b), rel, opts);
+    let tolerance = opts.gjk_tolerance * a.half_extents().min().min(b.half_extents().min());
+    match g.status {
+        Status::Converged { iterations } if g.distance - lower > tolerance => Contact {
+            status: Status::IterationCap { iterations },
+            ..g
+        },
         _ => g,
     }
 }
@@ -798,5 +815,50 @@ mod tests {
             &vertex,
         );
         assert!(cuboid_patch(&a, &b, &rel, &Vector3::z(), 1e-9).is_empty());
+    }
+
+    /// A cube's corner 1.6e-15 from another's edge, its edge lying on the
+    /// other's face to 3e-9 rad (a pose that ended a cube jam near
+    /// βPV/N = 10⁷): GJK stops there at 5.4e-9 and calls it converged; the
+    /// distance is that of the closest features.
+    #[test]
+    fn a_corner_at_an_edge_with_its_edge_on_the_face() {
+        let h = 0.7855735963018353;
+        let cube = Cuboid::new(h, h, h).unwrap();
+        let rel = Relative {
+            translation: Vector3::new(
+                -1.571147210362963,
+                -0.45351675504999667,
+                -0.14692026277400894,
+            ),
+            rotation: nalgebra::Matrix3::from_columns(&[
+                Vector3::new(3.264215502063461e-9, 0.977886459657852, 0.20913649135870976),
+                Vector3::new(
+                    0.9999999999999996,
+                    8.532044445952458e-10,
+                    -1.9597500719448213e-8,
+                ),
+                Vector3::new(
+                    -1.934256677049717e-8,
+                    0.20913649135870982,
+                    -0.9778864596578518,
+                ),
+            ]),
+        };
+        let hv = cube.half_extents();
+        let exact = closest_features(&hv, &hv, &rel, 0).distance;
+        assert!(exact.abs() < 1e-14, "closest features {exact:e}");
+        let g = convex::distance(
+            &Shape::Cuboid(cube),
+            &Shape::Cuboid(cube),
+            &rel,
+            &DistanceOptions::default(),
+        );
+        assert!(g.distance > 1e-9, "GJK stops short here: {g:?}");
+        let d = distance(&cube, &cube, &rel, &DistanceOptions::default());
+        assert!(
+            d.is_converged() && (d.distance - exact).abs() < 1e-14,
+            "{d:?} against {exact:e}"
+        );
     }
 }
