@@ -419,3 +419,80 @@ fn replaced_velocities_predict_as_a_fresh_start() {
             .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
     }
 }
+
+/// Two cubes in contact to round-off whose touching corner recedes while
+/// another edge comes down on the same face 1.7e-13 off it (a pose from
+/// a cube jam near βPV/N = 2×10¹⁰). The contact search finds the pair in
+/// contact now; the collision, whose patch of corners all recede, must
+/// act where the pair closes in, else the same collision comes again at
+/// the same instant without end. Once apart the two cubes never meet
+/// again in a box this large.
+#[test]
+fn a_cube_leaving_one_contact_for_another_round_off_away() {
+    use hardbody::geometry::Shape;
+    use hardbody::space::PeriodicBox;
+    use hardbody::state::{Particle, Species, System};
+    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    let h = 0.7877221102688333 * 0.9523809523847531;
+    let cube: Shape = format!("Cuboid(a: {h}, b: {h}, c: {h})").parse().unwrap();
+    let q = |x: f64, y: f64, z: f64, w: f64| {
+        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
+    };
+    let d = Vector3::new(
+        -1.0997527673957155,
+        0.20087894374500603,
+        -1.0159241336260472,
+    );
+    let particles = vec![
+        Particle {
+            position: Vector3::zeros(),
+            orientation: q(
+                -0.5208082699072629,
+                0.023829956362917334,
+                0.4549168953305286,
+                0.7219705655487472,
+            ),
+            species: 0,
+        },
+        Particle {
+            position: d,
+            orientation: q(
+                -0.33995457367136916,
+                -0.13879227801287894,
+                -0.8369328872256551,
+                -0.40584594821686004,
+            ),
+            species: 0,
+        },
+    ];
+    let species = vec![Species {
+        name: "cube".into(),
+        shape: cube,
+        rotation: true,
+    }];
+    let box_ = PeriodicBox::new(Vector3::repeat(40.0)).unwrap();
+    // In contact to round-off (the overlap kernels may call it either
+    // way).
+    let system = System::with_touching(box_, species, particles, 1e-12).unwrap();
+    let velocities = [
+        (
+            Vector3::new(0.6681342316949646, -2.762141069810894, 0.5616305163331854),
+            Vector3::new(2.5883626796332218, 0.8322563405127984, -2.454205482970235),
+        ),
+        (
+            Vector3::new(0.4523835630911631, 0.7071095088459302, -0.7626832317285528),
+            Vector3::new(1.205247601083501, -1.3942336888625022, 1.0776560648697977),
+        ),
+    ];
+    let mut options = DynamicsOptions::default();
+    options.predictor.contact_tolerance = 1e-13;
+    options.predictor.distance.newton.tolerance = 1e-14;
+    let mut md = Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap();
+    md.run_until(1.0).unwrap();
+    assert!(
+        (1..=3).contains(&md.collisions()),
+        "{} collisions",
+        md.collisions()
+    );
+    md.to_system().unwrap();
+}

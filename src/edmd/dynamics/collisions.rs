@@ -213,7 +213,13 @@ impl Dynamics {
                 &normal,
                 growth_along(&normal),
             );
-            return Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)));
+            // No corner of the patch approaches: the pair closes in at a
+            // second contact a round-off away (a cube's edge leaving a
+            // face while another edge comes down 1e-13 off it), found
+            // below as for a single contact point.
+            if jn != 0.0 {
+                return Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)));
+            }
         }
         let (mut normal, mut arm_a, closing) = lab(&contact);
         if closing <= 0.0 {
