@@ -82,11 +82,12 @@ fn main() {
     let last = run.progress().last.expect("a chunk");
     println!(
         "{shape}, N = {n}, growth rate {rate:e}: {:?} at phi = {:.4}, betaPV/N = {:.3e}, \
-         z = {:.3} (isostatic {}), {:.1} % rattlers, {} overlaps, {} collisions, {seconds:.1} s",
+         z = {:.3}, constraints {:.3} (isostatic {}), {:.1} % rattlers, {} overlaps, {} collisions, {seconds:.1} s",
         end,
         system.packing_fraction(),
         last.pressure,
         net.backbone_contact_number,
+        net.backbone_constraint_number,
         net.isostatic_contact_number,
         100.0 * net.rattlers.len() as f64 / n as f64,
         net.overlaps,

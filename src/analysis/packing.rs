@@ -4,10 +4,20 @@
 //! mean contact number of the backbone that remains, against the
 //! isostatic value 2 d_f (d_f = 3 for spheres, 5 for bodies of
 //! revolution, 6 for other bodies; Donev, Torquato & Stillinger).
+//!
+//! Two flat bodies can touch along a line or over a face, and such a
+//! contact holds them as two or three point contacts would (an edge on a
+//! face stops two motions, a face on a face three): contacts are counted
+//! as the constraints they impose, 1, 2 or 3, in the rattler rule and in
+//! the mean that is set against the isostatic value (the counting of
+//! frictionless polyhedra, e.g. Smith, Alam & Fisher, Phys. Rev. E 82,
+//! 011304 (2010)). For curved bodies every contact is a point, one
+//! constraint.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
+use crate::geometry::pair::contact_patch;
 use crate::geometry::{DistanceOptions, Relative, Shape, distance};
 use crate::space::{PeriodicBox, pairs_within};
 
@@ -36,16 +46,24 @@ pub struct ContactNetwork {
     pub gap_tolerance: f64,
     /// The touching pairs (i < j).
     pub contacts: Vec<(usize, usize)>,
+    /// The constraints each contact imposes: 1 at a point, 2 along a line
+    /// (an edge on a face), 3 over a face.
+    pub constraints: Vec<usize>,
     /// Pairs found overlapping (by more than the tolerance): a packing
     /// that is not valid.
     pub overlaps: usize,
     /// Contacts per body.
     pub contact_numbers: Vec<usize>,
-    /// Bodies with fewer than d_f + 1 contacts among the bodies left,
+    /// Constraints per body (the contact numbers, for curved bodies).
+    pub constraint_numbers: Vec<usize>,
+    /// Bodies with fewer than d_f + 1 constraints among the bodies left,
     /// removed round after round.
     pub rattlers: Vec<usize>,
     /// Mean contacts per body of the backbone (the bodies left), 2 C / N.
     pub backbone_contact_number: f64,
+    /// Mean constraints per body of the backbone: what is set against
+    /// the isostatic number (the contact number, for curved bodies).
+    pub backbone_constraint_number: f64,
     /// 2 d_f averaged over the backbone: the isostatic contact number.
     pub isostatic_contact_number: f64,
     /// How many bodies have 0, 1, 2, ... contacts (all bodies).
@@ -77,6 +95,35 @@ pub fn degrees_of_freedom(shape: &Shape) -> usize {
         1 => 5,
         _ => 6,
     }
+}
+
+/// The constraints a contact over the region with corners `points`
+/// imposes: 1 for a point (or no region), 2 for a segment, 3 for an area,
+/// lengths below `tolerance` taken for zero (two coplanar faces that
+/// meet along an edge share a region of no width).
+fn constraints_of(points: &[V3], tolerance: f64) -> usize {
+    let farthest = |from: &V3, far: &dyn Fn(&V3) -> f64| {
+        points
+            .iter()
+            .map(|p| (far(p), *p))
+            .fold(
+                (f64::NEG_INFINITY, *from),
+                |a, b| if b.0 > a.0 { b } else { a },
+            )
+    };
+    let Some(first) = points.first() else {
+        return 1;
+    };
+    let (length, end) = farthest(first, &|p| (p - first).norm());
+    if length <= tolerance {
+        return 1;
+    }
+    let along = (end - first) / length;
+    let (width, _) = farthest(first, &|p| {
+        let r = p - first;
+        (r - along * r.dot(&along)).norm()
+    });
+    if width <= tolerance { 2 } else { 3 }
 }
 
 /// The contact network of `bodies` (shapes `shapes`) in `box_`: bodies
@@ -113,28 +160,34 @@ pub fn contact_network(
             return;
         }
         let rel = Relative::new(&d, &a.orientation, &b.orientation);
-        let gap = distance(shape_a, shape_b, &rel, &options, None).distance;
-        if gap < -tolerance {
+        let contact = distance(shape_a, shape_b, &rel, &options, None);
+        if contact.distance < -tolerance {
             overlaps += 1;
         }
-        if gap < tolerance {
-            contacts.push((i, j));
+        if contact.distance < tolerance {
+            let patch = contact_patch(shape_a, shape_b, &rel, &contact.normal, tolerance);
+            contacts.push((i, j, constraints_of(patch.points(), tolerance)));
         }
     });
     // In index order, whatever order the cells gave them in.
     contacts.sort_unstable();
+    let constraints: Vec<usize> = contacts.iter().map(|c| c.2).collect();
+    let contacts: Vec<(usize, usize)> = contacts.iter().map(|c| (c.0, c.1)).collect();
     let mut contact_numbers = vec![0; n];
-    for &(i, j) in &contacts {
+    let mut constraint_numbers = vec![0; n];
+    for (&(i, j), &c) in contacts.iter().zip(&constraints) {
         contact_numbers[i] += 1;
         contact_numbers[j] += 1;
+        constraint_numbers[i] += c;
+        constraint_numbers[j] += c;
     }
-    // Rattlers: fewer than d_f + 1 contacts among the bodies left, round
-    // after round (removing one can free its neighbours).
+    // Rattlers: fewer than d_f + 1 constraints among the bodies left,
+    // round after round (removing one can free its neighbours).
     let freedom: Vec<usize> = bodies
         .iter()
         .map(|b| degrees_of_freedom(&shapes[b.shape]))
         .collect();
-    let mut left = contact_numbers.clone();
+    let mut left = constraint_numbers.clone();
     let mut rattler = vec![false; n];
     loop {
         let newly: Vec<bool> = (0..n)
@@ -143,11 +196,11 @@ pub fn contact_network(
         if !newly.contains(&true) {
             break;
         }
-        for &(i, j) in &contacts {
+        for (&(i, j), &c) in contacts.iter().zip(&constraints) {
             if newly[i] && !newly[j] && !rattler[j] {
-                left[j] -= 1;
+                left[j] -= c;
             } else if newly[j] && !newly[i] && !rattler[i] {
-                left[i] -= 1;
+                left[i] -= c;
             }
         }
         for (r, new) in rattler.iter_mut().zip(&newly) {
@@ -155,10 +208,14 @@ pub fn contact_network(
         }
     }
     let backbone: Vec<usize> = (0..n).filter(|&i| !rattler[i]).collect();
-    let backbone_contacts = contacts
+    let in_backbone = |&(i, j): &(usize, usize)| !rattler[i] && !rattler[j];
+    let backbone_contacts = contacts.iter().filter(|c| in_backbone(c)).count();
+    let backbone_constraints: usize = contacts
         .iter()
-        .filter(|&&(i, j)| !rattler[i] && !rattler[j])
-        .count();
+        .zip(&constraints)
+        .filter(|(c, _)| in_backbone(c))
+        .map(|(_, &k)| k)
+        .sum();
     let per_body = |total: f64| {
         if backbone.is_empty() {
             f64::NAN
@@ -177,11 +234,14 @@ pub fn contact_network(
         gap_tolerance,
         overlaps,
         contact_numbers,
+        constraint_numbers,
         rattlers: (0..n).filter(|&i| rattler[i]).collect(),
         backbone_contact_number: per_body(2.0 * backbone_contacts as f64),
+        backbone_constraint_number: per_body(2.0 * backbone_constraints as f64),
         isostatic_contact_number: per_body(backbone.iter().map(|&i| 2.0 * freedom[i] as f64).sum()),
         contact_number_histogram: histogram,
         contacts,
+        constraints,
     }
 }
 
@@ -292,6 +352,68 @@ mod tests {
         let network = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
         assert_eq!(network.contacts, vec![(0, 1), (1, 2)]);
         assert_eq!(network.overlaps, 1);
+    }
+
+    /// A contact of two cubes imposes as many constraints as the points
+    /// it takes to hold them there: a face on a face 3, an edge on a face
+    /// 2, a corner on a face 1. Four cubes each held by only its face
+    /// contact with a fifth (3 constraints each, fewer than d_f + 1 = 7)
+    /// are rattlers, and then so is the fifth.
+    #[test]
+    fn cube_contacts_count_the_constraints_they_impose() {
+        let cube = Shape::Cuboid(Cuboid::new(0.5, 0.5, 0.5).unwrap());
+        let box_ = PeriodicBox::new(V3::repeat(20.0)).unwrap();
+        let turned = |axis: V3, angle: f64, p: V3| PackedBody {
+            position: p,
+            orientation: UnitQuaternion::from_axis_angle(
+                &nalgebra::Unit::new_normalize(axis),
+                angle,
+            ),
+            shape: 0,
+        };
+        let half_diagonal = 0.5 * 2f64.sqrt();
+        let body_diagonal = 0.5 * 3f64.sqrt();
+        let pairs = [
+            // Face on face, offset sideways.
+            (at(0.3, 0.2, 1.0), 3),
+            // Turned 45° about x: an edge along x rests on the top face.
+            (
+                turned(
+                    V3::x(),
+                    std::f64::consts::FRAC_PI_4,
+                    V3::new(0.2, 0.1, 0.5 + half_diagonal),
+                ),
+                2,
+            ),
+            // A body diagonal along z: a corner rests on the top face.
+            (
+                turned(
+                    V3::new(1.0, -1.0, 0.0),
+                    (1.0 / 3f64.sqrt()).acos(),
+                    V3::new(0.1, 0.0, 0.5 + body_diagonal),
+                ),
+                1,
+            ),
+        ];
+        for (top, expected) in pairs {
+            let network = contact_network(&box_, &[cube], &[at(0.0, 0.0, 0.0), top], 1e-9);
+            assert_eq!(network.contacts, vec![(0, 1)], "{:?}", top.orientation);
+            assert_eq!(network.constraints, vec![expected], "{:?}", top.orientation);
+            assert_eq!(network.constraint_numbers, vec![expected; 2]);
+            assert_eq!(network.contact_numbers, vec![1, 1]);
+        }
+        // Slid along the faces they touch so that they touch no other.
+        let bodies = [
+            at(0.0, 0.0, 0.0),
+            at(1.0, -0.3, 0.0),
+            at(-1.0, 0.3, 0.0),
+            at(0.3, 1.0, 0.0),
+            at(-0.3, -1.0, 0.0),
+        ];
+        let network = contact_network(&box_, &[cube], &bodies, 1e-9);
+        assert_eq!(network.constraint_numbers, vec![12, 3, 3, 3, 3]);
+        assert_eq!(network.rattlers, vec![0, 1, 2, 3, 4]);
+        assert!(network.backbone_constraint_number.is_nan());
     }
 
     /// Cubes face to face on a lattice touch their 26 neighbours (faces,

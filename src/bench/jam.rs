@@ -37,6 +37,10 @@ pub struct JamRow {
     /// Mean contact number of the backbone (gaps below 10⁻⁹ of the
     /// smallest half-extent).
     pub backbone_contact_number: f64,
+    /// Mean constraints per body of the backbone (a face on a face counts
+    /// 3, an edge on a face 2: the contact number, for curved bodies),
+    /// which is set against 2 d_f.
+    pub backbone_constraint_number: f64,
     /// 2 d_f.
     pub isostatic_contact_number: f64,
     /// Rattlers, per cent of the bodies.
@@ -131,6 +135,7 @@ fn timed(shape: Shape, side: usize, rate: f64, pressure: f64) -> Result<JamRow, 
         packing_fraction: system.packing_fraction(),
         pressure: last.pressure,
         backbone_contact_number: network.backbone_contact_number,
+        backbone_constraint_number: network.backbone_constraint_number,
         isostatic_contact_number: network.isostatic_contact_number,
         rattlers_percent: 100.0 * network.rattlers.len() as f64 / system.len() as f64,
         collisions: last.collisions,
@@ -205,6 +210,7 @@ pub fn table(rows: &[JamRow]) -> String {
         "phi_J",
         "betaPV/N",
         "z backbone",
+        "constraints",
         "2 d_f",
         "rattlers %",
         "collisions",
@@ -221,6 +227,7 @@ pub fn table(rows: &[JamRow]) -> String {
                 format!("{:.4}", r.packing_fraction),
                 format!("{:.2e}", r.pressure),
                 format!("{:.3}", r.backbone_contact_number),
+                format!("{:.3}", r.backbone_constraint_number),
                 format!("{}", r.isostatic_contact_number),
                 format!("{:.1}", r.rattlers_percent),
                 r.collisions.to_string(),

@@ -476,7 +476,7 @@ pub(super) fn analyze_packing(
         }
     ));
     say(&format!(
-        "rattlers: {} ({:.1} %), removed while they had fewer than d_f + 1 contacts",
+        "rattlers: {} ({:.1} %), removed while they had fewer than d_f + 1 constraints",
         network.rattlers.len(),
         100.0 * network.rattlers.len() as f64 / network.bodies.max(1) as f64
     ));
@@ -489,6 +489,12 @@ pub(super) fn analyze_packing(
             "backbone: mean contact number z = {:.4}, isostatic 2 d_f = {:.4}",
             network.backbone_contact_number, network.isostatic_contact_number
         ));
+        if network.backbone_constraint_number != network.backbone_contact_number {
+            say(&format!(
+                "backbone: mean constraints per body {:.4} (a face on a face counts 3, an edge on a face 2), against 2 d_f",
+                network.backbone_constraint_number
+            ));
+        }
     }
     let histogram: Vec<String> = network
         .contact_number_histogram
