@@ -420,6 +420,45 @@ fn replaced_velocities_predict_as_a_fresh_start() {
     }
 }
 
+/// Two cubes at `d` (B − A) with orientations given as (x, y, z, w),
+/// in a box far larger than they are, touching to round-off.
+fn two_cubes(half: f64, d: [f64; 3], qa: [f64; 4], qb: [f64; 4]) -> hardbody::state::System {
+    use hardbody::space::PeriodicBox;
+    use hardbody::state::{Particle, Species, System};
+    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+    let q = |[x, y, z, w]: [f64; 4]| UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+    let particles = vec![
+        Particle {
+            position: Vector3::zeros(),
+            orientation: q(qa),
+            species: 0,
+        },
+        Particle {
+            position: Vector3::from(d),
+            orientation: q(qb),
+            species: 0,
+        },
+    ];
+    let species = vec![Species {
+        name: "cube".into(),
+        shape: format!("Cuboid(a: {half}, b: {half}, c: {half})")
+            .parse()
+            .unwrap(),
+        rotation: true,
+    }];
+    let box_ = PeriodicBox::new(Vector3::repeat(40.0)).unwrap();
+    // In contact to round-off (the overlap kernels may call it either way).
+    System::with_touching(box_, species, particles, 1e-12).unwrap()
+}
+
+/// The jam's tolerances: contacts to 1e-13 of the size, distances to 1e-14.
+fn jam_tolerances() -> DynamicsOptions {
+    let mut options = DynamicsOptions::default();
+    options.predictor.contact_tolerance = 1e-13;
+    options.predictor.distance.newton.tolerance = 1e-14;
+    options
+}
+
 /// Two cubes in contact to round-off whose touching corner recedes while
 /// another edge comes down on the same face 1.7e-13 off it (a pose from
 /// a cube jam near βPV/N = 2×10¹⁰). The contact search finds the pair in
@@ -429,51 +468,27 @@ fn replaced_velocities_predict_as_a_fresh_start() {
 /// again in a box this large.
 #[test]
 fn a_cube_leaving_one_contact_for_another_round_off_away() {
-    use hardbody::geometry::Shape;
-    use hardbody::space::PeriodicBox;
-    use hardbody::state::{Particle, Species, System};
-    use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-    let h = 0.7877221102688333 * 0.9523809523847531;
-    let cube: Shape = format!("Cuboid(a: {h}, b: {h}, c: {h})").parse().unwrap();
-    let q = |x: f64, y: f64, z: f64, w: f64| {
-        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z))
-    };
-    let d = Vector3::new(
-        -1.0997527673957155,
-        0.20087894374500603,
-        -1.0159241336260472,
+    use nalgebra::Vector3;
+    let system = two_cubes(
+        0.7877221102688333 * 0.9523809523847531,
+        [
+            -1.0997527673957155,
+            0.20087894374500603,
+            -1.0159241336260472,
+        ],
+        [
+            -0.5208082699072629,
+            0.023829956362917334,
+            0.4549168953305286,
+            0.7219705655487472,
+        ],
+        [
+            -0.33995457367136916,
+            -0.13879227801287894,
+            -0.8369328872256551,
+            -0.40584594821686004,
+        ],
     );
-    let particles = vec![
-        Particle {
-            position: Vector3::zeros(),
-            orientation: q(
-                -0.5208082699072629,
-                0.023829956362917334,
-                0.4549168953305286,
-                0.7219705655487472,
-            ),
-            species: 0,
-        },
-        Particle {
-            position: d,
-            orientation: q(
-                -0.33995457367136916,
-                -0.13879227801287894,
-                -0.8369328872256551,
-                -0.40584594821686004,
-            ),
-            species: 0,
-        },
-    ];
-    let species = vec![Species {
-        name: "cube".into(),
-        shape: cube,
-        rotation: true,
-    }];
-    let box_ = PeriodicBox::new(Vector3::repeat(40.0)).unwrap();
-    // In contact to round-off (the overlap kernels may call it either
-    // way).
-    let system = System::with_touching(box_, species, particles, 1e-12).unwrap();
     let velocities = [
         (
             Vector3::new(0.6681342316949646, -2.762141069810894, 0.5616305163331854),
@@ -484,13 +499,62 @@ fn a_cube_leaving_one_contact_for_another_round_off_away() {
             Vector3::new(1.205247601083501, -1.3942336888625022, 1.0776560648697977),
         ),
     ];
-    let mut options = DynamicsOptions::default();
-    options.predictor.contact_tolerance = 1e-13;
-    options.predictor.distance.newton.tolerance = 1e-14;
-    let mut md = Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap();
+    let mut md = Dynamics::from_parts(&system, &velocities, &jam_tolerances(), 0.0, 0).unwrap();
     md.run_until(1.0).unwrap();
     assert!(
         (1..=3).contains(&md.collisions()),
+        "{} collisions",
+        md.collisions()
+    );
+    md.to_system().unwrap();
+}
+
+/// Two growing cubes touching at a corner that recedes, while elsewhere
+/// they sit 1e-16 apart and close in by the growth alone, to overlap
+/// 2.2e-10 later (a pose from a cube jam near βPV/N = 2×10¹¹). The
+/// collision must look ahead with the bodies grown, as the search does,
+/// to find where they close in; at a fixed size it found nothing, gave
+/// no impulse, and the collision came again at the same instant.
+#[test]
+fn growing_cubes_closing_in_by_the_growth_alone() {
+    use nalgebra::Vector3;
+    let system = two_cubes(
+        0.7502115336440087,
+        [-0.713520586216615, -1.54992005942682, -0.5310210671686715],
+        [
+            0.7840908991662756,
+            0.4556308397127603,
+            0.34300439281012296,
+            0.2448468628760131,
+        ],
+        [
+            -0.03497511985592801,
+            -0.3965257870011912,
+            0.024094088774480927,
+            0.9170406294817459,
+        ],
+    );
+    let velocities = [
+        (
+            Vector3::new(1.988854263757235, 1.028588272396314, -1.35725263662958),
+            Vector3::new(1.9571941194919478, -1.6413297981587531, 1.5966356207278234),
+        ),
+        (
+            Vector3::new(
+                0.08317087401361534,
+                -0.9514777563365642,
+                0.10801607915007394,
+            ),
+            Vector3::new(-2.030899904024425, -4.124334907669204, 0.7710441677711224),
+        ),
+    ];
+    // The scale of the jam's chunk at that moment: 1 / (1 + margin).
+    let margin = 1.0 / 0.9523809523824274 - 1.0;
+    let mut md = Dynamics::growing(&system, &velocities, &jam_tolerances(), 0.01, margin).unwrap();
+    let ends = md.growth_ends().unwrap();
+    md.run_until(ends.min(1e-3)).unwrap();
+    assert!(
+        (1..=5).contains(&md.collisions()),
         "{} collisions",
         md.collisions()
     );

@@ -236,14 +236,18 @@ impl Dynamics {
                 + bj.angular_velocity.norm() * kj.shape.moment_arm();
             let mut delta = self.predictor.contact_tolerance() * size / rate.max(f64::MIN_POSITIVE);
             for _ in 0..40 {
-                // (At the scale of now: the bodies a moment later, as big.)
+                // The bodies a moment later, grown as the search has them
+                // (a second contact may close in by the growth alone).
+                let scale_later = self.growth.map_or(1.0, |g| g.at(self.now + delta));
                 let later = Relative::new(
-                    &((d + (bj.velocity - bi.velocity) * delta) / scale),
+                    &((d + (bj.velocity - bi.velocity) * delta) / scale_later),
                     &spin_i.orientation_after(&bi.orientation, delta),
                     &spin_j.orientation_after(&bj.orientation, delta),
                 );
-                let ahead =
-                    scaled_contact(self.predictor.contact(&ki.shape, &kj.shape, &later), scale);
+                let ahead = scaled_contact(
+                    self.predictor.contact(&ki.shape, &kj.shape, &later),
+                    scale_later,
+                );
                 if ahead.distance < 0.0 {
                     let (n, a, c) = lab(&ahead);
                     if c > 0.0 {
