@@ -9,6 +9,7 @@
 
 mod convex;
 mod cuboid_cuboid;
+mod cuboid_patch;
 mod cuboid_smooth;
 mod cuboid_sphere;
 mod quadric_quadric;
@@ -23,7 +24,7 @@ pub use super::contact::{Contact, Failure, Method, Relative, Status};
 use super::newton::NewtonOptions;
 use super::shape::Shape;
 
-pub use cuboid_cuboid::ContactPatch;
+pub use cuboid_patch::ContactPatch;
 pub use quadric_quadric::{Spheroid, perram_wertheim, spheroid_overlap};
 pub use smooth_smooth::support_points_start;
 pub use strains::{OverlapStrains, take_overlap_strains};
@@ -207,7 +208,7 @@ pub fn contact_patch(
 ) -> ContactPatch {
     match (a, b) {
         (Shape::Cuboid(p), Shape::Cuboid(q)) => {
-            cuboid_cuboid::cuboid_patch(p, q, rel, normal, tolerance)
+            cuboid_patch::cuboid_patch(p, q, rel, normal, tolerance)
         }
         _ => ContactPatch::none(),
     }
