@@ -82,7 +82,7 @@ fn main() {
     let last = run.progress().last.expect("a chunk");
     println!(
         "{shape}, N = {n}, growth rate {rate:e}: {:?} at phi = {:.4}, betaPV/N = {:.3e}, \
-         z = {:.3}, constraints {:.3} (isostatic {}), {:.1} % rattlers, {} overlaps, {} collisions, {seconds:.1} s",
+         z = {:.3}, constraints {:.3} (isostatic {}), {:.1} % rattlers, all bodies z = {:.3}, constraints {:.3}, {} overlaps, {} collisions, {seconds:.1} s",
         end,
         system.packing_fraction(),
         last.pressure,
@@ -90,6 +90,8 @@ fn main() {
         net.backbone_constraint_number,
         net.isostatic_contact_number,
         100.0 * net.rattlers.len() as f64 / n as f64,
+        net.mean_contact_number,
+        net.mean_constraint_number,
         net.overlaps,
         last.collisions
     );

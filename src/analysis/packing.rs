@@ -64,6 +64,13 @@ pub struct ContactNetwork {
     /// Mean constraints per body of the backbone: what is set against
     /// the isostatic number (the contact number, for curved bodies).
     pub backbone_constraint_number: f64,
+    /// Mean contacts per body over all bodies, rattlers included (defined
+    /// where the backbone is empty: a hypostatic packing of nearly round
+    /// bodies, few of them with d_f + 1 contacts, loses every body to the
+    /// rattler rule).
+    pub mean_contact_number: f64,
+    /// Mean constraints per body over all bodies.
+    pub mean_constraint_number: f64,
     /// 2 d_f averaged over the backbone: the isostatic contact number.
     pub isostatic_contact_number: f64,
     /// How many bodies have 0, 1, 2, ... contacts (all bodies).
@@ -238,6 +245,8 @@ pub fn contact_network(
         rattlers: (0..n).filter(|&i| rattler[i]).collect(),
         backbone_contact_number: per_body(2.0 * backbone_contacts as f64),
         backbone_constraint_number: per_body(2.0 * backbone_constraints as f64),
+        mean_contact_number: 2.0 * contacts.len() as f64 / n.max(1) as f64,
+        mean_constraint_number: 2.0 * constraints.iter().sum::<usize>() as f64 / n.max(1) as f64,
         isostatic_contact_number: per_body(backbone.iter().map(|&i| 2.0 * freedom[i] as f64).sum()),
         contact_number_histogram: histogram,
         contacts,
@@ -414,6 +423,8 @@ mod tests {
         assert_eq!(network.constraint_numbers, vec![12, 3, 3, 3, 3]);
         assert_eq!(network.rattlers, vec![0, 1, 2, 3, 4]);
         assert!(network.backbone_constraint_number.is_nan());
+        assert_eq!(network.mean_contact_number, 8.0 / 5.0);
+        assert_eq!(network.mean_constraint_number, 24.0 / 5.0);
     }
 
     /// Cubes face to face on a lattice touch their 26 neighbours (faces,

@@ -41,6 +41,8 @@ pub struct JamRow {
     /// 3, an edge on a face 2: the contact number, for curved bodies),
     /// which is set against 2 d_f.
     pub backbone_constraint_number: f64,
+    /// Mean contacts per body over all bodies, rattlers included.
+    pub mean_contact_number: f64,
     /// 2 d_f.
     pub isostatic_contact_number: f64,
     /// Rattlers, per cent of the bodies.
@@ -136,6 +138,7 @@ fn timed(shape: Shape, side: usize, rate: f64, pressure: f64) -> Result<JamRow, 
         pressure: last.pressure,
         backbone_contact_number: network.backbone_contact_number,
         backbone_constraint_number: network.backbone_constraint_number,
+        mean_contact_number: network.mean_contact_number,
         isostatic_contact_number: network.isostatic_contact_number,
         rattlers_percent: 100.0 * network.rattlers.len() as f64 / system.len() as f64,
         collisions: last.collisions,
@@ -211,6 +214,7 @@ pub fn table(rows: &[JamRow]) -> String {
         "betaPV/N",
         "z backbone",
         "constraints",
+        "z all",
         "2 d_f",
         "rattlers %",
         "collisions",
@@ -228,6 +232,7 @@ pub fn table(rows: &[JamRow]) -> String {
                 format!("{:.2e}", r.pressure),
                 format!("{:.3}", r.backbone_contact_number),
                 format!("{:.3}", r.backbone_constraint_number),
+                format!("{:.3}", r.mean_contact_number),
                 format!("{}", r.isostatic_contact_number),
                 format!("{:.1}", r.rattlers_percent),
                 r.collisions.to_string(),

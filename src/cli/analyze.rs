@@ -480,9 +480,13 @@ pub(super) fn analyze_packing(
         network.rattlers.len(),
         100.0 * network.rattlers.len() as f64 / network.bodies.max(1) as f64
     ));
+    say(&format!(
+        "all bodies: mean contact number {:.4}, mean constraints per body {:.4}",
+        network.mean_contact_number, network.mean_constraint_number
+    ));
     if network.backbone_contact_number.is_nan() {
         say(
-            "backbone: none (every body is a rattler at this tolerance; is --gap below the packing's gaps?)",
+            "backbone: none (every body is a rattler at this tolerance: is --gap below the packing's gaps, or is the packing hypostatic?)",
         );
     } else {
         say(&format!(
