@@ -124,24 +124,38 @@ fn crossed_edges(
 ) -> Option<f64> {
     let (k, l) = ((i + 1) % 3, (i + 2) % 3);
     let w = rel.rotation.column(j).into_owned();
-    let ww = w[k] * w[k] + w[l] * w[l];
     let across = (axis[k] * axis[k] + axis[l] * axis[l]).sqrt();
-    if ww == 0.0 || across == 0.0 {
+    if w[k] * w[k] + w[l] * w[l] == 0.0 || across == 0.0 {
         return None;
     }
-    // A's edge is the point (a_k, a_l) across axis i; B's edge the line
-    // through point_b along (w_k, w_l) there.
     let corner = |x: f64, h: f64| if x < 0.0 { -h } else { h };
     let (ak, al) = (corner(point_a[k], ha[k]), corner(point_a[l], ha[l]));
-    let (pk, pl) = (point_b[k] - ak, point_b[l] - al);
-    let along = -(pk * w[k] + pl * w[l]) / ww;
+    let (along, (gk, gl)) = across_edge(i, (ak, al), point_b, &w);
     let foot = point_b + w * along;
     let on_b = rel.rotation.tr_mul(&(foot - rel.translation));
     if foot[i].abs() > ha[i] || on_b[j].abs() > hb[j] {
         return None;
     }
-    let (gk, gl) = (pk + along * w[k], pl + along * w[l]);
     Some((gk * axis[k] + gl * axis[l]) / across)
+}
+
+/// Across A's edge along axis `i`, which is the point `corner` (its
+/// coordinates i + 1, i + 2) in the plane normal to it: the foot of B's
+/// edge line (through `on_b`, direction `w`, not parallel to the edge)
+/// nearest to that point, as the step along `w` from `on_b`, and the gap
+/// from A's edge to the foot there. A 2D point–line distance, exact to
+/// rounding of the size however parallel the two edges are.
+fn across_edge(
+    i: usize,
+    corner: (f64, f64),
+    on_b: &Vector3<f64>,
+    w: &Vector3<f64>,
+) -> (f64, (f64, f64)) {
+    let (k, l) = ((i + 1) % 3, (i + 2) % 3);
+    let ww = w[k] * w[k] + w[l] * w[l];
+    let (pk, pl) = (on_b[k] - corner.0, on_b[l] - corner.1);
+    let along = -(pk * w[k] + pl * w[l]) / ww;
+    (along, (pk + along * w[k], pl + along * w[l]))
 }
 
 /// GJK's distance, converged only where it proved it: stopped with its
@@ -304,8 +318,7 @@ fn closest_features(
                 for ea in 0..4 {
                     let aj = if ea & 1 == 0 { -ha[j] } else { ha[j] };
                     let ak = if ea & 2 == 0 { -ha[k] } else { ha[k] };
-                    let (pj, pk) = (centre_b[j] - aj, centre_b[k] - ak);
-                    let along = -(pj * w2.0 + pk * w2.1) / ww;
+                    let (along, (gj, gk)) = across_edge(i, (aj, ak), &centre_b, &w);
                     if along.abs() >= hb[m] {
                         continue;
                     }
@@ -313,7 +326,6 @@ fn closest_features(
                     if point_b[i].abs() >= ha[i] {
                         continue;
                     }
-                    let (gj, gk) = (pj + along * w2.0, pk + along * w2.1);
                     let d = (gj * gj + gk * gk).sqrt();
                     if d < best.0 {
                         let mut point_a = Vector3::zeros();
