@@ -40,21 +40,21 @@ fn length(a: &Shape, b: &Shape) -> f64 {
 
 /// Signed distance by GJK (separated) or EPA (overlapping).
 pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) -> Contact {
-    distance_bounded(a, b, rel, opts).0
+    distance_with_stall(a, b, rel, opts).0
 }
 
-/// [`distance`], and the lower bound on the distance that GJK proved
-/// (−∞ unless it found the bodies apart). GJK on two polytopes can stop
-/// with no new support point (a face whose vertices tie in the support
-/// map) while its distance is still well above that bound, and report
-/// convergence: the gap between the two says how far to trust it.
-pub fn distance_bounded(
+/// [`distance`], and whether GJK stopped short of its tolerance: apart,
+/// its distance still above the lower bound it proved by more than the
+/// tolerance. GJK on two polytopes can stop so, with no new support point
+/// (a face whose vertices tie in the support map), and report
+/// convergence.
+pub fn distance_with_stall(
     a: &Shape,
     b: &Shape,
     rel: &Relative,
     opts: &DistanceOptions,
-) -> (Contact, f64) {
-    let unbounded = |c: Contact| (c, f64::NEG_INFINITY);
+) -> (Contact, bool) {
+    let not_short = |c: Contact| (c, false);
     let tol = opts.gjk_tolerance * length(a, b);
     let (sa, sb) = supports(a, b, rel);
     let g = gjk_distance(&sa, &sb, rel.translation, tol, opts.gjk_max_iterations);
@@ -104,11 +104,11 @@ pub fn distance_bounded(
                 // boolean GJK and measure the depth from its tetrahedron.
                 match gjk_enclose(&sa, &sb, rel.translation, opts.gjk_max_iterations) {
                     Enclosure::Enclosed(Some(simplex)) => {
-                        return unbounded(penetration(&simplex, iterations));
+                        return not_short(penetration(&simplex, iterations));
                     }
                     Enclosure::Enclosed(None) => {
                         // On a face of M: overlapping to rounding.
-                        return unbounded(Contact {
+                        return not_short(Contact {
                             distance: -tol,
                             ..touching
                         });
@@ -123,11 +123,7 @@ pub fn distance_bounded(
             } else {
                 rel.translation.normalize()
             };
-            let lower = if g.outcome == GjkOutcome::Separated {
-                g.lower_bound
-            } else {
-                f64::NEG_INFINITY
-            };
+            let short = g.outcome == GjkOutcome::Separated && g.distance - g.lower_bound > tol;
             let contact = Contact {
                 distance: g.distance,
                 point_a: g.point_a,
@@ -141,14 +137,14 @@ pub fn distance_bounded(
                 method: Method::Gjk,
                 warm_start: None,
             };
-            (contact, lower)
+            (contact, short)
         }
         GjkOutcome::Overlapping => {
             if g.simplex_len < 4 {
                 // The origin is on the simplex: within rounding of touching.
-                return unbounded(touching);
+                return not_short(touching);
             }
-            unbounded(penetration(&g.simplex, iterations))
+            not_short(penetration(&g.simplex, iterations))
         }
     }
 }

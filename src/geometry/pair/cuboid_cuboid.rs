@@ -164,10 +164,9 @@ fn across_edge(
 /// 1.6e-15 from an edge, its edge lying on the face to 3e-9 rad, which
 /// ended a cube jam near βPV/N = 10⁷); that is an `IterationCap`.
 fn gjk(a: &Cuboid, b: &Cuboid, rel: &Relative, opts: &DistanceOptions) -> Contact {
-    let (g, lower) = convex::distance_bounded(&Shape::Cuboid(*a), &Shape::Cuboid(*b), rel, opts);
-    let tolerance = opts.gjk_tolerance * a.half_extents().min().min(b.half_extents().min());
+    let (g, short) = convex::distance_with_stall(&Shape::Cuboid(*a), &Shape::Cuboid(*b), rel, opts);
     match g.status {
-        Status::Converged { iterations } if g.distance - lower > tolerance => Contact {
+        Status::Converged { iterations } if short => Contact {
             status: Status::IterationCap { iterations },
             ..g
         },
