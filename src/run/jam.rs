@@ -168,8 +168,8 @@ impl StageRun for JamStage {
             self.last
                 .map(|c| {
                     format!(
-                        "phi {:.4}, betaPV/N {:.3e}, {} collisions",
-                        c.packing_fraction, c.pressure, c.collisions
+                        "phi {:.4}, betaPV/N {:.3e}, {} collisions, growth rate {:e}",
+                        c.packing_fraction, c.pressure, c.collisions, c.growth_rate
                     )
                 })
                 .unwrap_or_default(),
