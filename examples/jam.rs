@@ -5,11 +5,17 @@
 //! (shape in the scene spelling, the number of bodies, the growth rate,
 //! and optionally the bound on βPV/N; defaults: 1000 spheres at 10⁻³ to
 //! 10¹², about 40 s on one core).
+//!
+//! A chunk that fails numerically is run again at half the rate; its
+//! dynamics where it failed is written to `jam-failure-<chunk>.json`, and
+//! `cargo run --release --example jam -- --replay jam-failure-<chunk>.json`
+//! predicts the failing event again from it (seconds, not the run up to
+//! it): the way to look at a failure's pose.
 
 use std::time::Instant;
 
-use hardbody::edmd::DynamicsOptions;
-use hardbody::edmd::jam::{JamOptions, JamRun};
+use hardbody::edmd::jam::{JamFailure, JamOptions, JamRun};
+use hardbody::edmd::{DynamicsDump, DynamicsOptions};
 use hardbody::geometry::Shape;
 use hardbody::space::PeriodicBox;
 use hardbody::state::Species;
@@ -20,6 +26,11 @@ use rand_pcg::Pcg64;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if let [flag, path] = &args[..]
+        && flag == "--replay"
+    {
+        return replay(path);
+    }
     let shape: Shape = args
         .first()
         .map_or("Sphere(radius: 0.5)", String::as_str)
@@ -64,6 +75,13 @@ fn main() {
                 c.growth_rate,
                 run.last_failure().unwrap_or("?")
             );
+            if let Some(failure) = run.last_failure_replay() {
+                let path = format!("jam-failure-{}.json", c.chunk);
+                match std::fs::write(&path, failure_json(failure)) {
+                    Ok(()) => eprintln!("  its dynamics: {path} (--replay {path})"),
+                    Err(e) => eprintln!("  could not write {path}: {e}"),
+                }
+            }
         }
         if c.chunk % 10 == 0 {
             eprintln!(
@@ -95,4 +113,64 @@ fn main() {
         net.overlaps,
         last.collisions
     );
+}
+
+/// A failed chunk as JSON: the message, the dump, the chunk's shapes (scene
+/// spelling) and the options the jam sets (the rest are the defaults, as
+/// this example runs).
+fn failure_json(failure: &JamFailure) -> String {
+    let predictor = &failure.options.predictor;
+    serde_json::json!({
+        "message": failure.message,
+        "shapes": failure.species.iter().map(|s| s.shape.to_string()).collect::<Vec<_>>(),
+        "neighbour_shell": failure.options.neighbour_shell,
+        "contact_tolerance": predictor.contact_tolerance,
+        "newton_tolerance": predictor.distance.newton.tolerance,
+        "dump": failure.dump,
+    })
+    .to_string()
+}
+
+/// Rebuilds a failed chunk from its JSON and runs it on to the end of its
+/// growth: the failing event comes again.
+fn replay(path: &str) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let species: Vec<Species> = json["shapes"]
+        .as_array()
+        .expect("shapes")
+        .iter()
+        .map(|s| {
+            let shape: Shape = s.as_str().expect("a shape").parse().expect("a shape");
+            Species {
+                name: shape.kind().into(),
+                shape,
+                rotation: !shape.is_sphere(),
+            }
+        })
+        .collect();
+    let mut options = DynamicsOptions {
+        neighbour_shell: json["neighbour_shell"].as_f64(),
+        ..DynamicsOptions::default()
+    };
+    options.predictor.contact_tolerance = json["contact_tolerance"].as_f64().expect("tolerance");
+    options.predictor.distance.newton.tolerance =
+        json["newton_tolerance"].as_f64().expect("tolerance");
+    let dump: DynamicsDump = serde_json::from_value(json["dump"].clone()).expect("a dump");
+    let failure = JamFailure {
+        message: json["message"].as_str().unwrap_or_default().into(),
+        dump,
+        species,
+        options,
+    };
+    let mut md = failure.replay().expect("the chunk rebuilt");
+    let ends = md.growth_ends().expect("growing");
+    eprintln!("{path}: failed with: {}", failure.message);
+    match md.run_collisions_until(u64::MAX, ends) {
+        Err(e) => println!("replayed: {e}"),
+        Ok(()) => println!(
+            "replayed to the end of the growth without that failure ({} collisions)",
+            md.collisions()
+        ),
+    }
 }

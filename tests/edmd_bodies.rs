@@ -12,7 +12,7 @@
 mod common;
 
 use common::compressed_state;
-use hardbody::edmd::{Dynamics, DynamicsOptions};
+use hardbody::edmd::{Dynamics, DynamicsDump, DynamicsOptions};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
@@ -263,6 +263,55 @@ fn a_dump_replays_the_run_bit_for_bit() {
             "{shapes:?}: parted after {same} collisions"
         );
         assert_eq!(md.kinetic_energy(), replay.kinetic_energy());
+    }
+}
+
+/// A dump of growing bodies (a jam's chunk, where its numerical failures
+/// happen) carries the growth: the dynamics rebuilt from it, through JSON,
+/// with the dynamics' own species and options, grows on and makes the
+/// same collisions bit for bit.
+#[test]
+fn a_dump_of_growing_bodies_replays_the_growth_bit_for_bit() {
+    for (shapes, phi, seed, shell) in [
+        (&[CUBE][..], 0.45, 4, Some(0.1)),
+        (&[PROLATE][..], 0.45, 1, None),
+    ] {
+        let system = compressed_state(shapes, 6, phi, seed);
+        let options = DynamicsOptions {
+            neighbour_shell: shell,
+            ..DynamicsOptions::default()
+        };
+        let mut rng = Pcg64::seed_from_u64(seed + 60);
+        let velocities = Dynamics::from_state(&system, &options, &mut rng)
+            .unwrap()
+            .velocities();
+        let mut md = Dynamics::growing(&system, &velocities, &options, 0.05, 0.05).unwrap();
+        let ends = md.growth_ends().unwrap();
+        md.run_collisions_until(3_000, ends).unwrap();
+        assert!(md.time() < ends, "{shapes:?}: still growing");
+        let json = serde_json::to_string(&md.dump()).unwrap();
+        let dump: DynamicsDump = serde_json::from_str(&json).unwrap();
+        assert!(dump.growth.is_some());
+        let mut replay = Dynamics::from_dump(md.species(), &dump, md.options()).unwrap();
+        assert!(replay.dump() == md.dump(), "{shapes:?}: the stored state");
+        let trace = |md: &mut Dynamics| {
+            md.record_collisions(true);
+            md.run_collisions_until(2_000, ends).unwrap();
+            md.take_collisions()
+        };
+        let (first, second) = (trace(&mut md), trace(&mut replay));
+        assert!(first.len() > 500, "{shapes:?}: {} collisions", first.len());
+        let same = first
+            .iter()
+            .zip(&second)
+            .take_while(|(a, b)| a == b)
+            .count();
+        assert_eq!(
+            (same, second.len()),
+            (first.len(), first.len()),
+            "{shapes:?}: parted after {same} collisions"
+        );
+        assert_eq!(md.species_now(), replay.species_now());
     }
 }
 

@@ -27,9 +27,11 @@
 use nalgebra::Vector3;
 use rand::Rng;
 
-use super::dynamics::{Dynamics, DynamicsOptions, EdmdError, automatic_neighbour_shell};
+use super::dynamics::{
+    Dynamics, DynamicsDump, DynamicsOptions, EdmdError, automatic_neighbour_shell,
+};
 use super::predict::SolverWork;
-use crate::state::System;
+use crate::state::{Species, System};
 
 type V3 = Vector3<f64>;
 
@@ -170,7 +172,7 @@ pub struct JamRun {
     options: JamOptions,
     dynamics: DynamicsOptions,
     end: Option<JamEnd>,
-    last_failure: Option<String>,
+    last_failure: Option<JamFailure>,
 }
 
 impl JamRun {
@@ -296,8 +298,13 @@ impl JamRun {
             });
             let (pressure, next) = match outcome {
                 Ok(done) => done,
-                Err(e) => {
-                    self.last_failure = Some(e);
+                Err(message) => {
+                    self.last_failure = Some(JamFailure {
+                        message,
+                        dump: md.dump(),
+                        species: md.species().to_vec(),
+                        options: md.options().clone(),
+                    });
                     if p.rate * 0.5 < self.options.growth_floor {
                         self.end = Some(JamEnd::GrowthFloor);
                         return Ok(None);
@@ -373,7 +380,38 @@ impl JamRun {
 
     /// The last failure that made a chunk run again, if any.
     pub fn last_failure(&self) -> Option<&str> {
-        self.last_failure.as_deref()
+        self.last_failure.as_ref().map(|f| f.message.as_str())
+    }
+
+    /// That failure with what replays it.
+    pub fn last_failure_replay(&self) -> Option<&JamFailure> {
+        self.last_failure.as_ref()
+    }
+}
+
+/// A chunk's numerical failure (the chunk was run again at half the
+/// rate), with the chunk's dynamics where it failed: every body's stored
+/// pose and the growth to the bit, so that the failing event can be
+/// predicted again ([`JamFailure::replay`]) without running the jam up to
+/// it. `dump` serialises (serde); `species` and `options` are the chunk's.
+#[derive(Debug, Clone)]
+pub struct JamFailure {
+    /// The error, as reported.
+    pub message: String,
+    /// The chunk's dynamics at the failure (or at its end, for a failure
+    /// found there: collisions at one instant, an overlap).
+    pub dump: DynamicsDump,
+    /// The chunk's species: the largest the bodies grow to in it.
+    pub species: Vec<Species>,
+    /// The chunk's options (its neighbour shell and tolerances).
+    pub options: DynamicsOptions,
+}
+
+impl JamFailure {
+    /// The chunk's dynamics rebuilt where it failed: running it on to
+    /// [`Dynamics::growth_ends`] meets the failing event again.
+    pub fn replay(&self) -> Result<Dynamics, EdmdError> {
+        Dynamics::from_dump(&self.species, &self.dump, &self.options)
     }
 }
 
@@ -431,7 +469,7 @@ pub fn jam<R: Rng>(
         last: run.progress.last,
         end: run.end.expect("ended"),
         retries: run.progress.retries,
-        last_failure: run.last_failure,
+        last_failure: run.last_failure.map(|f| f.message),
         solver: run.progress.solver,
     })
 }

@@ -64,7 +64,7 @@ impl Progress {
 /// 1 over the times the caller acts on (the shapes given are the largest
 /// the bodies become: bounding spheres and turn bounds are those of the
 /// shapes, and only the distances and support planes are scaled).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Growth {
     /// The scale at the origin (of the search, or of the clock).
     pub scale: f64,

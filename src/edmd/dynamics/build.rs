@@ -180,6 +180,7 @@ impl Dynamics {
                     }
                 })
                 .collect(),
+            growth: self.growth,
         }
     }
 
@@ -252,9 +253,30 @@ impl Dynamics {
         let box_ = PeriodicBox::new(V3::from(dump.box_lengths))
             .map_err(|e| bad(format!("box: {e}")))?
             .with_walls(dump.walls);
+        if let Some(g) = dump.growth {
+            let scale = g.at(dump.now);
+            if !(g.rate.is_finite() && g.rate > 0.0 && scale > 0.0 && scale <= 1.0) {
+                return Err(bad(format!(
+                    "growth at rate {} to scale {scale} now: not a growth a dynamics runs",
+                    g.rate
+                )));
+            }
+        }
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         let tolerance = Predictor::new(options.predictor).contact_tolerance();
-        let system = System::with_touching(box_, species.to_vec(), particles, tolerance)?;
+        // Growing bodies have their size now in the state checked for
+        // overlaps; the dynamics keeps the largest shapes.
+        let now_species: Vec<Species> = match dump.growth {
+            None => species.to_vec(),
+            Some(g) => species
+                .iter()
+                .map(|s| Species {
+                    shape: s.shape.scaled(g.at(dump.now)),
+                    ..s.clone()
+                })
+                .collect(),
+        };
+        let system = System::with_touching(box_, now_species, particles, tolerance)?;
         let mut dynamics = Self::assemble(
             &system,
             species.to_vec(),
@@ -262,7 +284,7 @@ impl Dynamics {
             bodies,
             options,
             dump.now,
-            None,
+            dump.growth,
         )?;
         dynamics.origin = dump.time_origin;
         dynamics.collisions = dump.collisions;

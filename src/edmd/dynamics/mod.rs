@@ -398,6 +398,11 @@ pub struct DynamicsDump {
     pub walls: [bool; 3],
     /// Per body.
     pub bodies: Vec<BodyDump>,
+    /// The growth on the dump's clock, if the bodies grow (a jam's chunk):
+    /// the species to replay with are then the largest the bodies become
+    /// (those of [`Dynamics::species`]), scaled by `growth.at(now)` now.
+    #[serde(default)]
+    pub growth: Option<Growth>,
 }
 
 /// Event-driven molecular dynamics of hard bodies in a periodic box.

@@ -180,6 +180,19 @@ impl Dynamics {
         System::with_touching(self.box_, self.species_now(), self.particles(), tolerance)
     }
 
+    /// The species the dynamics was built with: for growing bodies, the
+    /// largest they become ([`Dynamics::species_now`] has their size now).
+    /// With [`Dynamics::dump`] and [`Dynamics::options`], what
+    /// [`Dynamics::from_dump`] replays a run from.
+    pub fn species(&self) -> &[Species] {
+        &self.species
+    }
+
+    /// The options the dynamics runs with.
+    pub fn options(&self) -> &DynamicsOptions {
+        &self.options
+    }
+
     /// The species with the bodies' shapes now (scaled, if they grow).
     pub fn species_now(&self) -> Vec<Species> {
         let scale = self.scale_now();
