@@ -252,11 +252,7 @@ fn a_dump_replays_the_run_bit_for_bit() {
             md.take_collisions()
         };
         let (first, second) = (trace(&mut md), trace(&mut replay));
-        let same = first
-            .iter()
-            .zip(&second)
-            .take_while(|(a, b)| a == b)
-            .count();
+        let same = agreeing(&first, &second);
         assert_eq!(
             same,
             first.len(),
@@ -301,11 +297,7 @@ fn a_dump_of_growing_bodies_replays_the_growth_bit_for_bit() {
         };
         let (first, second) = (trace(&mut md), trace(&mut replay));
         assert!(first.len() > 500, "{shapes:?}: {} collisions", first.len());
-        let same = first
-            .iter()
-            .zip(&second)
-            .take_while(|(a, b)| a == b)
-            .count();
+        let same = agreeing(&first, &second);
         assert_eq!(
             (same, second.len()),
             (first.len(), first.len()),
@@ -313,6 +305,11 @@ fn a_dump_of_growing_bodies_replays_the_growth_bit_for_bit() {
         );
         assert_eq!(md.species_now(), replay.species_now());
     }
+}
+
+/// How many leading collisions two recorded sequences share.
+fn agreeing<T: PartialEq>(first: &[T], second: &[T]) -> usize {
+    first.iter().zip(second).take_while(|(a, b)| a == b).count()
 }
 
 // The acceptance soak: 10⁶ collisions per system, every frame checked

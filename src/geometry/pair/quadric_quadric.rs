@@ -388,6 +388,27 @@ pub fn distance_lower_bound(a: &Shape, b: &Shape, rel: &Relative) -> (f64, Vecto
 mod tests {
     use super::*;
 
+    /// The centre distance along `dir` (unit) at which the ellipsoids touch,
+    /// by bisection on the overlap test below `upper` (the smallest
+    /// distance found apart).
+    fn contact_distance_along(
+        ma: &Matrix3<f64>,
+        mb: &Matrix3<f64>,
+        dir: &Vector3<f64>,
+        upper: f64,
+    ) -> f64 {
+        let (mut lo, mut hi) = (0.0, upper);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if perram_wertheim(ma, mb, &(dir * mid)) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        hi
+    }
+
     /// The spheroid form of the test answers as the matrix form on prolate,
     /// oblate and round bodies turned at random, at 1 ± 1e-9 of the contact
     /// distance along a random direction (found by bisection on the matrix
@@ -422,15 +443,7 @@ mod tests {
             assert!((rotated(&a) - a.matrix()).norm() < 1e-12);
             let (ma, mb) = (a.matrix(), b.matrix());
             let dir = unit(&mut u);
-            let (mut lo, mut hi) = (0.0, 6.0);
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if perram_wertheim(&ma, &mb, &(dir * mid)) {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
+            let hi = contact_distance_along(&ma, &mb, &dir, 6.0);
             for f in [1.0 - 1e-9, 1.0 + 1e-9, 0.5 + 2.0 * u(), 0.2 * u()] {
                 let r = dir * hi * f;
                 let want = perram_wertheim(&ma, &mb, &r);
@@ -466,15 +479,7 @@ mod tests {
             };
             let (ma, mb) = (matrix(ha, turn(&mut u)), matrix(hb, turn(&mut u)));
             let dir = unit(&mut u);
-            let (mut lo, mut hi) = (0.0, 4.0);
-            for _ in 0..100 {
-                let mid = 0.5 * (lo + hi);
-                if perram_wertheim(&ma, &mb, &(dir * mid)) {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
+            let hi = contact_distance_along(&ma, &mb, &dir, 4.0);
             let r = dir
                 * hi
                 * if case % 2 == 0 {
