@@ -262,6 +262,53 @@ fn a_dump_replays_the_run_bit_for_bit() {
     }
 }
 
+/// Two growing cubes overlapping by round-off (7e-16) at a point of an
+/// edge lying across a face, that point receding while the other end of
+/// the edge comes down (a pose from 1000 cubes jammed at 1e-2, near
+/// βPV/N = 2×10¹¹). The collision must look ahead to where the overlap
+/// grows past the tolerance: at the round-off overlap it found the same
+/// receding point, gave no impulse, and the search found the pair touching
+/// again 6e-24 later, 100 000 collisions per chunk without end.
+#[test]
+fn growing_cubes_overlapping_by_round_off_where_an_edge_lies_across() {
+    use nalgebra::Vector3;
+    let system = two_cubes(
+        0.7940711496948621 * 0.9523809523809523,
+        [0.10255390392405772, -1.0293356177695623, 1.1060519149943304],
+        [
+            -0.4902923115375908,
+            -0.04793352520551727,
+            -0.66634895607797,
+            0.5597275186573354,
+        ],
+        [
+            -0.559727518656552,
+            0.666348956084262,
+            -0.04793352519565953,
+            -0.4902923115308974,
+        ],
+    );
+    let velocities = [
+        (
+            Vector3::new(1.1550049761129884, -1.5609269775173407, -1.3826112832553452),
+            Vector3::new(1.6673226350014418, -0.08177743293891096, 0.480992188126013),
+        ),
+        (
+            Vector3::new(0.01991750382874668, 1.0047027404792288, 2.484216544499374),
+            Vector3::new(2.71501849020791, -2.150781532602634, 0.6170639662603068),
+        ),
+    ];
+    let mut md = Dynamics::growing(&system, &velocities, &jam_tolerances(), 2.5e-3, 0.05).unwrap();
+    let ends = md.growth_ends().unwrap();
+    md.run_collisions_until(1_000, ends.min(1e-3)).unwrap();
+    assert!(
+        (1..=3).contains(&md.collisions()),
+        "{} collisions",
+        md.collisions()
+    );
+    md.to_system().unwrap();
+}
+
 /// A dump of growing bodies (a jam's chunk, where its numerical failures
 /// happen) carries the growth: the dynamics rebuilt from it, through JSON,
 /// with the dynamics' own species and options, grows on and makes the

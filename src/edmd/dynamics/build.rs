@@ -448,6 +448,7 @@ impl Dynamics {
             images: vec![V3::zeros(); n],
             reference: Vec::new(),
             events_at_now: 0,
+            futile: (0, 0, 0),
             species,
             kinds,
             bodies,

@@ -32,6 +32,13 @@ impl Dynamics {
                 return Err(e);
             }
         };
+        if let Some(kept) = &kept {
+            let unchanged = [i, j].iter().zip(kept).all(|(&k, (before, _, _))| {
+                self.bodies[k].velocity == before.velocity
+                    && self.bodies[k].angular_velocity == before.angular_velocity
+            });
+            self.count_futile(i, j, unchanged)?;
+        }
         self.interval.virial += impulse;
         self.interval.collisions += 1;
         self.collisions += 1;
@@ -234,7 +241,8 @@ impl Dynamics {
             let rate = (bj.velocity - bi.velocity).norm()
                 + bi.angular_velocity.norm() * ki.shape.moment_arm()
                 + bj.angular_velocity.norm() * kj.shape.moment_arm();
-            let mut delta = self.predictor.contact_tolerance() * size / rate.max(f64::MIN_POSITIVE);
+            let tolerance = self.predictor.contact_tolerance() * size;
+            let mut delta = tolerance / rate.max(f64::MIN_POSITIVE);
             for _ in 0..40 {
                 // The bodies a moment later, grown as the search has them
                 // (a second contact may close in by the growth alone).
@@ -248,7 +256,11 @@ impl Dynamics {
                     self.predictor.contact(&ki.shape, &kj.shape, &later),
                     scale_later,
                 );
-                if ahead.distance < 0.0 {
+                // Overlapping beyond the tolerance: a pair already
+                // overlapping by round-off (an edge across a face, one
+                // end receding) stays so for a while before the
+                // approaching end takes over.
+                if ahead.distance < -tolerance {
                     let (n, a, c) = lab(&ahead);
                     if c > 0.0 {
                         (normal, arm_a) = (n, a);
@@ -270,6 +282,38 @@ impl Dynamics {
             growth_along(&normal),
         );
         Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)))
+    }
+
+    /// Counts collisions of one pair in a row that changed no velocity: a
+    /// contact the collision rule cannot resolve comes back an instant
+    /// later, again and again, the clock barely moving (so `Stalled` does
+    /// not see it). Past [`FUTILE_COLLISIONS`] it is reported.
+    pub(super) fn count_futile(
+        &mut self,
+        i: usize,
+        j: usize,
+        unchanged: bool,
+    ) -> Result<(), EdmdError> {
+        let (a, b, count) = &mut self.futile;
+        if !unchanged {
+            *count = 0;
+            return Ok(());
+        }
+        if (*a, *b) == (i as u32, j as u32) {
+            *count += 1;
+        } else {
+            (*a, *b, *count) = (i as u32, j as u32, 1);
+        }
+        let collisions = *count;
+        if collisions > FUTILE_COLLISIONS {
+            return Err(EdmdError::Futile {
+                i,
+                j,
+                time: self.time(),
+                collisions,
+            });
+        }
+        Ok(())
     }
 
     /// Stores bodies `i` and `j`'s velocities after a collision (`ka`,
@@ -298,6 +342,10 @@ impl Dynamics {
         virial
     }
 }
+
+/// Collisions of one pair in a row that change no velocity before the
+/// dynamics reports them (a real grazing pair may give a few).
+pub(super) const FUTILE_COLLISIONS: u64 = 1000;
 
 /// A contact of unscaled shapes at the separation over `scale`, in the
 /// lengths of the bodies scaled by it (the solver state left unscaled).

@@ -90,6 +90,22 @@ pub enum EdmdError {
         /// See `i`.
         j: usize,
     },
+    /// A pair collides again and again, each collision changing no
+    /// velocity: a contact the collision rule cannot resolve (reported
+    /// rather than looped on).
+    #[error(
+        "{collisions} collisions in a row of particles {i} and {j} changed no velocity (the last at t = {time}): their contact cannot be resolved"
+    )]
+    Futile {
+        /// First particle.
+        i: usize,
+        /// Second particle.
+        j: usize,
+        /// Simulated time.
+        time: f64,
+        /// Collisions in a row.
+        collisions: u64,
+    },
     /// True inertia was asked for a body that is not a body of revolution
     /// (its free rotation has no closed form here).
     #[error(
@@ -481,6 +497,9 @@ pub struct Dynamics {
     deferred: Vec<(u32, f64, Progress)>,
     /// Events processed at the current instant (a guard against loops).
     events_at_now: u64,
+    /// The pair of the last collisions that changed no velocity, and how
+    /// many in a row.
+    futile: (u32, u32, u64),
     /// The options it was built with (to rebuild itself).
     options: DynamicsOptions,
     /// Every collision (time, lower index, higher index) while on.
@@ -540,6 +559,7 @@ fn body_spin(kinds: &[Kind], b: &Body) -> Spin {
 
 #[cfg(test)]
 mod tests {
+    use super::collisions::FUTILE_COLLISIONS;
     use super::*;
     use crate::state::Species;
     use rand::SeedableRng;
@@ -565,6 +585,32 @@ mod tests {
         let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
         md.run_collisions(5_000).unwrap();
         md
+    }
+
+    /// A thousand collisions of one pair in a row that change nothing are
+    /// let be (a grazing pair may give a few); the next is reported, with
+    /// the pair. A collision that changes velocities, or one of another
+    /// pair, starts the count again.
+    #[test]
+    fn futile_collisions_of_one_pair_are_reported_past_the_limit() {
+        let mut md = mixture(None);
+        for _ in 0..FUTILE_COLLISIONS {
+            md.count_futile(3, 8, true).unwrap();
+        }
+        md.count_futile(3, 8, false).unwrap();
+        md.count_futile(1, 2, true).unwrap();
+        for _ in 0..FUTILE_COLLISIONS {
+            md.count_futile(3, 8, true).unwrap();
+        }
+        assert!(matches!(
+            md.count_futile(3, 8, true),
+            Err(EdmdError::Futile {
+                i: 3,
+                j: 8,
+                collisions,
+                ..
+            }) if collisions == FUTILE_COLLISIONS + 1
+        ));
     }
 
     /// The cells' members are gathered in order, and a gathering that
