@@ -218,3 +218,56 @@ fn crossing_edges_near_parallel_are_followed_smoothly_through_contact() {
         );
     }
 }
+
+/// Two cubes 5.5e-14 apart face to face, their orientations equal to
+/// 4e-11 (a pose from 1000 cubes jammed at 1e-2, near βPV/N = 3×10¹¹, at a
+/// collision that found its predicted contact missed). With the jam's
+/// tolerances the distance is the gap of the faces (the closest features,
+/// confirmed by a separating plane) to rounding, as the separating axes
+/// say; GJK at its default
+/// tolerance (1e-12 of the size) stopped at 8.5e-13, ten times the jam's
+/// contact tolerance.
+#[test]
+fn nearly_aligned_cubes_face_to_face_are_measured_to_the_jams_tolerance() {
+    use hardbody::edmd::PredictorOptions;
+    use hardbody::edmd::jam::jam_predictor;
+    use hardbody::geometry::Relative;
+    use nalgebra::{Quaternion, UnitQuaternion};
+    let h = 0.7940711496983947;
+    let cube: Shape = format!("Cuboid(a: {h}, b: {h}, c: {h})").parse().unwrap();
+    let q =
+        |x: f64, y: f64, z: f64, w: f64| UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z));
+    let qa = q(
+        -0.8732334728556549,
+        -0.3863746778955094,
+        -0.2968966784051221,
+        0.0055020466736741495,
+    );
+    let qb = q(
+        0.8732334728557654,
+        0.3863746778899644,
+        0.29689667841233475,
+        -0.0055020466563212985,
+    );
+    let d = Vector3::new(
+        -0.7692151240011715,
+        -1.0040429638795803,
+        -0.8308346412226919,
+    ) / 9.523809523810539e-1;
+    let rel = Relative::new(&d, &qa, &qb);
+    let options = jam_predictor(PredictorOptions::default()).distance;
+    let c = distance(&cube, &cube, &rel, &options, None);
+    assert!(
+        (c.distance - 5.4845e-14).abs() < 1e-15,
+        "{:e} by {:?}",
+        c.distance,
+        c.method
+    );
+    // The separating axes agree, to rounding.
+    let (bound, _) = distance_lower_bound(&cube, &cube, &rel);
+    assert!(
+        (bound - c.distance).abs() < 1e-15,
+        "{bound:e}, {:e}",
+        c.distance
+    );
+}

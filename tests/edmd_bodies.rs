@@ -547,8 +547,7 @@ fn two_cubes(half: f64, d: [f64; 3], qa: [f64; 4], qb: [f64; 4]) -> hardbody::st
 /// The jam's tolerances: contacts to 1e-13 of the size, distances to 1e-14.
 fn jam_tolerances() -> DynamicsOptions {
     let mut options = DynamicsOptions::default();
-    options.predictor.contact_tolerance = 1e-13;
-    options.predictor.distance.newton.tolerance = 1e-14;
+    options.predictor = hardbody::edmd::jam::jam_predictor(options.predictor);
     options
 }
 

@@ -30,7 +30,7 @@ use rand::Rng;
 use super::dynamics::{
     Dynamics, DynamicsDump, DynamicsOptions, EdmdError, automatic_neighbour_shell,
 };
-use super::predict::SolverWork;
+use super::predict::{PredictorOptions, SolverWork};
 use crate::state::{Species, System};
 
 type V3 = Vector3<f64>;
@@ -94,6 +94,23 @@ const SETTLED_SHELL: f64 = 0.25;
 pub const JAM_CONTACT_TOLERANCE: f64 = 1e-13;
 /// Newton's tolerance on the distance while growing, at most.
 pub const JAM_NEWTON_TOLERANCE: f64 = 1e-14;
+/// GJK's tolerance on the distance while growing, at most (cuboids): with
+/// the default 10⁻¹², GJK called two nearly aligned cubes 8.5×10⁻¹³
+/// apart face to face where they were 5.5×10⁻¹⁴ apart, and the collision
+/// found a predicted contact missed (1000 cubes near βPV/N = 3×10¹¹).
+pub const JAM_GJK_TOLERANCE: f64 = 1e-14;
+
+/// The predictions of a growing chunk: `options` with the contact
+/// tolerance and the distance solvers' tolerances at most the jam's
+/// (gaps near the bound are 1/Z of the size: contacts of bodies are found,
+/// and their distances solved, finer than that).
+pub fn jam_predictor(mut options: PredictorOptions) -> PredictorOptions {
+    options.contact_tolerance = options.contact_tolerance.min(JAM_CONTACT_TOLERANCE);
+    let distance = &mut options.distance;
+    distance.newton.tolerance = distance.newton.tolerance.min(JAM_NEWTON_TOLERANCE);
+    distance.gjk_tolerance = distance.gjk_tolerance.min(JAM_GJK_TOLERANCE);
+    options
+}
 /// How much faster than γ the bodies grow below [`SETTLE_FROM`].
 pub const FLUID_SPEED_UP: f64 = 10.0;
 /// The default bound on βPV/N (Donev et al.).
@@ -255,15 +272,7 @@ impl JamRun {
                 .map(|shell| shell * settled),
                 ..self.dynamics.clone()
             };
-            // Gaps near the bound are 1/Z of the size: contacts of bodies
-            // are found, and their distances solved, finer than that.
-            let predictor = &mut dynamics.predictor;
-            predictor.contact_tolerance = predictor.contact_tolerance.min(JAM_CONTACT_TOLERANCE);
-            predictor.distance.newton.tolerance = predictor
-                .distance
-                .newton
-                .tolerance
-                .min(JAM_NEWTON_TOLERANCE);
+            dynamics.predictor = jam_predictor(dynamics.predictor);
             let mut md = Dynamics::growing(
                 &self.state,
                 &self.velocities,
