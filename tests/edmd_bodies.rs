@@ -304,6 +304,27 @@ fn growing_cubes_overlapping_by_round_off_where_an_edge_lies_across() {
     resolved_in_a_few_collisions(&md, 3);
 }
 
+/// A failure's dump may hold a pair overlapping by a hair (where a
+/// contact was missed): it is rebuilt as it is, to replay the failure
+/// (two cubes face to face, 1e-8 into each other: 200 times the contact
+/// tolerance, which a new state would refuse).
+#[test]
+fn a_dump_with_a_pair_overlapping_by_a_hair_is_rebuilt() {
+    use nalgebra::Vector3;
+    let flat = [0.0, 0.0, 0.0, 1.0];
+    let system = two_cubes(0.5, [1.0, 0.0, 0.0], flat, flat);
+    let velocities = [
+        (Vector3::x(), Vector3::zeros()),
+        (-Vector3::x(), Vector3::zeros()),
+    ];
+    let options = DynamicsOptions::default();
+    let md = Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap();
+    let mut dump = md.dump();
+    dump.bodies[1].position[0] -= 1e-8;
+    let replay = Dynamics::from_dump(md.species(), &dump, md.options()).unwrap();
+    assert_eq!(replay.dump(), dump);
+}
+
 /// A dump of growing bodies (a jam's chunk, where its numerical failures
 /// happen) carries the growth: the dynamics rebuilt from it, through JSON,
 /// with the dynamics' own species and options, grows on and makes the
