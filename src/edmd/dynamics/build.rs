@@ -111,14 +111,7 @@ impl Dynamics {
             return Err(EdmdError::TooFewParticles(n));
         }
         let largest = 1.0 + margin;
-        let species: Vec<Species> = system
-            .species()
-            .iter()
-            .map(|s| Species {
-                shape: s.shape.scaled(largest),
-                ..s.clone()
-            })
-            .collect();
+        let species = scaled_species(system.species(), largest);
         let kinds = kinds_for(&species, options)?;
         let bodies = bodies_moving(system, velocities, &kinds)?;
         let growth = Growth {
@@ -265,16 +258,7 @@ impl Dynamics {
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         // Growing bodies have their size now in the state; the dynamics
         // keeps the largest shapes.
-        let now_species: Vec<Species> = match dump.growth {
-            None => species.to_vec(),
-            Some(g) => species
-                .iter()
-                .map(|s| Species {
-                    shape: s.shape.scaled(g.at(dump.now)),
-                    ..s.clone()
-                })
-                .collect(),
-        };
+        let now_species = scaled_species(species, dump.growth.map_or(1.0, |g| g.at(dump.now)));
         // The dumped state is the dynamics' own, its failure included (a
         // pair overlapping where a contact was missed): it is replayed, not
         // judged again.
@@ -560,6 +544,21 @@ pub(super) fn link_near(
 /// The bodies of `system` at rest in their stored poses at time 0, moving
 /// with `velocities` (checked: finite, one pair per body, no spin for
 /// bodies that do not turn).
+/// `species` with their shapes scaled by `scale` (as they are at 1).
+pub(super) fn scaled_species(species: &[Species], scale: f64) -> Vec<Species> {
+    species
+        .iter()
+        .map(|s| Species {
+            shape: if scale == 1.0 {
+                s.shape
+            } else {
+                s.shape.scaled(scale)
+            },
+            ..s.clone()
+        })
+        .collect()
+}
+
 fn bodies_moving(
     system: &System,
     velocities: &[(V3, V3)],

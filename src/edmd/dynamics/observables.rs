@@ -195,18 +195,7 @@ impl Dynamics {
 
     /// The species with the bodies' shapes now (scaled, if they grow).
     pub fn species_now(&self) -> Vec<Species> {
-        let scale = self.scale_now();
-        self.species
-            .iter()
-            .map(|s| Species {
-                shape: if scale == 1.0 {
-                    s.shape
-                } else {
-                    s.shape.scaled(scale)
-                },
-                ..s.clone()
-            })
-            .collect()
+        scaled_species(&self.species, self.scale_now())
     }
 
     /// The bodies' scale now relative to their species' shapes (1 unless
