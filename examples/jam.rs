@@ -14,8 +14,8 @@
 
 use std::time::Instant;
 
-use hardbody::edmd::jam::{JamFailure, JamOptions, JamRun};
-use hardbody::edmd::{DynamicsDump, DynamicsOptions};
+use hardbody::edmd::jam::{JamFailure, JamOptions, JamRun, jam_predictor};
+use hardbody::edmd::{DynamicsDump, DynamicsOptions, PredictorOptions};
 use hardbody::geometry::Shape;
 use hardbody::space::PeriodicBox;
 use hardbody::state::Species;
@@ -45,11 +45,7 @@ fn main() {
         .get(3)
         .map_or(Ok(1e12), |s| s.parse())
         .expect("a pressure");
-    let species = vec![Species {
-        name: shape.kind().into(),
-        shape,
-        rotation: !shape.is_sphere(),
-    }];
+    let species = vec![species_of(shape)];
     // A lattice at packing fraction 0.2, random orientations where the
     // sites are far enough apart.
     let edge = (n as f64 * shape.volume() / 0.2).cbrt();
@@ -115,17 +111,23 @@ fn main() {
     );
 }
 
+/// The one species of this example's runs.
+fn species_of(shape: Shape) -> Species {
+    Species {
+        name: shape.kind().into(),
+        shape,
+        rotation: !shape.is_sphere(),
+    }
+}
+
 /// A failed chunk as JSON: the message, the dump, the chunk's shapes (scene
-/// spelling) and the options the jam sets (the rest are the defaults, as
-/// this example runs).
+/// spelling) and neighbour shell. Its other options are the defaults this
+/// example runs with, tightened as a jam tightens them.
 fn failure_json(failure: &JamFailure) -> String {
-    let predictor = &failure.options.predictor;
     serde_json::json!({
         "message": failure.message,
         "shapes": failure.species.iter().map(|s| s.shape.to_string()).collect::<Vec<_>>(),
         "neighbour_shell": failure.options.neighbour_shell,
-        "contact_tolerance": predictor.contact_tolerance,
-        "newton_tolerance": predictor.distance.newton.tolerance,
         "dump": failure.dump,
     })
     .to_string()
@@ -140,22 +142,13 @@ fn replay(path: &str) {
         .as_array()
         .expect("shapes")
         .iter()
-        .map(|s| {
-            let shape: Shape = s.as_str().expect("a shape").parse().expect("a shape");
-            Species {
-                name: shape.kind().into(),
-                shape,
-                rotation: !shape.is_sphere(),
-            }
-        })
+        .map(|s| species_of(s.as_str().expect("a shape").parse().expect("a shape")))
         .collect();
-    let mut options = DynamicsOptions {
+    let options = DynamicsOptions {
         neighbour_shell: json["neighbour_shell"].as_f64(),
+        predictor: jam_predictor(PredictorOptions::default()),
         ..DynamicsOptions::default()
     };
-    options.predictor.contact_tolerance = json["contact_tolerance"].as_f64().expect("tolerance");
-    options.predictor.distance.newton.tolerance =
-        json["newton_tolerance"].as_f64().expect("tolerance");
     let dump: DynamicsDump = serde_json::from_value(json["dump"].clone()).expect("a dump");
     let failure = JamFailure {
         message: json["message"].as_str().unwrap_or_default().into(),
