@@ -271,3 +271,75 @@ fn nearly_aligned_cubes_face_to_face_are_measured_to_the_jams_tolerance() {
         c.distance
     );
 }
+
+/// Two superballs of exponent 12 nearly face to face (their faces 1e-6
+/// apart in angle), from a jam of 1000 that found a predicted contact
+/// missed: Newton had the distance to the bit, but the place of the
+/// contact along the flat faces only to round-off over their small
+/// curvature (1e-13), above the jam's tolerance (1e-14); it ran to its cap
+/// and GJK, stopped short on the flat faces, called the pair 3e-10 apart
+/// while it overlapped by 4e-11. Moved 1e-9 apart along the normal, the
+/// distance is converged and bracketed: the support planes along its
+/// normal are as far apart as its contact points, to rounding.
+#[test]
+fn superballs_of_high_exponent_face_to_face_are_measured_to_the_jams_tolerance() {
+    use hardbody::edmd::PredictorOptions;
+    use hardbody::edmd::jam::jam_predictor;
+    use hardbody::geometry::{Relative, Status};
+    use nalgebra::{Quaternion, UnitQuaternion};
+    let h = 0.8000679111221226;
+    let ball: Shape =
+        format!("Superellipsoid(a: {h}, b: {h}, c: {h}, exponents: (12.0, 12.0, 12.0))")
+            .parse()
+            .unwrap();
+    let q =
+        |x: f64, y: f64, z: f64, w: f64| UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z));
+    let qa = q(
+        0.5048570321315435,
+        -0.4006720050578935,
+        0.4416554456012484,
+        0.6241168070489527,
+    );
+    let qb = q(
+        -0.4461867803055936,
+        -0.11429376199449952,
+        -0.8507269780808999,
+        0.25321512951443603,
+    );
+    let d = Vector3::new(
+        -0.6111373317096126,
+        -0.11940193085376537,
+        -1.756838291362344,
+    );
+    let options = jam_predictor(PredictorOptions::default()).distance;
+    let touching = Relative::new(&d, &qa, &qb);
+    let overlap = distance(&ball, &ball, &touching, &options, None);
+    assert!(
+        matches!(overlap.status, Status::Converged { .. }),
+        "{overlap:?}"
+    );
+    assert!(
+        (overlap.distance + 4.36e-11).abs() < 1e-12,
+        "{:e}",
+        overlap.distance
+    );
+    let apart = Relative {
+        translation: touching.translation + overlap.normal * 1e-9,
+        ..touching
+    };
+    let c = distance(&ball, &ball, &apart, &options, None);
+    assert!(matches!(c.status, Status::Converged { .. }), "{c:?}");
+    assert!(
+        (c.distance - (1e-9 + overlap.distance)).abs() < 1e-14,
+        "{:e}",
+        c.distance
+    );
+    let n = c.normal;
+    let support_gap = n.dot(&apart.translation) - n.dot(&ball.support(&n))
+        + n.dot(&(apart.rotation * ball.support(&(apart.rotation.transpose() * -n))));
+    assert!(
+        support_gap <= c.distance + 1e-15 && c.distance - support_gap < 1e-14,
+        "support planes {support_gap:e} apart, contact points {:e}",
+        c.distance
+    );
+}
