@@ -3,6 +3,8 @@
 //! and at the end. Each frame holds the grown species, the velocities and
 //! the run's progress: a resumed run goes on from it bit for bit.
 
+use std::cell::Cell;
+
 use rand_pcg::Pcg64;
 
 use crate::edmd::jam::{
@@ -25,6 +27,8 @@ pub(super) struct JamStage {
     run: JamRun,
     last: Option<JamChunk>,
     frame_due: bool,
+    /// Chunks run again as of the last progress line.
+    retries_shown: Cell<u64>,
 }
 
 impl JamStage {
@@ -78,6 +82,7 @@ impl JamStage {
         Ok(Self {
             index,
             last: run.progress().last,
+            retries_shown: Cell::new(run.progress().retries),
             run,
             frame_due: false,
         })
@@ -163,17 +168,23 @@ impl StageRun for JamStage {
 
     fn progress(&self) -> (u64, String) {
         let p = self.run.progress();
-        (
-            p.chunk,
-            self.last
-                .map(|c| {
-                    format!(
-                        "phi {:.4}, betaPV/N {:.3e}, {} collisions, growth rate {:e}",
-                        c.packing_fraction, c.pressure, c.collisions, c.growth_rate
-                    )
-                })
-                .unwrap_or_default(),
-        )
+        let mut line = self
+            .last
+            .map(|c| {
+                format!(
+                    "phi {:.4}, betaPV/N {:.3e}, {} collisions, growth rate {:e}",
+                    c.packing_fraction, c.pressure, c.collisions, c.growth_rate
+                )
+            })
+            .unwrap_or_default();
+        // Chunks run again: how many, and why the first time it is shown.
+        if p.retries > 0 {
+            line += &format!(", {} chunks run again", p.retries);
+            if self.retries_shown.replace(p.retries) != p.retries {
+                line += &format!(" (the last: {})", self.run.last_failure().unwrap_or("-"));
+            }
+        }
+        (p.chunk, line)
     }
 
     fn frame_ready(&mut self) -> Result<bool, StageError> {
