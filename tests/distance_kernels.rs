@@ -343,3 +343,64 @@ fn superballs_of_high_exponent_face_to_face_are_measured_to_the_jams_tolerance()
         c.distance
     );
 }
+
+/// Two superballs of exponent 12 face to face, aligned to 2e-8, touching
+/// (from a jam of 1000 that found a predicted contact missed near
+/// βPV/N = 10⁷). They touch where the faces are flat to 1e-16 of the
+/// size: Newton, started at the solution, wanders along the faces and
+/// comes back in hundreds of steps, and at the default cap GJK, stalled on
+/// the flat faces, called the pair 4.6e-10 apart. With the jam's
+/// predictor the distance converges to the contact, and the support planes
+/// along its normal bracket it.
+#[test]
+fn superballs_touching_on_aligned_flat_faces_are_measured_to_the_jams_tolerance() {
+    use hardbody::edmd::PredictorOptions;
+    use hardbody::edmd::jam::jam_predictor;
+    use hardbody::geometry::contact::WarmStart;
+    use hardbody::geometry::{Relative, Status};
+    use nalgebra::{Quaternion, UnitQuaternion};
+    let h = 0.8107822918593783;
+    let ball: Shape =
+        format!("Superellipsoid(a: {h}, b: {h}, c: {h}, exponents: (12.0, 12.0, 12.0))")
+            .parse()
+            .unwrap();
+    let q =
+        |x: f64, y: f64, z: f64, w: f64| UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z));
+    let qa = q(
+        -0.1624867279295282,
+        0.19019123885695988,
+        0.33634459004903644,
+        0.907908405431713,
+    );
+    let qb = q(
+        -0.2739258710504157,
+        -0.21441505098437277,
+        -0.9355935314357632,
+        -0.06046111987217579,
+    );
+    let d = Vector3::new(0.028012651999644915, 0.6957612400952845, 1.7065604759636543);
+    let rel = Relative::new(&d, &qa, &qb);
+    let warm = WarmStart {
+        point_a: Vector3::new(0.02167427711518242, -1.9578214445729537e-5, h),
+        point_b: Vector3::new(
+            -0.719192913036526,
+            -0.12955522042162343,
+            -0.7926847518524989,
+        ),
+        alpha: 1.10115776745411,
+    };
+    let options = jam_predictor(PredictorOptions::default()).distance;
+    for start in [Some(&warm), None] {
+        let c = distance(&ball, &ball, &rel, &options, start);
+        assert!(matches!(c.status, Status::Converged { .. }), "{c:?}");
+        assert!(c.distance.abs() < 1e-13, "{:e}", c.distance);
+        let n = c.normal;
+        let support_gap = n
+            .dot(&(rel.b_to_a(&ball.support(&(rel.rotation.transpose() * -n))) - ball.support(&n)));
+        assert!(
+            support_gap <= c.distance + 1e-15 && c.distance - support_gap < 1e-14,
+            "support planes {support_gap:e} apart, contact points {:e}",
+            c.distance
+        );
+    }
+}

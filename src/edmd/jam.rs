@@ -94,6 +94,15 @@ const SETTLED_SHELL: f64 = 0.25;
 pub const JAM_CONTACT_TOLERANCE: f64 = 1e-13;
 /// Newton's tolerance on the distance while growing, at most.
 pub const JAM_NEWTON_TOLERANCE: f64 = 1e-14;
+/// Newton's iteration cap while growing, at least. Superballs of exponent
+/// 12 face to face, aligned to 1e-8, touch where the faces' curvature is
+/// 1e-16 of the size's: Newton's steps along the faces there are
+/// round-off over that curvature, and from a start at the solution it
+/// wandered off and came back in 595 steps; capped at the default 60 it
+/// fell back to GJK, which stalled on the flat faces and called the
+/// touching pair 4.6e-10 apart (1000 superballs near βPV/N = 10⁷). Such
+/// pairs are a few in 10⁷ distances.
+pub const JAM_NEWTON_ITERATIONS: u32 = 1000;
 /// GJK's tolerance on the distance while growing, at most (cuboids): with
 /// the default 10⁻¹², GJK called two nearly aligned cubes 8.5×10⁻¹³
 /// apart face to face where they were 5.5×10⁻¹⁴ apart, and the collision
@@ -108,6 +117,7 @@ pub fn jam_predictor(mut options: PredictorOptions) -> PredictorOptions {
     options.contact_tolerance = options.contact_tolerance.min(JAM_CONTACT_TOLERANCE);
     let distance = &mut options.distance;
     distance.newton.tolerance = distance.newton.tolerance.min(JAM_NEWTON_TOLERANCE);
+    distance.newton.max_iterations = distance.newton.max_iterations.max(JAM_NEWTON_ITERATIONS);
     distance.gjk_tolerance = distance.gjk_tolerance.min(JAM_GJK_TOLERANCE);
     options
 }
