@@ -286,14 +286,8 @@ fn superballs_of_high_exponent_face_to_face_are_measured_to_the_jams_tolerance()
     use hardbody::edmd::PredictorOptions;
     use hardbody::edmd::jam::jam_predictor;
     use hardbody::geometry::{Relative, Status};
-    use nalgebra::{Quaternion, UnitQuaternion};
-    let h = 0.8000679111221226;
-    let ball: Shape =
-        format!("Superellipsoid(a: {h}, b: {h}, c: {h}, exponents: (12.0, 12.0, 12.0))")
-            .parse()
-            .unwrap();
-    let q =
-        |x: f64, y: f64, z: f64, w: f64| UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z));
+    let ball = superball_of_exponent_12(0.8000679111221226);
+    let q = quaternion;
     let qa = q(
         0.5048570321315435,
         -0.4006720050578935,
@@ -334,14 +328,7 @@ fn superballs_of_high_exponent_face_to_face_are_measured_to_the_jams_tolerance()
         "{:e}",
         c.distance
     );
-    let n = c.normal;
-    let support_gap = n.dot(&apart.translation) - n.dot(&ball.support(&n))
-        + n.dot(&(apart.rotation * ball.support(&(apart.rotation.transpose() * -n))));
-    assert!(
-        support_gap <= c.distance + 1e-15 && c.distance - support_gap < 1e-14,
-        "support planes {support_gap:e} apart, contact points {:e}",
-        c.distance
-    );
+    assert_bracketed_by_support_planes(&ball, &apart, &c);
 }
 
 /// Two superballs of exponent 12 face to face, aligned to 2e-8, touching
@@ -358,14 +345,9 @@ fn superballs_touching_on_aligned_flat_faces_are_measured_to_the_jams_tolerance(
     use hardbody::edmd::jam::jam_predictor;
     use hardbody::geometry::contact::WarmStart;
     use hardbody::geometry::{Relative, Status};
-    use nalgebra::{Quaternion, UnitQuaternion};
     let h = 0.8107822918593783;
-    let ball: Shape =
-        format!("Superellipsoid(a: {h}, b: {h}, c: {h}, exponents: (12.0, 12.0, 12.0))")
-            .parse()
-            .unwrap();
-    let q =
-        |x: f64, y: f64, z: f64, w: f64| UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z));
+    let ball = superball_of_exponent_12(h);
+    let q = quaternion;
     let qa = q(
         -0.1624867279295282,
         0.19019123885695988,
@@ -394,13 +376,37 @@ fn superballs_touching_on_aligned_flat_faces_are_measured_to_the_jams_tolerance(
         let c = distance(&ball, &ball, &rel, &options, start);
         assert!(matches!(c.status, Status::Converged { .. }), "{c:?}");
         assert!(c.distance.abs() < 1e-13, "{:e}", c.distance);
-        let n = c.normal;
-        let support_gap = n
-            .dot(&(rel.b_to_a(&ball.support(&(rel.rotation.transpose() * -n))) - ball.support(&n)));
-        assert!(
-            support_gap <= c.distance + 1e-15 && c.distance - support_gap < 1e-14,
-            "support planes {support_gap:e} apart, contact points {:e}",
-            c.distance
-        );
+        assert_bracketed_by_support_planes(&ball, &rel, &c);
     }
+}
+
+/// A superball of exponent 12 and half-width `h`.
+fn superball_of_exponent_12(h: f64) -> Shape {
+    format!("Superellipsoid(a: {h}, b: {h}, c: {h}, exponents: (12.0, 12.0, 12.0))")
+        .parse()
+        .unwrap()
+}
+
+/// The quaternion with vector part (x, y, z) and scalar part w.
+fn quaternion(x: f64, y: f64, z: f64, w: f64) -> nalgebra::UnitQuaternion<f64> {
+    nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(w, x, y, z))
+}
+
+/// `c`, the distance of two `ball`s placed by `rel`, lies within 1e-14
+/// above the gap of the support planes along its normal (a lower bound on
+/// the distance along any direction; the contact points, on the surfaces,
+/// bound it from above).
+fn assert_bracketed_by_support_planes(
+    ball: &Shape,
+    rel: &hardbody::geometry::Relative,
+    c: &hardbody::geometry::Contact,
+) {
+    let n = c.normal;
+    let support_gap =
+        n.dot(&(rel.b_to_a(&ball.support(&(rel.rotation.transpose() * -n))) - ball.support(&n)));
+    assert!(
+        support_gap <= c.distance + 1e-15 && c.distance - support_gap < 1e-14,
+        "support planes {support_gap:e} apart, contact points {:e}",
+        c.distance
+    );
 }
