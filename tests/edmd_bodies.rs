@@ -571,7 +571,7 @@ fn resolved_in_a_few_collisions(md: &Dynamics, most: u64) {
     md.to_system().unwrap();
 }
 
-/// The jam's tolerances: contacts to 1e-13 of the size, distances to 1e-14.
+/// The jam's predictor: contacts to 1e-13 of the size, distances to 1e-14.
 fn jam_tolerances() -> DynamicsOptions {
     let mut options = DynamicsOptions::default();
     options.predictor = hardbody::edmd::jam::jam_predictor(options.predictor);

@@ -6,6 +6,7 @@
 
 mod common;
 
+use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use common::cut_after_frames;
@@ -13,7 +14,7 @@ use hardbody::analysis::packing::ContactNetwork;
 use hardbody::edmd::DynamicsOptions;
 use hardbody::edmd::jam::{JamEnd, JamOptions, Jammed, jam};
 use hardbody::log::read::read_log;
-use hardbody::run::{Silent, resume_run, run_scene};
+use hardbody::run::{RunSummary, Silent, resume_run, run_scene};
 use hardbody::scene::Scene;
 use hardbody::space::PeriodicBox;
 use hardbody::state::{Species, System};
@@ -193,18 +194,7 @@ const JAM_SCENE: &str = r#"Scene(
 /// uninterrupted run's frames bit for bit.
 #[test]
 fn a_scene_jams_and_resumes_bit_for_bit() {
-    let dir = std::env::temp_dir().join(format!("hardbody-jam-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("jam.mcap");
-    let scene = Scene::parse(JAM_SCENE).unwrap();
-    let summary = run_scene(
-        &scene,
-        JAM_SCENE,
-        &path,
-        &mut Silent,
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (dir, path, summary) = run_scene_in("jam", JAM_SCENE);
     assert!(
         summary.stages[1].contains("jam): jammed at packing fraction"),
         "{:?}",
@@ -311,17 +301,13 @@ fn the_jam_bench_runs() {
 /// from it keeps a finite value in [0, 1].
 #[test]
 fn analyze_reports_the_cubatic_order_of_cubes() {
-    let dir = std::env::temp_dir().join(format!("hardbody-cubatic-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
     let text = r#"Scene(
         seed: 2,
         box: (9.0, 9.0, 9.0),
         species: [Species(name: "cube", shape: Cuboid(a: 0.5, b: 0.5, c: 0.5), count: 64)],
         stages: [Jam(growth_rate: 0.01, pressure: 1e4)],
     )"#;
-    let path = dir.join("cubes.mcap");
-    let scene = Scene::parse(text).unwrap();
-    run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let (_, path, _) = run_scene_in("cubatic", text);
     let cubatic = |frame: &str| {
         let args = ["analyze", "--packing", "--json", "--frame", frame];
         let args: Vec<&std::ffi::OsStr> = args
@@ -358,18 +344,7 @@ const GROW_THEN_RUN: &str = r#"Scene(
 /// the sizes of each frame.
 #[test]
 fn stages_after_a_jam_go_on_with_the_grown_bodies() {
-    let dir = std::env::temp_dir().join(format!("hardbody-grown-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("grown.mcap");
-    let scene = Scene::parse(GROW_THEN_RUN).unwrap();
-    let summary = run_scene(
-        &scene,
-        GROW_THEN_RUN,
-        &path,
-        &mut Silent,
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let (dir, path, summary) = run_scene_in("grown", GROW_THEN_RUN);
     assert!(
         summary.stages[0].contains("grown to packing fraction 0.4500"),
         "{:?}",
@@ -496,12 +471,19 @@ fn grown_superballs_resume_bit_for_bit() {
     species: [Species(name: "superball", shape: Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (6.0, 6.0, 6.0)), count: 27)],
     stages: [Jam(growth_rate: 0.01, pressure: 1e3)],
 )"#;
-    let dir = std::env::temp_dir().join(format!("hardbody-jam-superballs-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("jam.mcap");
-    let scene = Scene::parse(SCENE).unwrap();
-    run_scene(&scene, SCENE, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let (dir, path, _) = run_scene_in("jam-superballs", SCENE);
     let whole = read_log(&path, true).unwrap();
     assert!(whole.states.len() >= 3, "{} frames", whole.states.len());
     resumes_bit_for_bit(&dir, &path, &whole, [1, whole.states.len() - 2]);
+}
+
+/// Runs the scene `text` to a log in a fresh directory named after `tag`;
+/// returns the directory, the log's path and the run's summary.
+fn run_scene_in(tag: &str, text: &str) -> (PathBuf, PathBuf, RunSummary) {
+    let dir = std::env::temp_dir().join(format!("hardbody-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("run.mcap");
+    let scene = Scene::parse(text).unwrap();
+    let summary = run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    (dir, path, summary)
 }

@@ -541,9 +541,6 @@ pub(super) fn link_near(
     }
 }
 
-/// The bodies of `system` at rest in their stored poses at time 0, moving
-/// with `velocities` (checked: finite, one pair per body, no spin for
-/// bodies that do not turn).
 /// `species` with their shapes scaled by `scale` (as they are at 1).
 pub(super) fn scaled_species(species: &[Species], scale: f64) -> Vec<Species> {
     species
@@ -559,6 +556,9 @@ pub(super) fn scaled_species(species: &[Species], scale: f64) -> Vec<Species> {
         .collect()
 }
 
+/// The bodies of `system` at rest in their stored poses at time 0, moving
+/// with `velocities` (checked: finite, one pair per body, no spin for
+/// bodies that do not turn).
 fn bodies_moving(
     system: &System,
     velocities: &[(V3, V3)],
