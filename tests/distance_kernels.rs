@@ -380,6 +380,54 @@ fn superballs_touching_on_aligned_flat_faces_are_measured_to_the_jams_tolerance(
     }
 }
 
+/// Exponent-12 superballs at the collision where a jam failed near
+/// βPV/N = 1.8e7: a rounded edge of B lies along the flat face of A,
+/// aligned to 1e-7. The distance is fixed to round-off, but the contact's
+/// place along the edge is not: both bodies are flat along it. Newton's
+/// steps there wander by 1e-9 of the size and change the gap by 1e-26;
+/// they must count as settled, not run Newton to its cap and hand the
+/// pair to GJK (which called it 4.7e-10 apart).
+#[test]
+fn superballs_touching_face_to_rim_are_measured_to_the_jams_tolerance() {
+    use hardbody::edmd::PredictorOptions;
+    use hardbody::edmd::jam::jam_predictor;
+    use hardbody::geometry::contact::WarmStart;
+    use hardbody::geometry::{Relative, Status};
+    let h = 0.810781605930303;
+    let ball = superball_of_exponent_12(h);
+    let q = quaternion;
+    let qa = q(
+        -0.16245783001933567,
+        0.19018513699987769,
+        0.3363110585090348,
+        0.9079272763026117,
+    );
+    let qb = q(
+        -0.2740770063771336,
+        -0.21436874899184938,
+        -0.9355534330880928,
+        -0.06056077829834772,
+    );
+    let d = Vector3::new(0.028328661138299495, 0.6955356179049941, 1.7067439963665394);
+    let rel = Relative::new(&d, &qa, &qb);
+    let warm = WarmStart {
+        point_a: Vector3::new(0.006206847624639159, -0.01628233124522564, h),
+        point_b: Vector3::new(
+            -0.7192452898667582,
+            -0.10732922991093401,
+            -0.7926659018452058,
+        ),
+        alpha: 1.1012350474780224,
+    };
+    let options = jam_predictor(PredictorOptions::default()).distance;
+    for start in [Some(&warm), None] {
+        let c = distance(&ball, &ball, &rel, &options, start);
+        assert!(matches!(c.status, Status::Converged { .. }), "{c:?}");
+        assert!((c.distance + 8.374e-13).abs() < 1e-15, "{:e}", c.distance);
+        assert_bracketed_by_support_planes(&ball, &rel, &c);
+    }
+}
+
 /// A superball of exponent 12 and half-width `h`.
 fn superball_of_exponent_12(h: f64) -> Shape {
     format!("Superellipsoid(a: {h}, b: {h}, c: {h}, exponents: (12.0, 12.0, 12.0))")

@@ -280,7 +280,8 @@ fn solve_reduced<A: SmoothSurface, B: SmoothSurface>(
         *alpha += dalpha * xi;
         *beta += dbeta * xi;
         let tol = opts.tolerance * length;
-        let settled = |dx: &V3| gap_settled(dx, &fa, &gb, tol, length);
+        let round_off = gap_round_off(&x, &xb);
+        let settled = |dx: &V3| gap_settled(dx, &fa, &gb, tol, length, round_off);
         if xi == 1.0 && dbeta.abs() * grad_norm <= tol && settled(&dx) {
             return finish(
                 a,
@@ -379,7 +380,8 @@ fn solve_full<A: SmoothSurface, B: SmoothSurface>(
         *alpha += dalpha * xi;
         *beta += dbeta * xi;
         let tol = opts.tolerance * length;
-        let settled = |dx: &V3| gap_settled(dx, &fa, &gb, tol, length);
+        let round_off = gap_round_off(&xa, &xb);
+        let settled = |dx: &V3| gap_settled(dx, &fa, &gb, tol, length, round_off);
         if xi == 1.0 && settled(&dxa) && settled(&dxb) {
             return finish(a, b, rel, xa, xb, *alpha, *beta, it, length);
         }
@@ -512,15 +514,24 @@ fn solve_pivoted<const N: usize>(
 /// within about tol²/length of the solution (Newton converges
 /// quadratically). A longer step does as well if its part along the
 /// normal is within `tol` and its part along the surfaces (t) changes the
-/// gap by at most tol²/length through their curvatures, ½ (κ_A + κ_B) t²
-/// with κ = tᵀ∇∇f t / |∇f| t² (the gap is stationary along the surfaces
-/// at the solution). On nearly flat faces (superellipsoids of high
+/// gap through their curvatures, ½ (κ_A + κ_B) t² with
+/// κ = tᵀ∇∇f t / |∇f| t² (the gap is stationary along the surfaces at the
+/// solution), by at most tol²/length or by less than the gap's own
+/// round-off, `round_off`. On nearly flat faces (superellipsoids of high
 /// exponent) the place of the contact along the faces is fixed only to
-/// round-off over a small curvature, far coarser than `tol`, while the
-/// distance is fixed to the bit. The part along the surfaces stays below
-/// √tol so that the curvatures where the step starts hold over it.
+/// where their curvature changes the gap by round-off, far coarser than
+/// `tol`, while the distance is fixed to the bit. The part along the
+/// surfaces stays below √tol so that the curvatures where the step starts
+/// hold over it.
 #[inline]
-fn gap_settled(dx: &V3, fa: &Implicit, gb: &Implicit, tol: f64, length: f64) -> bool {
+fn gap_settled(
+    dx: &V3,
+    fa: &Implicit,
+    gb: &Implicit,
+    tol: f64,
+    length: f64,
+    round_off: f64,
+) -> bool {
     let step = dx.norm();
     if step <= tol {
         return true;
@@ -531,7 +542,14 @@ fn gap_settled(dx: &V3, fa: &Implicit, gb: &Implicit, tol: f64, length: f64) -> 
     let bending = |i: &Implicit| t.dot(&(i.hessian * t)).abs() / i.gradient.norm();
     normal_part <= tol
         && t.norm() <= (tol * length).sqrt()
-        && 0.5 * (bending(fa) + bending(gb)) * length <= tol * tol
+        && 0.5 * (bending(fa) + bending(gb)) <= (tol * tol / length).max(round_off)
+}
+
+/// The round-off of a gap between contact points at `xa` and `xb` (in A's
+/// frame): one ulp of their distance from A's centre.
+#[inline]
+fn gap_round_off(xa: &V3, xb: &V3) -> f64 {
+    f64::EPSILON * (xa.norm() + xb.norm())
 }
 
 /// The damping factor ξ ∈ (0, 1]: the largest step such that no
