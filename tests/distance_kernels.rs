@@ -341,42 +341,31 @@ fn superballs_of_high_exponent_face_to_face_are_measured_to_the_jams_tolerance()
 /// along its normal bracket it.
 #[test]
 fn superballs_touching_on_aligned_flat_faces_are_measured_to_the_jams_tolerance() {
-    use hardbody::edmd::PredictorOptions;
-    use hardbody::edmd::jam::jam_predictor;
-    use hardbody::geometry::contact::WarmStart;
-    use hardbody::geometry::{Relative, Status};
-    let h = 0.8107822918593783;
-    let ball = superball_of_exponent_12(h);
-    let q = quaternion;
-    let qa = q(
-        -0.1624867279295282,
-        0.19019123885695988,
-        0.33634459004903644,
-        0.907908405431713,
-    );
-    let qb = q(
-        -0.2739258710504157,
-        -0.21441505098437277,
-        -0.9355935314357632,
-        -0.06046111987217579,
-    );
-    let d = Vector3::new(0.028012651999644915, 0.6957612400952845, 1.7065604759636543);
-    let rel = Relative::new(&d, &qa, &qb);
-    let warm = WarmStart {
-        point_a: Vector3::new(0.02167427711518242, -1.9578214445729537e-5, h),
-        point_b: Vector3::new(
+    let pose = FlatFacePose {
+        h: 0.8107822918593783,
+        qa: [
+            -0.1624867279295282,
+            0.19019123885695988,
+            0.33634459004903644,
+            0.907908405431713,
+        ],
+        qb: [
+            -0.2739258710504157,
+            -0.21441505098437277,
+            -0.9355935314357632,
+            -0.06046111987217579,
+        ],
+        d: [0.028012651999644915, 0.6957612400952845, 1.7065604759636543],
+        point_a: [0.02167427711518242, -1.9578214445729537e-5],
+        point_b: [
             -0.719192913036526,
             -0.12955522042162343,
             -0.7926847518524989,
-        ),
+        ],
         alpha: 1.10115776745411,
     };
-    let options = jam_predictor(PredictorOptions::default()).distance;
-    for start in [Some(&warm), None] {
-        let c = distance(&ball, &ball, &rel, &options, start);
-        assert!(matches!(c.status, Status::Converged { .. }), "{c:?}");
-        assert!(c.distance.abs() < 1e-13, "{:e}", c.distance);
-        assert_bracketed_by_support_planes(&ball, &rel, &c);
+    for distance in jam_distances(&pose) {
+        assert!(distance.abs() < 1e-13, "{distance:e}");
     }
 }
 
@@ -389,43 +378,73 @@ fn superballs_touching_on_aligned_flat_faces_are_measured_to_the_jams_tolerance(
 /// pair to GJK (which called it 4.7e-10 apart).
 #[test]
 fn superballs_touching_face_to_rim_are_measured_to_the_jams_tolerance() {
+    let pose = FlatFacePose {
+        h: 0.810781605930303,
+        qa: [
+            -0.16245783001933567,
+            0.19018513699987769,
+            0.3363110585090348,
+            0.9079272763026117,
+        ],
+        qb: [
+            -0.2740770063771336,
+            -0.21436874899184938,
+            -0.9355534330880928,
+            -0.06056077829834772,
+        ],
+        d: [0.028328661138299495, 0.6955356179049941, 1.7067439963665394],
+        point_a: [0.006206847624639159, -0.01628233124522564],
+        point_b: [
+            -0.7192452898667582,
+            -0.10732922991093401,
+            -0.7926659018452058,
+        ],
+        alpha: 1.1012350474780224,
+    };
+    for distance in jam_distances(&pose) {
+        assert!((distance + 8.374e-13).abs() < 1e-15, "{distance:e}");
+    }
+}
+
+/// Two exponent-12 superballs of half-width `h` at a jam's collision: B
+/// at `d` from A, orientations `qa`, `qb` (vector part, then scalar), and
+/// the collision's warm start (A's point on its face z = h, B's point in
+/// B's frame, α).
+struct FlatFacePose {
+    h: f64,
+    qa: [f64; 4],
+    qb: [f64; 4],
+    d: [f64; 3],
+    point_a: [f64; 2],
+    point_b: [f64; 3],
+    alpha: f64,
+}
+
+/// The jam predictor's distances of `pose`, from its warm start and cold:
+/// each converged and bracketed by the support planes.
+fn jam_distances(pose: &FlatFacePose) -> [f64; 2] {
     use hardbody::edmd::PredictorOptions;
     use hardbody::edmd::jam::jam_predictor;
     use hardbody::geometry::contact::WarmStart;
     use hardbody::geometry::{Relative, Status};
-    let h = 0.810781605930303;
-    let ball = superball_of_exponent_12(h);
-    let q = quaternion;
-    let qa = q(
-        -0.16245783001933567,
-        0.19018513699987769,
-        0.3363110585090348,
-        0.9079272763026117,
-    );
-    let qb = q(
-        -0.2740770063771336,
-        -0.21436874899184938,
-        -0.9355534330880928,
-        -0.06056077829834772,
-    );
-    let d = Vector3::new(0.028328661138299495, 0.6955356179049941, 1.7067439963665394);
-    let rel = Relative::new(&d, &qa, &qb);
+    let ball = superball_of_exponent_12(pose.h);
+    let [x, y, z, w] = pose.qa;
+    let qa = quaternion(x, y, z, w);
+    let [x, y, z, w] = pose.qb;
+    let qb = quaternion(x, y, z, w);
+    let rel = Relative::new(&Vector3::from(pose.d), &qa, &qb);
     let warm = WarmStart {
-        point_a: Vector3::new(0.006206847624639159, -0.01628233124522564, h),
-        point_b: Vector3::new(
-            -0.7192452898667582,
-            -0.10732922991093401,
-            -0.7926659018452058,
-        ),
-        alpha: 1.1012350474780224,
+        point_a: Vector3::new(pose.point_a[0], pose.point_a[1], pose.h),
+        point_b: Vector3::from(pose.point_b),
+        alpha: pose.alpha,
     };
     let options = jam_predictor(PredictorOptions::default()).distance;
-    for start in [Some(&warm), None] {
+    [Some(&warm), None].map(|start| {
         let c = distance(&ball, &ball, &rel, &options, start);
         assert!(matches!(c.status, Status::Converged { .. }), "{c:?}");
-        assert!((c.distance + 8.374e-13).abs() < 1e-15, "{:e}", c.distance);
         assert_bracketed_by_support_planes(&ball, &rel, &c);
-    }
+        c.distance
+    })
 }
 
 /// A superball of exponent 12 and half-width `h`.
