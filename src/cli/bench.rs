@@ -37,7 +37,16 @@ pub(super) fn bench(suite: Suite, quick: bool, json: bool, plot: Option<&Path>) 
         Suite::Scene => out.report("scene", scene::run(quick), scene::table, None),
         Suite::Jam => out.report(
             "jam",
-            jam::run(quick),
+            jam::run(quick, |row| {
+                esay(&format!(
+                    "{} at {:e}: phi_J {:.4}, z {:.3}, {:.1} s",
+                    row.shape,
+                    row.growth_rate,
+                    row.packing_fraction,
+                    row.backbone_contact_number,
+                    row.seconds
+                ))
+            }),
             jam::table,
             Some(&|rows, dir| jam::plot(rows, dir)),
         ),

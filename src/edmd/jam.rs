@@ -8,12 +8,15 @@
 //! neighbours and the pressure diverges: the run ends when the reduced
 //! pressure Z = βPV/N passes a bound (Donev's 10¹²), its state jammed.
 //!
-//! The bodies grow ten times faster than γ while Z < 10³ (the fluid and
-//! the glass, whose structure is random whatever the rate) and at γ from
-//! there: the rate of the last approach sets how well the bodies settle
-//! into their cages. Measured on 500 spheres: growing at 10⁻² to the end
-//! leaves the backbone hypostatic (z = 5.70), 10⁻³ after Z = 10³ gives
-//! z = 5.95, 10⁻⁴ gives 5.99 (docs/benchmarks/jam-2026-11-26.md).
+//! The bodies grow at γ from start to end. The rate through the fluid
+//! and the glass sets how dense the packing is, and the rate of the last
+//! approach how well the bodies settle into their cages: growing ten
+//! times faster until Z = 10³ left 1000 spheroids 1.5:1 at φ_J = 0.704
+//! against 0.716, and 1000 spheres at 0.632 against 0.644 (γ = 10⁻²),
+//! without saving collisions (docs/benchmarks/jam-schedule-2026-11-27.md).
+//! Measured on 500 spheres: growing at 10⁻² after Z = 10³ leaves the
+//! backbone hypostatic (z = 5.70), 10⁻³ gives z = 5.95, 10⁻⁴ gives 5.99
+//! (docs/benchmarks/jam-2026-11-26.md).
 //!
 //! A chunk is one [`Dynamics::growing`] run: the sizes at its start times
 //! 1 + γt, up to a fixed relative growth (the margin its cells and
@@ -39,8 +42,7 @@ type V3 = Vector3<f64>;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JamOptions {
     /// γ: the relative growth of every body's linear size per unit time
-    /// (time in units of σ√(m/kT), σ the bodies' size) once Z ≥
-    /// [`SETTLE_FROM`]; ten times that below.
+    /// (time in units of σ√(m/kT), σ the bodies' size).
     pub growth_rate: f64,
     /// The reduced pressure Z = βPV/N at which the packing counts as
     /// jammed.
@@ -75,7 +77,8 @@ impl Default for JamOptions {
 
 /// The default γ.
 pub const DEFAULT_GROWTH_RATE: f64 = 1e-3;
-/// The reduced pressure from which the bodies grow at γ (below it, 10γ).
+/// The reduced pressure from which the neighbour shell is
+/// [`SETTLED_SHELL`] of the automatic one.
 pub const SETTLE_FROM: f64 = 1e3;
 
 /// The neighbour shell from [`SETTLE_FROM`] on, as a fraction of the
@@ -121,8 +124,6 @@ pub fn jam_predictor(mut options: PredictorOptions) -> PredictorOptions {
     distance.gjk_tolerance = distance.gjk_tolerance.min(JAM_GJK_TOLERANCE);
     options
 }
-/// How much faster than γ the bodies grow below [`SETTLE_FROM`].
-pub const FLUID_SPEED_UP: f64 = 10.0;
 /// The default bound on βPV/N (Donev et al.).
 pub const DEFAULT_JAM_PRESSURE: f64 = 1e12;
 
@@ -175,7 +176,8 @@ pub struct JamProgress {
     pub collisions: u64,
     /// The growth rate the next chunk runs at.
     pub rate: f64,
-    /// Whether Z has reached [`SETTLE_FROM`] (the rate is then γ).
+    /// Whether Z has reached [`SETTLE_FROM`] (the neighbour shell is then
+    /// the thinner one).
     pub settling: bool,
     /// Chunks run again at a lower rate after a failure.
     pub retries: u64,
@@ -219,7 +221,7 @@ impl JamRun {
             chunk: 0,
             time: 0.0,
             collisions: 0,
-            rate: FLUID_SPEED_UP * options.growth_rate,
+            rate: options.growth_rate,
             settling: false,
             retries: 0,
             start_size: system.species()[0].shape.bounding_radius(),
@@ -235,12 +237,14 @@ impl JamRun {
         velocities: &[(V3, V3)],
         options: &JamOptions,
         dynamics: &DynamicsOptions,
-        progress: JamProgress,
+        mut progress: JamProgress,
     ) -> Result<Self, EdmdError> {
         check(options)?;
         if velocities.len() != system.len() {
             return Err(EdmdError::BadVelocities(system.len()));
         }
+        // The rate is γ or, after failed chunks, below it.
+        progress.rate = progress.rate.min(options.growth_rate);
         Ok(Self {
             state: system.clone(),
             velocities: velocities.to_vec(),
@@ -359,7 +363,6 @@ impl JamRun {
             p.last = Some(figures);
             if !p.settling && z >= SETTLE_FROM {
                 p.settling = true;
-                p.rate = p.rate.min(self.options.growth_rate);
             }
             if z >= self.options.pressure {
                 self.end = Some(JamEnd::Jammed);

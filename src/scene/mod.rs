@@ -176,8 +176,8 @@ pub enum Stage {
     },
     /// A jammed packing by event-driven growth (Lubachevsky–Stillinger,
     /// as Donev, Torquato and Stillinger): every body's linear size grows
-    /// at `growth_rate` relative to its size (ten times faster until
-    /// βPV/N = 10³) while the bodies move at kT = 1, until βPV/N passes
+    /// at `growth_rate` relative to its size while the bodies move at
+    /// kT = 1, until βPV/N passes
     /// `pressure` (or the packing fraction reaches `packing_fraction`).
     /// The stages after it go on with the grown bodies.
     Jam {

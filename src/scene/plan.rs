@@ -462,9 +462,7 @@ impl fmt::Display for Report<'_> {
                         .map(|phi| format!(" or the packing fraction reaches {phi}"))
                         .unwrap_or_default();
                     format!(
-                        "jam by event-driven growth: sizes grow at {:e} per unit time ({rate:e} from betaPV/N = {:e}) at kT = 1, until betaPV/N passes {:e}{packing}",
-                        crate::edmd::jam::FLUID_SPEED_UP * rate,
-                        crate::edmd::jam::SETTLE_FROM,
+                        "jam by event-driven growth: sizes grow at {rate:e} per unit time at kT = 1, until betaPV/N passes {:e}{packing}",
                         pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE)
                     )
                 }

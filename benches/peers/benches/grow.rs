@@ -14,8 +14,8 @@
 //!
 //! The same task for hardbody: 1000 spheres of half the final radius on
 //! a lattice in his box (φ = 0.0775), grown until φ ≥ 0.62 at the rate
-//! that doubles them by t = 10 (hardbody's growth is exponential, 10γ
-//! below βPV/N = 10³: 10γ = ln 2 / 10). His thermostat kicks 1 % of the
+//! that doubles them by t = 10 (hardbody's growth is exponential:
+//! γ = ln 2 / 10). His thermostat kicks 1 % of the
 //! particles every 0.001 time units; hardbody rescales every velocity
 //! every 100 collisions per body or 1 % growth. Both are timed by the
 //! wall clock around the whole run, set-up included (a fraction of a
@@ -103,8 +103,8 @@ fn ours(seed: u64) -> (f64, u64, f64) {
     let clock = Instant::now();
     let start = hardbody::state::start::lattice(box_, species, &[N], &mut rng).unwrap();
     let options = JamOptions {
-        // 10γ = ln 2 / t_double, t_double = 1 / (his speed).
-        growth_rate: std::f64::consts::LN_2 * THEIR_SPEED / 10.0,
+        // γ = ln 2 / t_double, t_double = 1 / (his speed).
+        growth_rate: std::f64::consts::LN_2 * THEIR_SPEED,
         packing_fraction: Some(TARGET),
         ..JamOptions::default()
     };
