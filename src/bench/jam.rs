@@ -56,7 +56,7 @@ pub struct JamRow {
 }
 
 /// The rate the bodies are jammed at: 1000 spheroids 1.5:1 reach
-/// φ_J ≈ 0.716 at it in about three minutes on one core.
+/// φ_J ≈ 0.715 at it in about three minutes on one core.
 pub const BODY_GROWTH_RATE: f64 = 1e-2;
 
 /// The systems: spheres at three rates, then the bodies at

@@ -177,9 +177,9 @@ pub enum Stage {
     /// A jammed packing by event-driven growth (Lubachevsky–Stillinger,
     /// as Donev, Torquato and Stillinger): every body's linear size grows
     /// at `growth_rate` relative to its size while the bodies move at
-    /// kT = 1, until βPV/N passes
-    /// `pressure` (or the packing fraction reaches `packing_fraction`).
-    /// The stages after it go on with the grown bodies.
+    /// kT = 1, until βPV/N passes `pressure` (or the packing fraction
+    /// reaches `packing_fraction`). The stages after it go on with the
+    /// grown bodies.
     Jam {
         /// γ, per unit time (default 10⁻³).
         #[serde(default)]

@@ -15,11 +15,10 @@
 //! The same task for hardbody: 1000 spheres of half the final radius on
 //! a lattice in his box (φ = 0.0775), grown until φ ≥ 0.62 at the rate
 //! that doubles them by t = 10 (hardbody's growth is exponential:
-//! γ = ln 2 / 10). His thermostat kicks 1 % of the
-//! particles every 0.001 time units; hardbody rescales every velocity
-//! every 100 collisions per body or 1 % growth. Both are timed by the
-//! wall clock around the whole run, set-up included (a fraction of a
-//! percent here).
+//! γ = ln 2 / 10). His thermostat kicks 1 % of the particles every 0.001
+//! time units; hardbody rescales every velocity every 100 collisions per
+//! body or 1 % growth. Both are timed by the wall clock around the whole
+//! run, set-up included (a fraction of a percent here).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
