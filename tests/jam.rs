@@ -170,6 +170,42 @@ fn the_bodies_grow_at_one_rate_from_start_to_end() {
     assert_eq!(resumed.progress().rate, options.growth_rate);
 }
 
+/// With a fluid rate, the bodies grow at it until βPV/N = 10³ and at γ
+/// from there, faster or slower than γ.
+#[test]
+fn a_fluid_rate_holds_until_the_glass() {
+    let start = dilute("Sphere(radius: 0.5)", 64, 0.2, [false; 3]);
+    for fluid in [3e-2, 1e-3] {
+        let options = JamOptions {
+            growth_rate: 3e-3,
+            fluid_rate: Some(fluid),
+            pressure: 1e5,
+            ..JamOptions::default()
+        };
+        let mut chunks = Vec::new();
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
+        let out = jam(
+            &start,
+            &options,
+            &DynamicsOptions::default(),
+            &mut rng,
+            |c| {
+                chunks.push(*c);
+                true
+            },
+        )
+        .unwrap();
+        assert_eq!((out.end, out.retries), (JamEnd::Jammed, 0));
+        // The chunk that first reached 10³ ran at the fluid rate.
+        let settled = chunks.iter().position(|c| c.pressure >= 1e3).unwrap();
+        for (k, c) in chunks.iter().enumerate() {
+            let rate = if k <= settled { fluid } else { 3e-3 };
+            assert_eq!(c.growth_rate, rate, "fluid {fluid:e}, chunk {k}: {c:?}");
+        }
+        assert!(settled + 1 < chunks.len(), "no chunk after the fluid");
+    }
+}
+
 /// Ellipsoids, superballs and cubes, and spheres between walls, grown to
 /// Z = 10⁵: no overlap (nor with a wall), by the exact pair distance, and
 /// the species' sizes those of the bodies.
@@ -524,6 +560,41 @@ fn grown_superballs_resume_bit_for_bit() {
     let whole = read_log(&path, true).unwrap();
     assert!(whole.states.len() >= 3, "{} frames", whole.states.len());
     resumes_bit_for_bit(&dir, &path, &whole, [1, whole.states.len() - 2]);
+}
+
+/// A scene's `fluid_rate` reaches the stage (its plan and progress name
+/// it), and one outside (0, 0.1] is refused by name.
+#[test]
+fn a_scene_sets_the_fluid_rate() {
+    const SCENE: &str = r#"Scene(
+    seed: 5,
+    box: (5.0, 5.0, 5.0),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 27)],
+    stages: [Jam(growth_rate: 0.01, fluid_rate: 0.05, pressure: 1e4)],
+)"#;
+    let (_, _, summary) = run_scene_in("jam-fluid-rate", SCENE);
+    assert!(
+        summary.stages[0].contains("jammed") && summary.stages[0].contains("growth rate 1e-2"),
+        "{:?}",
+        summary.stages
+    );
+    let scene = Scene::parse(SCENE).unwrap();
+    let plan = hardbody::scene::plan::Plan::of(&scene);
+    let report = hardbody::scene::plan::Report {
+        scene: &scene,
+        plan: &plan,
+    }
+    .to_string();
+    assert!(
+        report.contains("sizes grow at 1e-2 per unit time (5e-2 until betaPV/N = 1e3)"),
+        "{report}"
+    );
+    let bad = SCENE.replace("fluid_rate: 0.05", "fluid_rate: 0.5");
+    let err = Scene::parse(&bad).unwrap_err().to_string();
+    assert!(
+        err.contains("stages[0].fluid_rate") && err.contains("(0, 0.1]"),
+        "{err}"
+    );
 }
 
 /// Runs the scene `text` to a log in a fresh directory named after `tag`;

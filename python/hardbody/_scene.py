@@ -249,6 +249,7 @@ class Jam:
     growth_rate: Optional[float] = None
     pressure: Optional[float] = None
     packing_fraction: Optional[float] = None
+    fluid_rate: Optional[float] = None
 
 
 Stage = Union[Compress, MonteCarlo, Dynamics, Jam]

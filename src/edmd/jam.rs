@@ -8,12 +8,15 @@
 //! neighbours and the pressure diverges: the run ends when the reduced
 //! pressure Z = βPV/N passes a bound (Donev's 10¹²), its state jammed.
 //!
-//! The bodies grow at γ from start to end. The rate through the fluid
-//! and the glass sets how dense the packing is, and the rate of the last
-//! approach how well the bodies settle into their cages: growing ten
-//! times faster until Z = 10³ left 1000 spheroids 1.5:1 at φ_J = 0.704
-//! against 0.716, and 1000 spheres at 0.632 against 0.644 (γ = 10⁻²),
-//! without saving collisions (docs/benchmarks/jam-schedule-2026-11-27.md).
+//! The bodies grow at γ from start to end, or at a fluid rate of their
+//! own until Z = 10³ ([`JamOptions::fluid_rate`]). The rate through the
+//! fluid and the glass sets how dense and how ordered the packing is, and
+//! the rate of the last approach how well the bodies settle into their
+//! cages: growing ten times faster until Z = 10³ left 1000 spheroids
+//! 1.5:1 at φ_J = 0.704 against 0.716, and 1000 spheres at 0.632 against
+//! 0.644 (γ = 10⁻²), without saving collisions; bodies with flat faces
+//! grown slowly through the fluid align them and pack far denser than
+//! at random (docs/benchmarks/jam-schedule-2026-11-27.md).
 //! Measured on 500 spheres: growing at 10⁻² after Z = 10³ leaves the
 //! backbone hypostatic (z = 5.70), 10⁻³ gives z = 5.95, 10⁻⁴ gives 5.99
 //! (docs/benchmarks/jam-2026-11-26.md).
@@ -44,6 +47,10 @@ pub struct JamOptions {
     /// γ: the relative growth of every body's linear size per unit time
     /// (time in units of σ√(m/kT), σ the bodies' size).
     pub growth_rate: f64,
+    /// The rate until Z reaches [`SETTLE_FROM`] (default: γ). Faster
+    /// keeps the structure of the fluid (random jammed packings of bodies
+    /// that would order), slower lets it pack denser.
+    pub fluid_rate: Option<f64>,
     /// The reduced pressure Z = βPV/N at which the packing counts as
     /// jammed.
     pub pressure: f64,
@@ -65,6 +72,7 @@ impl Default for JamOptions {
     fn default() -> Self {
         Self {
             growth_rate: DEFAULT_GROWTH_RATE,
+            fluid_rate: None,
             pressure: DEFAULT_JAM_PRESSURE,
             growth_floor: DEFAULT_GROWTH_RATE * 1e-4,
             margin: 0.05,
@@ -77,8 +85,9 @@ impl Default for JamOptions {
 
 /// The default γ.
 pub const DEFAULT_GROWTH_RATE: f64 = 1e-3;
-/// The reduced pressure from which the neighbour shell is
-/// [`SETTLED_SHELL`] of the automatic one.
+/// The reduced pressure from which the bodies grow at γ (below it, at the
+/// fluid rate) and the neighbour shell is [`SETTLED_SHELL`] of the
+/// automatic one.
 pub const SETTLE_FROM: f64 = 1e3;
 
 /// The neighbour shell from [`SETTLE_FROM`] on, as a fraction of the
@@ -176,8 +185,8 @@ pub struct JamProgress {
     pub collisions: u64,
     /// The growth rate the next chunk runs at.
     pub rate: f64,
-    /// Whether Z has reached [`SETTLE_FROM`] (the neighbour shell is then
-    /// the thinner one).
+    /// Whether Z has reached [`SETTLE_FROM`] (the rate is then γ, the
+    /// neighbour shell the thinner one).
     pub settling: bool,
     /// Chunks run again at a lower rate after a failure.
     pub retries: u64,
@@ -221,7 +230,7 @@ impl JamRun {
             chunk: 0,
             time: 0.0,
             collisions: 0,
-            rate: options.growth_rate,
+            rate: options.fluid_rate(),
             settling: false,
             retries: 0,
             start_size: system.species()[0].shape.bounding_radius(),
@@ -243,8 +252,13 @@ impl JamRun {
         if velocities.len() != system.len() {
             return Err(EdmdError::BadVelocities(system.len()));
         }
-        // The rate is γ or, after failed chunks, below it.
-        progress.rate = progress.rate.min(options.growth_rate);
+        // The rate is the stage's or, after failed chunks, below it.
+        let rate = if progress.settling {
+            options.growth_rate
+        } else {
+            options.fluid_rate()
+        };
+        progress.rate = progress.rate.min(rate);
         Ok(Self {
             state: system.clone(),
             velocities: velocities.to_vec(),
@@ -363,6 +377,14 @@ impl JamRun {
             p.last = Some(figures);
             if !p.settling && z >= SETTLE_FROM {
                 p.settling = true;
+                // From the fluid rate to γ, keeping a slower growth after
+                // failed chunks when γ is the slower.
+                let (fluid, gamma) = (self.options.fluid_rate(), self.options.growth_rate);
+                p.rate = if fluid >= gamma {
+                    p.rate.min(gamma)
+                } else {
+                    p.rate / fluid * gamma
+                };
             }
             if z >= self.options.pressure {
                 self.end = Some(JamEnd::Jammed);
@@ -437,15 +459,22 @@ impl JamFailure {
     }
 }
 
+impl JamOptions {
+    /// The rate until Z reaches [`SETTLE_FROM`].
+    pub fn fluid_rate(&self) -> f64 {
+        self.fluid_rate.unwrap_or(self.growth_rate)
+    }
+}
+
 fn check(options: &JamOptions) -> Result<(), EdmdError> {
     let positive = |x: f64| x.is_finite() && x > 0.0;
-    if positive(options.growth_rate) && positive(options.margin) {
-        Ok(())
-    } else {
-        Err(EdmdError::BadGrowth {
-            rate: options.growth_rate,
+    let rates = [options.growth_rate, options.fluid_rate()];
+    match rates.into_iter().find(|&r| !positive(r)) {
+        None if positive(options.margin) => Ok(()),
+        bad => Err(EdmdError::BadGrowth {
+            rate: bad.unwrap_or(options.growth_rate),
             margin: options.margin,
-        })
+        }),
     }
 }
 

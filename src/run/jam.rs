@@ -44,6 +44,7 @@ impl JamStage {
     ) -> Result<Self, StageError> {
         let Stage::Jam {
             growth_rate,
+            fluid_rate,
             pressure,
             packing_fraction,
         } = runner.scene.stages[index]
@@ -52,6 +53,7 @@ impl JamStage {
         };
         let options = JamOptions {
             growth_rate: growth_rate.unwrap_or(DEFAULT_GROWTH_RATE),
+            fluid_rate,
             pressure: pressure.unwrap_or(DEFAULT_JAM_PRESSURE),
             packing_fraction,
             ..JamOptions::default()

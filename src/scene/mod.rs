@@ -184,6 +184,10 @@ pub enum Stage {
         /// γ, per unit time (default 10⁻³).
         #[serde(default)]
         growth_rate: Option<f64>,
+        /// The rate until βPV/N = 10³ (default: `growth_rate`); faster
+        /// keeps bodies that would order random.
+        #[serde(default)]
+        fluid_rate: Option<f64>,
         /// The bound on βPV/N that ends it (default 10¹²).
         #[serde(default)]
         pressure: Option<f64>,

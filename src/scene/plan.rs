@@ -454,6 +454,7 @@ impl fmt::Display for Report<'_> {
                 }
                 Stage::Jam {
                     growth_rate,
+                    fluid_rate,
                     pressure,
                     packing_fraction,
                 } => {
@@ -461,8 +462,16 @@ impl fmt::Display for Report<'_> {
                     let packing = packing_fraction
                         .map(|phi| format!(" or the packing fraction reaches {phi}"))
                         .unwrap_or_default();
+                    let fluid = fluid_rate
+                        .map(|f| {
+                            format!(
+                                " ({f:e} until betaPV/N = {:e})",
+                                crate::edmd::jam::SETTLE_FROM
+                            )
+                        })
+                        .unwrap_or_default();
                     format!(
-                        "jam by event-driven growth: sizes grow at {rate:e} per unit time at kT = 1, until betaPV/N passes {:e}{packing}",
+                        "jam by event-driven growth: sizes grow at {rate:e} per unit time{fluid} at kT = 1, until betaPV/N passes {:e}{packing}",
                         pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE)
                     )
                 }

@@ -162,16 +162,16 @@ impl Scene {
             match st {
                 Stage::Jam {
                     growth_rate,
+                    fluid_rate,
                     pressure,
                     packing_fraction,
                 } => {
-                    if let Some(rate) = growth_rate
-                        && !(rate.is_finite() && *rate > 0.0 && *rate <= 0.1)
-                    {
-                        return bad(
-                            &f("growth_rate"),
-                            format!("must lie in (0, 0.1], got {rate}"),
-                        );
+                    for (name, rate) in [("growth_rate", growth_rate), ("fluid_rate", fluid_rate)] {
+                        if let Some(rate) = rate
+                            && !(rate.is_finite() && *rate > 0.0 && *rate <= 0.1)
+                        {
+                            return bad(&f(name), format!("must lie in (0, 0.1], got {rate}"));
+                        }
                     }
                     if let Some(p) = pressure
                         && !(p.is_finite() && *p > 1.0 && *p <= 1e14)
