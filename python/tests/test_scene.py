@@ -90,6 +90,19 @@ def test_refusals_name_the_field_as_the_command_line_does():
             stages=[hb.Compress(packing_fraction=0.9)],
         )
     assert "densest" in str(e.value)
+    with pytest.raises(hb.SceneError) as e:
+        hb.Scene(
+            box=(8, 8, 8),
+            species=[hb.Species("a", hb.Sphere(0.5), 10)],
+            stages=[hb.Jam(growth_rate=0.01, fluid_rate=0.5)],
+        )
+    assert e.value.field == "stages[0].fluid_rate"
+    jam = hb.Scene(
+        box=(8, 8, 8),
+        species=[hb.Species("a", hb.Sphere(0.5), 10)],
+        stages=[hb.Jam(growth_rate=0.01, fluid_rate=0.05)],
+    )
+    assert "fluid_rate: Some(0.05)" in jam.to_ron() or "fluid_rate: 0.05" in jam.to_ron()
     with pytest.raises(hb.SceneError, match="not finite|value a scene cannot"):
         hb.Scene(box=(8, 8, float("nan")), species=[hb.Species("a", hb.Sphere(0.5), 1)], stages=[])
     with pytest.raises(hb.SceneError):
