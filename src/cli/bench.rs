@@ -39,9 +39,10 @@ pub(super) fn bench(suite: Suite, quick: bool, json: bool, plot: Option<&Path>) 
             "jam",
             jam::run(quick, |row| {
                 esay(&format!(
-                    "{} at {:e}: phi_J {:.4}, z {:.3}, {:.1} s",
+                    "{} at {:e} (fluid {:e}): phi_J {:.4}, z {:.3}, {:.1} s",
                     row.shape,
                     row.growth_rate,
+                    row.fluid_rate,
                     row.packing_fraction,
                     row.backbone_contact_number,
                     row.seconds
