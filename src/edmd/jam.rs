@@ -15,8 +15,8 @@
 //! cages: growing ten times faster until Z = 10³ left 1000 spheroids
 //! 1.5:1 at φ_J = 0.704 against 0.716, and 1000 spheres at 0.632 against
 //! 0.644 (γ = 10⁻²), without saving collisions; bodies with flat faces
-//! grown slowly through the fluid align them and pack far denser than
-//! at random (docs/benchmarks/jam-schedule-2026-11-27.md).
+//! grown slowly through the fluid pack far denser than at random
+//! (docs/benchmarks/jam-schedule-2026-11-27.md).
 //! Measured on 500 spheres: growing at 10⁻² after Z = 10³ leaves the
 //! backbone hypostatic (z = 5.70), 10⁻³ gives z = 5.95, 10⁻⁴ gives 5.99
 //! (docs/benchmarks/jam-2026-11-26.md).
@@ -80,6 +80,13 @@ impl Default for JamOptions {
             max_collisions: 0,
             packing_fraction: None,
         }
+    }
+}
+
+impl JamOptions {
+    /// The rate until Z reaches [`SETTLE_FROM`].
+    pub fn fluid_rate(&self) -> f64 {
+        self.fluid_rate.unwrap_or(self.growth_rate)
     }
 }
 
@@ -455,13 +462,6 @@ impl JamFailure {
     /// [`Dynamics::growth_ends`] meets the failing event again.
     pub fn replay(&self) -> Result<Dynamics, EdmdError> {
         Dynamics::from_dump(&self.species, &self.dump, &self.options)
-    }
-}
-
-impl JamOptions {
-    /// The rate until Z reaches [`SETTLE_FROM`].
-    pub fn fluid_rate(&self) -> f64 {
-        self.fluid_rate.unwrap_or(self.growth_rate)
     }
 }
 
