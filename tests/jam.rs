@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 use common::cut_after_frames;
 use hardbody::analysis::packing::ContactNetwork;
 use hardbody::edmd::DynamicsOptions;
-use hardbody::edmd::jam::{JamEnd, JamOptions, JamRun, Jammed, jam};
+use hardbody::edmd::jam::{JamChunk, JamEnd, JamOptions, JamRun, Jammed, jam};
 use hardbody::log::read::read_log;
 use hardbody::run::{RunSummary, Silent, resume_run, run_scene};
 use hardbody::scene::Scene;
@@ -136,26 +136,13 @@ fn the_bodies_grow_at_one_rate_from_start_to_end() {
         pressure: 1e5,
         ..JamOptions::default()
     };
-    let mut chunks = Vec::new();
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
-    let out = jam(
-        &start,
-        &options,
-        &DynamicsOptions::default(),
-        &mut rng,
-        |c| {
-            chunks.push(*c);
-            true
-        },
-    )
-    .unwrap();
-    assert_eq!(out.end, JamEnd::Jammed);
-    assert_eq!(out.retries, 0);
+    let chunks = jammed_chunks(&start, &options);
     assert!(chunks[0].pressure < 10.0, "{:?}", chunks[0]);
     assert!(chunks.iter().any(|c| c.pressure > 1e3));
     for c in &chunks {
         assert_eq!(c.growth_rate, 3e-3, "{c:?}");
     }
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
     let run = JamRun::new(&start, &options, &DynamicsOptions::default(), &mut rng).unwrap();
     let mut faster = *run.progress();
     faster.rate = 10.0 * options.growth_rate;
@@ -170,6 +157,20 @@ fn the_bodies_grow_at_one_rate_from_start_to_end() {
     assert_eq!(resumed.progress().rate, options.growth_rate);
 }
 
+/// Every chunk's figures of a jam of `start` that must end jammed, with
+/// no chunk run again.
+fn jammed_chunks(start: &System, options: &JamOptions) -> Vec<JamChunk> {
+    let mut chunks = Vec::new();
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
+    let out = jam(start, options, &DynamicsOptions::default(), &mut rng, |c| {
+        chunks.push(*c);
+        true
+    })
+    .unwrap();
+    assert_eq!((out.end, out.retries), (JamEnd::Jammed, 0));
+    chunks
+}
+
 /// With a fluid rate, the bodies grow at it until βPV/N = 10³ and at γ
 /// from there, faster or slower than γ.
 #[test]
@@ -182,20 +183,7 @@ fn a_fluid_rate_holds_until_the_glass() {
             pressure: 1e5,
             ..JamOptions::default()
         };
-        let mut chunks = Vec::new();
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(4);
-        let out = jam(
-            &start,
-            &options,
-            &DynamicsOptions::default(),
-            &mut rng,
-            |c| {
-                chunks.push(*c);
-                true
-            },
-        )
-        .unwrap();
-        assert_eq!((out.end, out.retries), (JamEnd::Jammed, 0));
+        let chunks = jammed_chunks(&start, &options);
         // The chunk that first reached 10³ ran at the fluid rate.
         let settled = chunks.iter().position(|c| c.pressure >= 1e3).unwrap();
         for (k, c) in chunks.iter().enumerate() {
