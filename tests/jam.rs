@@ -550,8 +550,8 @@ fn grown_superballs_resume_bit_for_bit() {
     resumes_bit_for_bit(&dir, &path, &whole, [1, whole.states.len() - 2]);
 }
 
-/// A scene's `fluid_rate` reaches the stage (its plan and progress name
-/// it), and one outside (0, 0.1] is refused by name.
+/// A scene's `fluid_rate` reaches the stage (its plan names it, and the
+/// stage ends at γ), and one outside (0, 0.1] is refused by name.
 #[test]
 fn a_scene_sets_the_fluid_rate() {
     const SCENE: &str = r#"Scene(
