@@ -625,6 +625,43 @@ mod tests {
         assert_eq!(gather(cells.iter().copied(), &mut small), None);
     }
 
+    /// A batch of sphere pairs is skipped only when none can touch before
+    /// its lane's horizon: never when a lane's computed time is before it
+    /// (by one ulp), always when every lane's is well after it (the bound
+    /// c/(−2b) is at least half the contact time).
+    #[test]
+    fn a_batch_is_skipped_only_when_no_contact_comes_before_its_horizon() {
+        let md = mixture(Some(0.2));
+        let n = md.bodies.len();
+        let mut u = crate::test_support::uniform(5);
+        let (mut kept, mut skipped) = (0, 0);
+        for _ in 0..20_000 {
+            let i = (u() * n as f64) as usize;
+            let j = (u() * n as f64) as usize;
+            if i == j {
+                continue;
+            }
+            let products = md.lane_products(i, &[j; LANES]);
+            let [t, ..] = md.lane_times(&products);
+            if !t.is_finite() {
+                continue;
+            }
+            assert!(
+                products.may_meet_before(&[t.next_up(); LANES]),
+                "{i} {j} at {t}"
+            );
+            assert!(products.may_meet_before(&[f64::INFINITY; LANES]), "{i} {j}");
+            kept += 1;
+            let t0 = md.bodies[i].time.max(md.bodies[j].time);
+            if t > md.now {
+                let early = t0 + 0.49 * (t - t0);
+                assert!(!products.may_meet_before(&[early; LANES]), "{i} {j} at {t}");
+                skipped += 1;
+            }
+        }
+        assert!(kept > 500 && skipped > 500, "{kept} {skipped}");
+    }
+
     /// The contact times computed four side by side are those of the pair
     /// by pair search, to the bit, for any partners (near and far, either
     /// species, meeting or not); and the earliest over a list is the same

@@ -64,11 +64,17 @@ impl Dynamics {
         let keep = |j: usize| j != i && Some(j) != skip && !(once && j < i);
         if self.closed_form {
             // Every search is one closed-form solve, exact whenever it is
-            // done: no horizon, none deferred.
+            // done: none deferred. With lists, no further than the body's
+            // escape, where its search is renewed over its new list.
             let earliest = match &self.neighbours {
                 Some(spheres) => {
                     prefetch_bodies(&self.bodies, spheres.lists.of(i));
-                    self.earliest_closed_form_listed(i, spheres.lists.of(i), keep, f64::INFINITY)
+                    let escape = self.crossing_times[i];
+                    self.bodies[i].horizon = escape;
+                    let list = spheres.lists.of(i);
+                    let earliest = self.earliest_closed_form_listed(i, list, keep, escape);
+                    self.schedule_earliest(i, earliest);
+                    return Ok(());
                 }
                 None => {
                     let cells = &self.cells;
@@ -202,7 +208,14 @@ impl Dynamics {
         let tail = lanes.remainder();
         for lanes in lanes {
             let lanes: [usize; LANES] = std::array::from_fn(|k| lanes[k] as usize);
-            let times = self.closed_form_contacts(i, &lanes);
+            let products = self.lane_products(i, &lanes);
+            // Most batches have no partner closing in time: no square
+            // roots, no divisions for them.
+            let before = lanes.map(|j| horizon.min(self.bodies[j].horizon));
+            if self.growth.is_none() && !products.may_meet_before(&before) {
+                continue;
+            }
+            let times = self.lane_times(&products);
             for (&t, &j) in times.iter().zip(&lanes) {
                 if keep(j) && t < horizon.min(self.bodies[j].horizon) {
                     earliest = Some((t, j));
@@ -241,8 +254,15 @@ impl Dynamics {
 
     /// [`Dynamics::closed_form_contact`] of body `i` with each of `others`,
     /// to the bit, computed side by side.
-    #[inline(always)]
+    #[cfg(test)]
     pub(super) fn closed_form_contacts(&self, i: usize, others: &[usize; LANES]) -> [f64; LANES] {
+        self.lane_times(&self.lane_products(i, others))
+    }
+
+    /// What [`Dynamics::closed_form_contacts`] needs of each pair: the
+    /// later of the two stored times, d·Δv, |d|², |Δv|² and σ there.
+    #[inline(always)]
+    pub(super) fn lane_products(&self, i: usize, others: &[usize; LANES]) -> LaneProducts {
         let bi = &self.bodies[i];
         // Structure of arrays, one lane per partner, so that the compiler
         // computes the lanes in vector registers.
@@ -280,6 +300,26 @@ impl Dynamics {
                 v2[k] += dv[a][k] * dv[a][k];
             }
         }
+        LaneProducts {
+            t0,
+            b,
+            dd,
+            v2,
+            sigma,
+        }
+    }
+
+    /// The contact times of [`Dynamics::closed_form_contacts`] from the
+    /// pairs' products.
+    #[inline(always)]
+    pub(super) fn lane_times(&self, products: &LaneProducts) -> [f64; LANES] {
+        let LaneProducts {
+            t0,
+            b,
+            dd,
+            v2,
+            sigma,
+        } = *products;
         let mut times = [0.0; LANES];
         // Growth is decided once for the lanes, outside their loop, which
         // the compiler then keeps in vector registers.
@@ -506,6 +546,37 @@ pub(super) fn prefetch_body(bodies: &[Body], j: usize) {
 
 /// Partners whose closed-form contact times are computed side by side.
 pub(super) const LANES: usize = 4;
+
+/// Per lane of a batch of sphere pairs: the later of the two stored times
+/// and, there, d·Δv, |d|², |Δv|² and the contact distance σ.
+#[derive(Clone, Copy)]
+pub(super) struct LaneProducts {
+    t0: [f64; LANES],
+    b: [f64; LANES],
+    dd: [f64; LANES],
+    v2: [f64; LANES],
+    sigma: [f64; LANES],
+}
+
+impl LaneProducts {
+    /// Whether any lane's pair may touch (without growth) before the
+    /// lane's time in `before`: false only if every pair recedes or meets
+    /// at or after it. A closing pair apart (c = |d|² − σ² > 0, b = d·Δv <
+    /// 0) touches at c / (−b + √(b² − |Δv|² c)) ≥ c / (−2b) after t₀,
+    /// also as computed (the denominator rounds to at most 2|b|(1 + 3ε)),
+    /// so c ≥ −2b (before − t₀)(1 + 10⁻⁶) rules it out before `before`
+    /// with room for every rounding.
+    #[inline(always)]
+    pub(super) fn may_meet_before(&self, before: &[f64; LANES]) -> bool {
+        let mut any = false;
+        for (k, &before) in before.iter().enumerate() {
+            let c = self.dd[k] - self.sigma[k] * self.sigma[k];
+            let ruled_out = c >= -2.0 * self.b[k] * (before - self.t0[k]) * (1.0 + 1e-6);
+            any |= (self.b[k] < 0.0) & !ruled_out;
+        }
+        any
+    }
+}
 
 /// Candidates gathered from the cells around a sphere at most (dense
 /// spheres have about 27; more fall back to one at a time).
