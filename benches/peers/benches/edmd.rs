@@ -8,7 +8,8 @@
 //!
 //! Run with `taskset -c 0 cargo bench --bench edmd` from `benches/peers/`
 //! (one core for both; `QUICK=1`: a short run; `REPEATS=N`, default 3;
-//! `ONLY_OURS=1`: hardbody's list run alone, to profile; `N=32000`,
+//! `ONLY_OURS=1`: hardbody's list run alone, to profile or to time two
+//! builds of it against each other, from a start written here; `N=32000`,
 //! `PHI=0.45`: another count or packing fraction, from a start written
 //! here the way `gen_sc.py` writes its own). His source is read from
 //! `../shared/peers/smallenburg-edmd` beside the repository (or
@@ -177,8 +178,16 @@ fn main() {
         .and_then(|r| r.parse().ok())
         .unwrap_or(3);
     let duration = if quick { 10.0 } else { 75.0 };
-    let peer = build_peer();
     let only_ours = std::env::var_os("ONLY_OURS").is_some();
+    // Alone, hardbody starts from a start written here (the peer is not
+    // built, so that repeated runs time nothing else).
+    let peer = if only_ours {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/edmd-alone");
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    } else {
+        build_peer()
+    };
     let init = peer.join("init.sph");
     let n: Option<usize> = std::env::var("N")
         .ok()
@@ -186,7 +195,7 @@ fn main() {
     let phi: Option<f64> = std::env::var("PHI")
         .ok()
         .map(|p| p.parse().expect("PHI: a packing fraction"));
-    if n.is_none() && phi.is_none() {
+    if n.is_none() && phi.is_none() && !only_ours {
         run(Command::new("python3")
             .args(["gen_sc.py", "1", "init.sph"])
             .current_dir(&peer));
