@@ -96,15 +96,17 @@ const NEIGHBOURHOOD: usize = 1;
 /// One event per particle and kind is all the dynamics ever needs (its
 /// searches schedule only a particle's earliest collision, and one
 /// crossing, escape or wall event at a time), so each particle holds two
-/// slots, and a complete binary tree over the particles keeps at each node
-/// the particle whose earlier slot is the earliest in its subtree (a
-/// tournament tree over the particles' next events).
+/// slots, and a complete tree of eight children per node over the
+/// particles keeps at each node the particle whose earlier slot is the
+/// earliest in its subtree, with its time (a tournament tree over the
+/// particles' next events; a node's children are compared side by side,
+/// without reading their events unless two times are equal).
 /// A changed particle's leaf-to-root path is brought up to date, O(log n)
 /// and stopping as soon as the path's winners stop changing, when the
 /// earliest event is next asked for (a collision changes both bodies'
 /// slots several times: one walk each); the earliest event is at the
 /// root. Unlike a heap with lazy deletion, stale events are overwritten in
-/// place rather than piled up, so the calendar's size is fixed (about 100
+/// place rather than piled up, so the calendar's size is fixed (about 130
 /// bytes per particle) and it stays in cache.
 #[derive(Debug, Clone)]
 pub struct Calendar {
@@ -112,13 +114,16 @@ pub struct Calendar {
     /// Per particle: its next collision and its next neighbourhood event
     /// ([`NONE`] when empty).
     slots: Vec<[Event; 2]>,
-    /// Per leaf (particles, then padding up to a power of two): the
+    /// Per leaf (particles, then padding up to a power of eight): the
     /// earlier of its two slots.
     next: Vec<Event>,
-    /// `winners[k]`, 1 <= k < leaves: the leaf of the earliest event under
-    /// node k (children 2k and 2k + 1; node k >= leaves is leaf k − leaves).
-    winners: Vec<u32>,
-    leaves: usize,
+    /// The tree's levels, leaves first: entry k of level l is the earliest
+    /// event under node k of level l (its leaf and time); the eight
+    /// children of node k of level l + 1 are the group `levels[l][k]`,
+    /// side by side in two cache lines.
+    levels: Vec<Vec<Group>>,
+    /// The earliest event of all: the winner of the top group.
+    root: Entry,
     /// Particles whose slots changed since the tree was last brought up
     /// to date, each once (`pending`).
     dirty: Vec<u32>,
@@ -128,18 +133,34 @@ pub struct Calendar {
 impl Calendar {
     /// An empty calendar for `n` particles.
     pub fn new(n: usize) -> Self {
-        let leaves = n.max(2).next_power_of_two();
-        let mut winners = vec![0; leaves];
+        let mut leaves = ARITY;
+        while leaves < n {
+            leaves *= ARITY;
+        }
         // Every leaf empty: the leftmost wins every node.
-        for (k, w) in winners.iter_mut().enumerate().skip(1) {
-            *w = ((k << (leaves.trailing_zeros() - k.ilog2())) - leaves) as u32;
+        let mut levels = Vec::new();
+        let mut span = 1;
+        while span < leaves {
+            let groups = leaves / (span * ARITY);
+            levels.push(
+                (0..groups)
+                    .map(|g| Group {
+                        times: [f64::INFINITY; ARITY],
+                        leaves: std::array::from_fn(|c| ((g * ARITY + c) * span) as u32),
+                    })
+                    .collect(),
+            );
+            span *= ARITY;
         }
         Self {
             stamps: vec![0; n],
             slots: vec![[NONE; 2]; n],
             next: vec![NONE; leaves],
-            winners,
-            leaves,
+            levels,
+            root: Entry {
+                time: f64::INFINITY,
+                leaf: 0,
+            },
             dirty: Vec::new(),
             pending: vec![false; n],
         }
@@ -216,7 +237,7 @@ impl Calendar {
     pub fn peek(&mut self) -> Option<Event> {
         loop {
             self.flush();
-            let p = self.winners[1] as usize;
+            let p = self.root.leaf as usize;
             let e = self.next[p];
             if e.time == f64::INFINITY {
                 return None;
@@ -309,35 +330,83 @@ impl Calendar {
     #[inline]
     fn update(&mut self, p: usize) {
         let [a, b] = &self.slots[p];
-        self.next[p] = if earlier(b, a) { *b } else { *a };
-        let mut node = (self.leaves + p) >> 1;
-        while node >= 1 {
-            let (l, r) = (self.child_winner(2 * node), self.child_winner(2 * node + 1));
-            let w = if earlier(&self.next[r as usize], &self.next[l as usize]) {
-                r
-            } else {
-                l
+        let e = if earlier(b, a) { *b } else { *a };
+        self.next[p] = e;
+        let mut entry = Entry {
+            time: e.time,
+            leaf: p as u32,
+        };
+        let mut k = p;
+        for l in 0..self.levels.len() {
+            let (g, c) = (k / ARITY, k % ARITY);
+            let group = &mut self.levels[l][g];
+            let old = Entry {
+                time: group.times[c],
+                leaf: group.leaves[c],
             };
-            let old = self.winners[node];
-            self.winners[node] = w;
+            (group.times[c], group.leaves[c]) = (entry.time, entry.leaf);
             // Above here nothing changed: the same winner, whose event is
             // unchanged (it is not p).
-            if w == old && w as usize != p {
-                break;
+            if old == entry && entry.leaf as usize != p {
+                return;
             }
-            node >>= 1;
+            entry = self.group_winner(&self.levels[l][g]);
+            k = g;
         }
+        self.root = entry;
     }
 
-    /// The winning leaf of node `k` (a leaf itself when `k >= leaves`).
+    /// The earliest of a group's eight entries (equal times decided by the
+    /// events' keys; empty ones by position). Without a branch on the
+    /// times, which are in random order.
     #[inline(always)]
-    fn child_winner(&self, k: usize) -> u32 {
-        if k >= self.leaves {
-            (k - self.leaves) as u32
-        } else {
-            self.winners[k]
+    fn group_winner(&self, group: &Group) -> Entry {
+        let t = &group.times;
+        let lesser = |a: f64, b: f64| if b < a { b } else { a };
+        let pairs: [f64; 4] = std::array::from_fn(|c| lesser(t[2 * c], t[2 * c + 1]));
+        let earliest = lesser(lesser(pairs[0], pairs[1]), lesser(pairs[2], pairs[3]));
+        let mut at = 0u32;
+        for (c, &time) in t.iter().enumerate() {
+            at |= u32::from(time == earliest) << c;
         }
+        let first = at.trailing_zeros() as usize;
+        let mut best = Entry {
+            time: earliest,
+            leaf: group.leaves[first],
+        };
+        if at & (at - 1) != 0 && earliest != f64::INFINITY {
+            // Equal times: the events' keys decide.
+            for c in first + 1..ARITY {
+                let leaf = group.leaves[c];
+                if at & (1 << c) != 0
+                    && earlier(&self.next[leaf as usize], &self.next[best.leaf as usize])
+                {
+                    best.leaf = leaf;
+                }
+            }
+        }
+        best
     }
+}
+
+/// Children per node of the calendar's tree: their entries fill two cache
+/// lines, and a walk from a leaf to the root climbs a third of the levels
+/// of a binary tree.
+const ARITY: usize = 8;
+
+/// A node's earliest event: its time and its particle (leaf).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Entry {
+    time: f64,
+    leaf: u32,
+}
+
+/// The entries of a node's children, side by side.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(128))]
+struct Group {
+    times: [f64; ARITY],
+    leaves: [u32; ARITY],
 }
 
 #[cfg(test)]
@@ -401,7 +470,7 @@ mod tests {
     #[test]
     fn yields_the_earliest_current_event_as_a_brute_force_scan_does() {
         let mut u = crate::test_support::uniform(5);
-        for n in [1, 2, 3, 7, 50] {
+        for n in [1, 2, 3, 7, 9, 50, 64, 65, 700] {
             let mut cal = Calendar::new(n);
             let mut model = Model {
                 stamps: vec![0; n],
