@@ -662,7 +662,7 @@ mod tests {
         assert!(kept > 500 && skipped > 500, "{kept} {skipped}");
     }
 
-    /// The contact times computed four side by side are those of the pair
+    /// The contact times computed side by side are those of the pair
     /// by pair search, to the bit, for any partners (near and far, either
     /// species, meeting or not); and the earliest over a list is the same
     /// pair at the same time by either.
