@@ -106,8 +106,9 @@ const NEIGHBOURHOOD: usize = 1;
 /// earliest event is next asked for (a collision changes both bodies'
 /// slots several times: one walk each); the earliest event is at the
 /// root. Unlike a heap with lazy deletion, stale events are overwritten in
-/// place rather than piled up, so the calendar's size is fixed (about 130
-/// bytes per particle) and it stays in cache.
+/// place rather than piled up, so the calendar's size is fixed (about 120
+/// bytes per particle, up to eight times the leaves' share when n is just
+/// above a power of eight) and it stays in cache.
 #[derive(Debug, Clone)]
 pub struct Calendar {
     stamps: Vec<u32>,
