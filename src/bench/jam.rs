@@ -74,23 +74,18 @@ pub const FLAT_FLUID_RATE: f64 = 0.1;
 pub fn run(quick: bool, mut done: impl FnMut(&JamRow)) -> Result<Vec<JamRow>, String> {
     let shape = |text: &str| -> Result<Shape, String> { text.parse().map_err(|e| format!("{e}")) };
     let sphere = shape("Sphere(radius: 0.5)")?;
-    let cases: Vec<(Shape, usize, f64, Option<f64>, f64)> = if quick {
+    let cases: Vec<(Shape, usize, JamOptions)> = if quick {
+        let ellipsoid = shape("Ellipsoid(a: 0.75, b: 0.5, c: 0.5)")?;
         vec![
-            (sphere, 4, 1e-2, None, 1e6),
-            (
-                shape("Ellipsoid(a: 0.75, b: 0.5, c: 0.5)")?,
-                3,
-                1e-2,
-                None,
-                1e6,
-            ),
+            (sphere, 4, growing(1e-2, 1e6)),
+            (ellipsoid, 3, growing(1e-2, 1e6)),
         ]
     } else {
         let mut cases: Vec<_> = [1e-2, 3e-3, DEFAULT_GROWTH_RATE]
             .into_iter()
-            .map(|rate| (sphere, 10, rate, None, 1e12))
+            .map(|rate| (sphere, 10, growing(rate, 1e12)))
             .collect();
-        for (text, fluid) in [
+        for (text, fluid_rate) in [
             ("Ellipsoid(a: 0.75, b: 0.5, c: 0.5)", None),
             ("Ellipsoid(a: 0.625, b: 0.5, c: 0.4)", None),
             ("Ellipsoid(a: 1.0, b: 0.5, c: 0.5)", None),
@@ -101,18 +96,32 @@ pub fn run(quick: bool, mut done: impl FnMut(&JamRow)) -> Result<Vec<JamRow>, St
                 Some(FLAT_FLUID_RATE),
             ),
         ] {
-            cases.push((shape(text)?, 10, BODY_GROWTH_RATE, fluid, 1e12));
+            let options = JamOptions {
+                fluid_rate,
+                ..growing(BODY_GROWTH_RATE, 1e12)
+            };
+            cases.push((shape(text)?, 10, options));
         }
         cases
     };
     cases
         .into_iter()
-        .map(|(shape, side, rate, fluid, pressure)| {
-            let row = timed(shape, side, rate, fluid, pressure)?;
+        .map(|(shape, side, options)| {
+            let row = timed(shape, side, &options)?;
             done(&row);
             Ok(row)
         })
         .collect()
+}
+
+/// The stage's options growing at `growth_rate` (from start to end) until
+/// βPV/N passes `pressure`.
+fn growing(growth_rate: f64, pressure: f64) -> JamOptions {
+    JamOptions {
+        growth_rate,
+        pressure,
+        ..JamOptions::default()
+    }
 }
 
 /// `hardbody bench jam-rate`: 1000 spheres jammed at four growth rates
@@ -126,31 +135,18 @@ pub fn rates(quick: bool) -> Result<Vec<JamRow>, String> {
     };
     rates
         .iter()
-        .map(|&rate| timed(sphere, side, rate, None, pressure))
+        .map(|&rate| timed(sphere, side, &growing(rate, pressure)))
         .collect()
 }
 
-/// Jams `side`³ bodies of `shape` at `rate` (`fluid` until
-/// βPV/N = 10³) to `pressure` and times it.
-fn timed(
-    shape: Shape,
-    side: usize,
-    rate: f64,
-    fluid: Option<f64>,
-    pressure: f64,
-) -> Result<JamRow, String> {
+/// Jams `side`³ bodies of `shape` with `options` and times it.
+fn timed(shape: Shape, side: usize, options: &JamOptions) -> Result<JamRow, String> {
     let start = dilute_start(&[shape], side, 3)?;
-    let options = JamOptions {
-        growth_rate: rate,
-        fluid_rate: fluid,
-        pressure,
-        ..JamOptions::default()
-    };
     let mut rng = Pcg64::seed_from_u64(4);
     let clock = Instant::now();
     let out = jam(
         &start,
-        &options,
+        options,
         &DynamicsOptions::default(),
         &mut rng,
         |_| true,
@@ -168,7 +164,7 @@ fn timed(
     Ok(JamRow {
         shape: shape.to_string(),
         n: system.len(),
-        growth_rate: rate,
+        growth_rate: options.growth_rate,
         fluid_rate: options.fluid_rate(),
         packing_fraction: system.packing_fraction(),
         pressure: last.pressure,
