@@ -71,26 +71,12 @@ impl Dynamics {
         }
         spheres.lists.unlink_all(i);
         link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
-        if self.closed_form {
-            prefetch_bodies(&self.bodies, spheres.lists.of(i));
-            // Its trajectory and its events stand. Its last search stopped
-            // at this escape, or at a contact still to come: the new list
-            // is searched up to the new escape or that contact.
-            self.schedule_crossing(i);
-            let horizon = self.bodies[i].horizon;
-            let horizon = if horizon > self.now {
-                horizon.min(self.crossing_times[i])
-            } else {
-                self.crossing_times[i]
-            };
-            self.bodies[i].horizon = horizon;
-            let spheres = self.neighbours.as_ref().expect("just rebuilt");
-            let earliest =
-                self.earliest_closed_form_listed(i, spheres.lists.of(i), |_| true, horizon);
-            self.schedule_earliest(i, earliest);
-            return Ok(());
+        // A sphere's trajectory and its events stand (its search stopped
+        // at this escape, and runs again over the new list); a body's
+        // events are dropped.
+        if !self.closed_form {
+            self.calendar.invalidate(i);
         }
-        self.calendar.invalidate(i);
         self.schedule_crossing(i);
         self.schedule_collisions(i, None, false)
     }

@@ -66,28 +66,29 @@ impl Dynamics {
             // Every search is one closed-form solve, exact whenever it is
             // done: none deferred. With lists, no further than the body's
             // escape, where its search is renewed over its new list.
-            let earliest = match &self.neighbours {
+            let (horizon, earliest) = match &self.neighbours {
                 Some(spheres) => {
-                    prefetch_bodies(&self.bodies, spheres.lists.of(i));
-                    let escape = self.crossing_times[i];
-                    self.bodies[i].horizon = escape;
                     let list = spheres.lists.of(i);
-                    let earliest = self.earliest_closed_form_listed(i, list, keep, escape);
-                    self.schedule_earliest(i, earliest);
-                    return Ok(());
+                    prefetch_bodies(&self.bodies, list);
+                    let escape = self.crossing_times[i];
+                    (
+                        escape,
+                        self.earliest_closed_form_listed(i, list, keep, escape),
+                    )
                 }
                 None => {
                     let cells = &self.cells;
                     let around = cells.neighbour_cells(cells.cell_of(i));
-                    self.earliest_closed_form_in_cells(
+                    let earliest = self.earliest_closed_form_in_cells(
                         i,
                         around.iter().map(|&nc| cells.members(nc as usize)),
                         keep,
                         f64::INFINITY,
-                    )
+                    );
+                    (f64::INFINITY, earliest)
                 }
             };
-            self.bodies[i].horizon = f64::INFINITY;
+            self.bodies[i].horizon = horizon;
             self.schedule_earliest(i, earliest);
             return Ok(());
         }
