@@ -641,7 +641,7 @@ mod tests {
             if i == j {
                 continue;
             }
-            let products = md.lane_products(i, &[j; LANES]);
+            let products = md.lane_products::<false>(i, &[j; LANES], |j| md.sigma(i, j));
             let [t, ..] = md.lane_times(&products);
             if !t.is_finite() {
                 continue;
@@ -700,8 +700,8 @@ mod tests {
             }
         }
         assert!(finite > 1000 && never > 1000, "{finite} {never}");
-        for i in 0..n {
-            let list = spheres.lists.of(i);
+        let same_earliest = |md: &Dynamics, i: usize| {
+            let list = md.neighbours.as_ref().unwrap().lists.of(i);
             let keep = |j: usize| !j.is_multiple_of(3);
             let pairwise = md.earliest_closed_form(
                 i,
@@ -710,10 +710,33 @@ mod tests {
             );
             let listed = md.earliest_closed_form_listed(i, list, keep, f64::INFINITY);
             assert_eq!(listed, pairwise, "{i}");
+        };
+        for i in 0..n {
+            same_earliest(&md, i);
         }
+        // Each body in turn at now, the others not (the searches after a
+        // collision): the same bits without moving it by zero.
+        let mut md = md;
+        let mut at_now = 0;
+        for i in 0..n {
+            let stored = md.bodies[i];
+            md.advance(i);
+            at_now += usize::from(stored.time != md.now);
+            let list = md.neighbours.as_ref().unwrap().lists.of(i);
+            for lanes in list.chunks_exact(LANES) {
+                let lanes: [usize; LANES] = std::array::from_fn(|k| lanes[k] as usize);
+                let products = md.lane_products::<true>(i, &lanes, |j| md.sigma(i, j));
+                for (t, &j) in md.lane_times(&products).iter().zip(&lanes) {
+                    let pairwise = md.closed_form_contact(i, j);
+                    assert_eq!(t.to_bits(), pairwise.to_bits(), "{i} {j}: {t} {pairwise}");
+                }
+            }
+            same_earliest(&md, i);
+            md.bodies[i] = stored;
+        }
+        assert!(at_now > n / 2, "{at_now}");
         // A pair overlapping by rounding and closing, stored before now:
         // it touches now, not in the past.
-        let mut md = md;
         let (i, j) = (0, md.neighbours.as_ref().unwrap().lists.of(0)[0] as usize);
         let sigma = md.contact_sums[md.pair_index(i, j)].unwrap();
         let t0 = md.now - 0.25;

@@ -204,29 +204,69 @@ impl Dynamics {
         keep: impl Fn(usize) -> bool,
         mut horizon: f64,
     ) -> Option<(f64, usize)> {
-        let mut earliest = None;
         let lanes = list.chunks_exact(LANES);
         let tail = lanes.remainder();
+        // The common cases apart, each with its constants out of the loop:
+        // a body just moved to now (after a collision) and one species.
+        let at_now = self.bodies[i].time == self.now;
+        let mut earliest = match (at_now, self.kinds.len() == 1) {
+            (true, true) => {
+                let sigma = self.contact_sums[0].unwrap_or(f64::NAN);
+                self.earliest_in_lanes::<true>(i, lanes, &keep, &mut horizon, |_| sigma)
+            }
+            (true, false) => {
+                self.earliest_in_lanes::<true>(i, lanes, &keep, &mut horizon, |j| self.sigma(i, j))
+            }
+            (false, _) => {
+                self.earliest_in_lanes::<false>(i, lanes, &keep, &mut horizon, |j| self.sigma(i, j))
+            }
+        };
+        // The rest one by one (padding them into a batch was no faster).
+        let rest = tail.iter().map(|&j| j as usize).filter(|&j| keep(j));
+        if let Some(last) = self.earliest_closed_form(i, rest, horizon) {
+            earliest = Some(last);
+        }
+        earliest
+    }
+
+    /// The batches of [`Dynamics::earliest_closed_form_listed`]: the
+    /// earliest contact before `horizon`, which it lowers to it. `AT_NOW`:
+    /// body `i` is at the current time.
+    #[inline(always)]
+    fn earliest_in_lanes<const AT_NOW: bool>(
+        &self,
+        i: usize,
+        lanes: std::slice::ChunksExact<'_, u32>,
+        keep: &impl Fn(usize) -> bool,
+        horizon: &mut f64,
+        sigma: impl Fn(usize) -> f64,
+    ) -> Option<(f64, usize)> {
+        let mut earliest = None;
         for lanes in lanes {
             let lanes: [usize; LANES] = std::array::from_fn(|k| lanes[k] as usize);
-            let products = self.lane_products(i, &lanes);
+            let products = self.lane_products::<AT_NOW>(i, &lanes, &sigma);
             // Most batches have no partner closing in time: no square
             // roots, no divisions for them.
-            let before = lanes.map(|j| horizon.min(self.bodies[j].horizon));
+            let before = lanes.map(|j| earlier(*horizon, self.bodies[j].horizon));
             if self.growth.is_none() && !products.may_meet_before(&before) {
                 continue;
             }
             let times = self.lane_times(&products);
             for (&t, &j) in times.iter().zip(&lanes) {
-                if keep(j) && t < horizon.min(self.bodies[j].horizon) {
+                if keep(j) && t < earlier(*horizon, self.bodies[j].horizon) {
                     earliest = Some((t, j));
-                    horizon = t;
+                    *horizon = t;
                 }
             }
         }
-        // The rest one by one (padding them into a batch was no faster).
-        let rest = tail.iter().map(|&j| j as usize).filter(|&j| keep(j));
-        self.earliest_closed_form(i, rest, horizon).or(earliest)
+        earliest
+    }
+
+    /// The contact distance of bodies `i` and `j` if closed-form, else NaN
+    /// (which meets nothing).
+    #[inline(always)]
+    pub(super) fn sigma(&self, i: usize, j: usize) -> f64 {
+        self.contact_sums[self.pair_index(i, j)].unwrap_or(f64::NAN)
     }
 
     /// [`Dynamics::earliest_closed_form_listed`] over the members of
@@ -257,29 +297,39 @@ impl Dynamics {
     /// to the bit, computed side by side.
     #[cfg(test)]
     pub(super) fn closed_form_contacts(&self, i: usize, others: &[usize; LANES]) -> [f64; LANES] {
-        self.lane_times(&self.lane_products(i, others))
+        self.lane_times(&self.lane_products::<false>(i, others, |j| self.sigma(i, j)))
     }
 
     /// What [`Dynamics::closed_form_contacts`] needs of each pair: the
     /// later of the two stored times, d·Δv, |d|², |Δv|² and σ there.
+    /// `AT_NOW`: body `i` is at the current time, which is then the later
+    /// time of every pair (the same bits, without moving `i` by zero).
     #[inline(always)]
-    pub(super) fn lane_products(&self, i: usize, others: &[usize; LANES]) -> LaneProducts {
+    pub(super) fn lane_products<const AT_NOW: bool>(
+        &self,
+        i: usize,
+        others: &[usize; LANES],
+        sigma_of: impl Fn(usize) -> f64,
+    ) -> LaneProducts {
         let bi = &self.bodies[i];
         // Structure of arrays, one lane per partner, so that the compiler
         // computes the lanes in vector registers.
         let mut d = [[0.0; LANES]; 3];
         let mut dv = [[0.0; LANES]; 3];
-        let mut t0 = [0.0; LANES];
+        let mut t0 = [self.now; LANES];
         let mut sigma = [0.0; LANES];
         for (k, &j) in others.iter().enumerate() {
             let bj = &self.bodies[j];
-            // A species pair that never touches: NaN, which meets nothing.
-            sigma[k] = self.contact_sums[self.pair_index(i, j)].unwrap_or(f64::NAN);
+            sigma[k] = sigma_of(j);
             // Both bodies brought to the later of their times (the one
             // already there moves by zero: the same bits as moving only the
             // other, as `closed_form_contact` does).
-            t0[k] = bi.time.max(bj.time);
-            let ri = position_after(&bi.position, &bi.velocity, t0[k] - bi.time);
+            let ri = if AT_NOW {
+                bi.position
+            } else {
+                t0[k] = later(bi.time, bj.time);
+                position_after(&bi.position, &bi.velocity, t0[k] - bi.time)
+            };
             let rj = position_after(&bj.position, &bj.velocity, t0[k] - bj.time);
             for a in 0..3 {
                 d[a][k] = rj[a] - ri[a];
@@ -293,9 +343,13 @@ impl Dynamics {
         let mut dd = [0.0; LANES];
         let mut v2 = [0.0; LANES];
         for k in 0..LANES {
-            let dt = self.now - t0[k];
             for a in 0..3 {
-                let x = d[a][k] + self.box_.image_shift_along(a, d[a][k] + dv[a][k] * dt);
+                let now = if AT_NOW {
+                    d[a][k]
+                } else {
+                    d[a][k] + dv[a][k] * (self.now - t0[k])
+                };
+                let x = d[a][k] + self.box_.image_shift_along(a, now);
                 b[k] += x * dv[a][k];
                 dd[k] += x * x;
                 v2[k] += dv[a][k] * dv[a][k];
@@ -581,6 +635,19 @@ impl LaneProducts {
         }
         any
     }
+}
+
+/// The earlier of two times, neither NaN (one compare, where `f64::min`
+/// also sorts out NaN).
+#[inline(always)]
+fn earlier(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+
+/// The later of two times, neither NaN.
+#[inline(always)]
+fn later(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
 }
 
 /// Candidates gathered from the cells around a sphere at most (dense
