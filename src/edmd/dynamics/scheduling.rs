@@ -205,11 +205,20 @@ impl Dynamics {
         mut horizon: f64,
     ) -> Option<(f64, usize)> {
         let lanes = list.chunks_exact(LANES);
-        let tail = lanes.remainder();
+        // The rest as one more batch, its last partner repeated (found
+        // twice, kept once: the comparison is strict).
+        let rest = lanes.remainder();
+        let mut padded = [0; LANES];
+        if let Some(&last) = rest.last() {
+            padded = [last; LANES];
+            padded[..rest.len()].copy_from_slice(rest);
+        }
+        let padded = &padded[..LANES * usize::from(!rest.is_empty())];
+        let lanes = lanes.chain(std::iter::once(padded).filter(|p| !p.is_empty()));
         // The common cases apart, each with its constants out of the loop:
         // a body just moved to now (after a collision) and one species.
         let at_now = self.bodies[i].time == self.now;
-        let mut earliest = match (at_now, self.kinds.len() == 1) {
+        match (at_now, self.kinds.len() == 1) {
             (true, true) => {
                 let sigma = self.contact_sums[0].unwrap_or(f64::NAN);
                 self.earliest_in_lanes::<true>(i, lanes, &keep, &mut horizon, |_| sigma)
@@ -220,23 +229,17 @@ impl Dynamics {
             (false, _) => {
                 self.earliest_in_lanes::<false>(i, lanes, &keep, &mut horizon, |j| self.sigma(i, j))
             }
-        };
-        // The rest one by one (padding them into a batch was no faster).
-        let rest = tail.iter().map(|&j| j as usize).filter(|&j| keep(j));
-        if let Some(last) = self.earliest_closed_form(i, rest, horizon) {
-            earliest = Some(last);
         }
-        earliest
     }
 
     /// The batches of [`Dynamics::earliest_closed_form_listed`]: the
     /// earliest contact before `horizon`, which it lowers to it. `AT_NOW`:
     /// body `i` is at the current time.
     #[inline(always)]
-    fn earliest_in_lanes<const AT_NOW: bool>(
+    fn earliest_in_lanes<'a, const AT_NOW: bool>(
         &self,
         i: usize,
-        lanes: std::slice::ChunksExact<'_, u32>,
+        lanes: impl Iterator<Item = &'a [u32]>,
         keep: &impl Fn(usize) -> bool,
         horizon: &mut f64,
         sigma: impl Fn(usize) -> f64,
