@@ -605,8 +605,7 @@ pub(super) fn prefetch_body(bodies: &[Body], j: usize) {
 /// Partners whose closed-form contact times are computed side by side:
 /// two, one vector register of SSE2. Against four, simulated over 4000
 /// spheres at φ = 0.5 with lists, 5 % fewer instructions and 18 % fewer
-/// mispredicted branches (more batches skipped whole, a shorter rest
-/// searched one by one).
+/// mispredicted branches (more batches skipped whole).
 pub(super) const LANES: usize = 2;
 
 /// Per lane of a batch of sphere pairs: the later of the two stored times
