@@ -475,39 +475,76 @@ pub(super) fn link_overlapping(
     bodies: &[Body],
     spheres: &mut NeighbourSpheres,
 ) {
-    let centre = spheres.centres[i];
-    let si = bodies[i].species as usize;
-    let reach = spheres.reach[si];
-    // The bodies whose spheres overlap i's are gathered without a branch
-    // per candidate (a few in ten of the cells' members are, at random: a
-    // branch on it mispredicts often), then linked.
+    let reach = &spheres.reach;
+    let reach_i = reach[bodies[i].species as usize];
+    let around = || {
+        cells
+            .neighbour_cells(cells.cell_of(i))
+            .iter()
+            .map(|&nc| cells.members(nc as usize))
+    };
+    let overlapping = |into: &mut [u32]| {
+        // One species: one contact distance, without reading the second
+        // cache line of every candidate's body for its species.
+        if reach.len() == 1 {
+            let contact = reach_i + reach[0];
+            overlapping_into(
+                i,
+                after,
+                box_,
+                around(),
+                &spheres.centres,
+                |_| contact,
+                into,
+            )
+        } else {
+            let contact = |j: usize| reach_i + reach[bodies[j].species as usize];
+            overlapping_into(i, after, box_, around(), &spheres.centres, contact, into)
+        }
+    };
     let mut near = [0u32; 64];
-    let mut count = 0;
-    // One species: its reach, without reading the second cache line of
-    // every candidate's body for its species.
-    let one_kind = spheres.reach.len() == 1;
-    for &nc in cells.neighbour_cells(cells.cell_of(i)) {
-        for &j in cells.members(nc as usize) {
-            let sj = if one_kind {
-                0
-            } else {
-                bodies[j as usize].species as usize
-            };
-            // Centres are wrapped into the box: the near form of the minimum
-            // image (no rounding call) and squared lengths serve the many
-            // candidates of long bodies' wide cells.
-            let d = box_.minimum_image_near(&(spheres.centres[j as usize] - centre));
-            let contact = reach + spheres.reach[sj];
-            let wanted = (j as usize != i) & !(after & ((j as usize) < i));
-            near[count] = j;
-            count += (wanted & (d.norm_squared() <= contact * contact)) as usize;
-            if count == near.len() {
-                link_near(i, &near, box_, bodies, spheres);
-                count = 0;
-            }
+    match overlapping(&mut near) {
+        Some(count) => link_near(i, &near[..count], box_, bodies, spheres),
+        None => {
+            // More than fit (a crowd of small bodies around a large one):
+            // room for every candidate.
+            let mut near = vec![0u32; around().map(<[u32]>::len).sum()];
+            let count = overlapping(&mut near).expect("room for every candidate");
+            link_near(i, &near[..count], box_, bodies, spheres);
         }
     }
-    link_near(i, &near[..count], box_, bodies, spheres);
+}
+
+/// The bodies among the members of `cells` whose neighbour spheres
+/// (centred at `centres`) overlap body `i`'s, `contact(j)` apart at most,
+/// in `into`, and how many; `None` if they do not fit. Without a branch
+/// per candidate (a few in ten are, at random: a branch on it would
+/// mispredict often).
+#[inline(always)]
+fn overlapping_into<'a>(
+    i: usize,
+    after: bool,
+    box_: &PeriodicBox,
+    cells: impl Iterator<Item = &'a [u32]>,
+    centres: &[V3],
+    contact: impl Fn(usize) -> f64,
+    into: &mut [u32],
+) -> Option<usize> {
+    let centre = centres[i];
+    let mut count = 0;
+    for members in cells {
+        for &j in members {
+            let j = j as usize;
+            // Centres are wrapped into the box: the near form of the
+            // minimum image (no rounding call).
+            let d = box_.minimum_image_near(&(centres[j] - centre));
+            let contact = contact(j);
+            let wanted = (j != i) & !(after & (j < i));
+            *into.get_mut(count)? = j as u32;
+            count += usize::from(wanted & (d.norm_squared() <= contact * contact));
+        }
+    }
+    Some(count)
 }
 
 /// Links body `i` to each of `near` (bodies whose neighbour spheres

@@ -561,7 +561,7 @@ fn body_spin(kinds: &[Kind], b: &Body) -> Spin {
 mod tests {
     use super::collisions::FUTILE_COLLISIONS;
     use super::*;
-    use crate::state::Species;
+    use crate::state::{Particle, Species, System};
     use rand::SeedableRng;
 
     /// A binary hard-sphere mixture run for a while, so that the bodies'
@@ -611,6 +611,78 @@ mod tests {
                 ..
             }) if collisions == FUTILE_COLLISIONS + 1
         ));
+    }
+
+    /// Each body's list holds exactly the bodies whose neighbour spheres
+    /// overlap its own (brute force over all pairs), also around large
+    /// spheres among small ones, whose lists outgrow a rebuild's first
+    /// gathering; before and after a run of rebuilds.
+    #[test]
+    fn lists_hold_exactly_the_overlapping_spheres() {
+        let species: Vec<Species> = ["Sphere(radius: 1.6)", "Sphere(radius: 0.1)"]
+            .iter()
+            .map(|s| Species {
+                name: s.to_string(),
+                shape: s.parse().unwrap(),
+                rotation: false,
+            })
+            .collect();
+        // Six large spheres 6 apart, small ones placed at random where
+        // they overlap nothing.
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let box_ = PeriodicBox::new(Vector3::repeat(12.0)).unwrap();
+        let mut u = crate::test_support::uniform(7);
+        let mut particles: Vec<Particle> = (0..6)
+            .map(|k| Particle {
+                position: Vector3::from_fn(|a, _| if (k >> a) & 1 == 0 { -3.0 } else { 3.0 }),
+                orientation: UnitQuaternion::identity(),
+                species: 0,
+            })
+            .collect();
+        while particles.len() < 5006 {
+            let position = Vector3::from_fn(|_, _| 12.0 * (u() - 0.5));
+            let radius = |p: &Particle| if p.species == 0 { 1.6 } else { 0.1 };
+            if particles
+                .iter()
+                .all(|p| box_.minimum_image(&(p.position - position)).norm() > radius(p) + 0.1)
+            {
+                particles.push(Particle {
+                    position,
+                    orientation: UnitQuaternion::identity(),
+                    species: 1,
+                });
+            }
+        }
+        let system = System::new(box_, species, particles).unwrap();
+        let options = DynamicsOptions {
+            neighbour_shell: Some(0.3),
+            ..DynamicsOptions::default()
+        };
+        let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
+        let check = |md: &Dynamics| {
+            let spheres = md.neighbours.as_ref().unwrap();
+            let reach = |k: usize| spheres.reach[md.bodies[k].species as usize];
+            let mut longest = 0;
+            for i in 0..md.bodies.len() {
+                let mut listed = spheres.lists.of(i).to_vec();
+                listed.sort_unstable();
+                let overlapping: Vec<u32> = (0..md.bodies.len())
+                    .filter(|&j| {
+                        let d = md
+                            .box_
+                            .minimum_image(&(spheres.centres[j] - spheres.centres[i]));
+                        j != i && d.norm() <= reach(i) + reach(j)
+                    })
+                    .map(|j| j as u32)
+                    .collect();
+                assert_eq!(listed, overlapping, "{i}");
+                longest = longest.max(listed.len());
+            }
+            longest
+        };
+        assert!(check(&md) > 64);
+        md.run_collisions(5_000).unwrap();
+        assert!(check(&md) > 64);
     }
 
     /// The cells' members are gathered in order, and a gathering that
