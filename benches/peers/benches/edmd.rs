@@ -35,8 +35,8 @@ use hardbody::state::{Particle, Species, System};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 
-/// hardbody's neighbour shell with lists (σ/4, its best at φ = 0.5) and
-/// the peer's (1 + α = 1.5 σ, its default).
+/// hardbody's neighbour shell with lists (σ/4, its best at φ = 0.5;
+/// another with `OUR_SHELL`) and the peer's (1 + α = 1.5 σ, its default).
 const OUR_SHELL: f64 = 0.25;
 const THEIR_SHELL: &str = "1.5";
 
@@ -189,6 +189,9 @@ fn main() {
         build_peer()
     };
     let init = peer.join("init.sph");
+    let our_shell: f64 = std::env::var("OUR_SHELL")
+        .ok()
+        .map_or(OUR_SHELL, |s| s.parse().expect("OUR_SHELL: a length"));
     let n: Option<usize> = std::env::var("N")
         .ok()
         .map(|n| n.parse().expect("N: a count"));
@@ -214,12 +217,12 @@ fn main() {
     println!("|---|---|---|---|---|---|");
     if only_ours {
         // For a profiler: hardbody's list run alone.
-        let (ours, collisions) = our_time_per_collision(&system, Some(OUR_SHELL), duration, 1);
+        let (ours, collisions) = our_time_per_collision(&system, Some(our_shell), duration, 1);
         println!("hardbody alone, lists: {ours:.3} us/collision over {collisions} collisions");
         return;
     }
     for (name, shell, code) in [
-        ("lists / Single", Some(OUR_SHELL), "Single"),
+        ("lists / Single", Some(our_shell), "Single"),
         ("cells / Cell", None, "Cell"),
     ] {
         let mut ratios = Vec::new();
