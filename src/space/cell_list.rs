@@ -159,6 +159,31 @@ impl CellList {
         &self.neighbours[27 * cell..27 * cell + self.neighbour_counts[cell] as usize]
     }
 
+    /// In a box at least three cells wide along every axis: the cells of
+    /// [`CellList::neighbour_cells`], in its order, each with the whole
+    /// box lengths (−1, 0 or 1 along each axis) that bring its members'
+    /// positions next to `cell` (across the periodic boundary). `None` in
+    /// a narrower box, where a neighbour cell may be next to `cell` on
+    /// both sides.
+    #[inline]
+    pub fn neighbour_images(&self, cell: usize) -> Option<[(u32, [i8; 3]); 27]> {
+        if self.dims.iter().any(|&n| n < 3) {
+            return None;
+        }
+        let c = self.coords_of(cell);
+        let near = self.neighbour_cells(cell);
+        Some(std::array::from_fn(|k| {
+            // The order of `new`: dx fastest, then dy, then dz.
+            let step = [k % 3, (k / 3) % 3, k / 9];
+            let wrap = std::array::from_fn(|a| match (step[a], c[a]) {
+                (0, 0) => -1,
+                (2, at) if at + 1 == self.dims[a] => 1,
+                _ => 0,
+            });
+            (near[k], wrap)
+        }))
+    }
+
     /// The particles listed in `cell`.
     #[inline]
     pub fn members(&self, cell: usize) -> &[u32] {
@@ -287,6 +312,42 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// A neighbour cell's image brings each of its members within two cell
+    /// lengths of every particle of the cell along each axis, also across
+    /// the boundary; boxes narrower than three cells have no images.
+    #[test]
+    fn neighbour_images_bring_members_next_to_the_cell() {
+        let mut u = crate::test_support::uniform(9);
+        for (lengths, range) in [
+            (Vector3::new(6.0, 7.5, 9.0), 1.0),
+            (Vector3::new(2.5, 2.5, 2.5), 1.0),
+        ] {
+            let pos: Vec<Vector3<f64>> = (0..300)
+                .map(|_| Vector3::from_fn(|k, _| (u() - 0.5) * lengths[k]))
+                .collect();
+            let cl = CellList::new(lengths, range, &pos);
+            let w = cl.cell_lengths();
+            let mut wrapped = 0;
+            for (i, r) in pos.iter().enumerate() {
+                let Some(images) = cl.neighbour_images(cl.cell_of(i)) else {
+                    assert!(cl.dims().iter().any(|&n| n < 3), "{:?}", cl.dims());
+                    wrapped += 1;
+                    continue;
+                };
+                for (nc, wrap) in images {
+                    for &j in cl.members(nc as usize) {
+                        let image = Vector3::from_fn(|k, _| f64::from(wrap[k]) * lengths[k]);
+                        let d = pos[j as usize] + image - r;
+                        assert!((0..3).all(|k| d[k].abs() < 2.0 * w[k]), "{i} {j}: {d}");
+                        wrapped += usize::from(wrap != [0; 3]);
+                    }
+                }
+            }
+            // Members across the boundary, or every particle without images.
+            assert!(wrapped >= 300, "{wrapped}");
         }
     }
 

@@ -475,31 +475,28 @@ pub(super) fn link_overlapping(
     bodies: &[Body],
     spheres: &mut NeighbourSpheres,
 ) {
-    let reach = &spheres.reach;
-    let reach_i = reach[bodies[i].species as usize];
-    let around = || {
-        cells
-            .neighbour_cells(cells.cell_of(i))
-            .iter()
-            .map(|&nc| cells.members(nc as usize))
-    };
-    let overlapping = |into: &mut [u32]| {
-        // One species: one contact distance, without reading the second
-        // cache line of every candidate's body for its species.
-        if reach.len() == 1 {
-            let contact = reach_i + reach[0];
-            overlapping_into(
-                i,
-                after,
-                box_,
-                around(),
-                &spheres.centres,
-                |_| contact,
-                into,
-            )
-        } else {
-            let contact = |j: usize| reach_i + reach[bodies[j].species as usize];
-            overlapping_into(i, after, box_, around(), &spheres.centres, contact, into)
+    let cell = cells.cell_of(i);
+    let images = cells.neighbour_images(cell);
+    let overlapping = |into: &mut [u32]| match &images {
+        // Each neighbour cell's members brought next to i's by whole box
+        // lengths, where the box is three cells wide or more.
+        Some(images) => {
+            let l = box_.lengths();
+            let around = images.iter().map(|&(nc, wrap)| {
+                let image = V3::from_fn(|k, _| f64::from(wrap[k]) * l[k]);
+                (cells.members(nc as usize), image)
+            });
+            overlapping_in(i, after, around, spheres, bodies, |d| d, into)
+        }
+        // Else the minimum image of each (centres are wrapped into the
+        // box: its near form, without a rounding call).
+        None => {
+            let around = cells
+                .neighbour_cells(cell)
+                .iter()
+                .map(|&nc| (cells.members(nc as usize), V3::zeros()));
+            let image = |d: V3| box_.minimum_image_near(&d);
+            overlapping_in(i, after, around, spheres, bodies, image, into)
         }
     };
     let mut near = [0u32; 64];
@@ -508,36 +505,62 @@ pub(super) fn link_overlapping(
         None => {
             // More than fit (a crowd of small bodies around a large one):
             // room for every candidate.
-            let mut near = vec![0u32; around().map(<[u32]>::len).sum()];
+            let candidates = cells.neighbour_cells(cell).iter();
+            let mut near = vec![0u32; candidates.map(|&nc| cells.members(nc as usize).len()).sum()];
             let count = overlapping(&mut near).expect("room for every candidate");
             link_near(i, &near[..count], box_, bodies, spheres);
         }
     }
 }
 
+/// [`overlapping_into`] with the contact distance of each pair: one for
+/// one species, without reading the second cache line of every
+/// candidate's body for its species.
+#[inline(always)]
+fn overlapping_in<'a>(
+    i: usize,
+    after: bool,
+    cells: impl Iterator<Item = (&'a [u32], V3)>,
+    spheres: &NeighbourSpheres,
+    bodies: &[Body],
+    image: impl Fn(V3) -> V3,
+    into: &mut [u32],
+) -> Option<usize> {
+    let reach = &spheres.reach;
+    let reach_i = reach[bodies[i].species as usize];
+    let centres = &spheres.centres;
+    if reach.len() == 1 {
+        let contact = reach_i + reach[0];
+        overlapping_into(i, after, cells, centres, image, |_| contact, into)
+    } else {
+        let contact = |j: usize| reach_i + reach[bodies[j].species as usize];
+        overlapping_into(i, after, cells, centres, image, contact, into)
+    }
+}
+
 /// The bodies among the members of `cells` whose neighbour spheres
 /// (centred at `centres`) overlap body `i`'s, `contact(j)` apart at most,
-/// in `into`, and how many; `None` if they do not fit. Without a branch
-/// per candidate (a few in ten are, at random: a branch on it would
-/// mispredict often).
+/// in `into`, and how many; `None` if they do not fit. Each cell comes
+/// with the shift that brings its members next to `i`, and `image` makes
+/// a separation the shortest. Without a branch per candidate (a few in
+/// ten are, at random: a branch on it would mispredict often).
 #[inline(always)]
 fn overlapping_into<'a>(
     i: usize,
     after: bool,
-    box_: &PeriodicBox,
-    cells: impl Iterator<Item = &'a [u32]>,
+    cells: impl Iterator<Item = (&'a [u32], V3)>,
     centres: &[V3],
+    image: impl Fn(V3) -> V3,
     contact: impl Fn(usize) -> f64,
     into: &mut [u32],
 ) -> Option<usize> {
     let centre = centres[i];
     let mut count = 0;
-    for members in cells {
+    for (members, shift) in cells {
+        let from = centre - shift;
         for &j in members {
             let j = j as usize;
-            // Centres are wrapped into the box: the near form of the
-            // minimum image (no rounding call).
-            let d = box_.minimum_image_near(&(centres[j] - centre));
+            let d = image(centres[j] - from);
             let contact = contact(j);
             let wanted = (j != i) & !(after & (j < i));
             *into.get_mut(count)? = j as u32;
