@@ -184,6 +184,43 @@ impl CellList {
         }))
     }
 
+    /// The members of the cells around `cell` ([`CellList::neighbour_cells`],
+    /// in its order), one after another in `into`, and how many; `None` if
+    /// they do not fit. Each cell's whole room is copied and only its
+    /// members counted, without a branch on how many a cell holds (which
+    /// varies at random); rooms of more than 16 slots go member by member.
+    #[inline]
+    pub fn gather_around(&self, cell: usize, into: &mut [u32]) -> Option<usize> {
+        match self.capacity {
+            8 => self.gather_rooms::<8>(cell, into),
+            16 => self.gather_rooms::<16>(cell, into),
+            _ => {
+                let mut count = 0;
+                for &nc in self.neighbour_cells(cell) {
+                    for &j in self.members(nc as usize) {
+                        *into.get_mut(count)? = j;
+                        count += 1;
+                    }
+                }
+                Some(count)
+            }
+        }
+    }
+
+    /// [`CellList::gather_around`] with rooms of `ROOM` slots.
+    #[inline(always)]
+    fn gather_rooms<const ROOM: usize>(&self, cell: usize, into: &mut [u32]) -> Option<usize> {
+        let mut count = 0;
+        for &nc in self.neighbour_cells(cell) {
+            let base = nc as usize * ROOM;
+            let room: &[u32; ROOM] = self.slots[base..base + ROOM].try_into().ok()?;
+            let to: &mut [u32; ROOM] = into.get_mut(count..count + ROOM)?.try_into().ok()?;
+            *to = *room;
+            count += self.counts[nc as usize] as usize;
+        }
+        Some(count)
+    }
+
     /// The particles listed in `cell`.
     #[inline]
     pub fn members(&self, cell: usize) -> &[u32] {
@@ -313,6 +350,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The cells around each cell gathered at once are their members in
+    /// order, for rooms of 8, 16 and more slots, and a gathering that does
+    /// not fit says so.
+    #[test]
+    fn gathering_around_a_cell_lists_its_neighbours_members_in_order() {
+        let mut u = crate::test_support::uniform(10);
+        let lengths = Vector3::new(6.0, 6.0, 6.0);
+        let mut capacities = Vec::new();
+        for (n, spread) in [(150, 1.0), (1200, 1.0), (400, 0.2)] {
+            // A narrow spread crowds the cells, whose rooms then grow.
+            let pos: Vec<Vector3<f64>> = (0..n)
+                .map(|_| Vector3::from_fn(|_, _| (u() - 0.5) * 6.0 * spread))
+                .collect();
+            let cl = CellList::new(lengths, 1.0, &pos);
+            capacities.push(cl.capacity);
+            for cell in 0..cl.counts.len() {
+                let expected: Vec<u32> = cl
+                    .neighbour_cells(cell)
+                    .iter()
+                    .flat_map(|&nc| cl.members(nc as usize).iter().copied())
+                    .collect();
+                let mut into = vec![0; 27 * cl.capacity];
+                let count = cl.gather_around(cell, &mut into).unwrap();
+                assert_eq!(&into[..count], &expected[..], "cell {cell}");
+                if !expected.is_empty() {
+                    let mut small = vec![0; expected.len() - 1];
+                    assert_eq!(cl.gather_around(cell, &mut small), None);
+                }
+            }
+        }
+        assert_eq!(capacities[..2], [8, 16]);
+        assert!(capacities[2] > 16, "{capacities:?}");
     }
 
     /// A neighbour cell's image brings each of its members within two cell

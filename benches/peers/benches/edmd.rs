@@ -8,7 +8,8 @@
 //!
 //! Run with `taskset -c 0 cargo bench --bench edmd` from `benches/peers/`
 //! (one core for both; `QUICK=1`: a short run; `REPEATS=N`, default 3;
-//! `ONLY_OURS=1`: hardbody's list run alone, to profile or to time two
+//! `ONLY_OURS=1`: hardbody's list run alone (`ONLY_OURS=cells`: its cell
+//! run), to profile or to time two
 //! builds of it against each other, from a start written here; `N=32000`,
 //! `PHI=0.45`: another count or packing fraction, from a start written
 //! here the way `gen_sc.py` writes its own). His source is read from
@@ -216,9 +217,16 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|");
     if only_ours {
-        // For a profiler: hardbody's list run alone.
-        let (ours, collisions) = our_time_per_collision(&system, Some(our_shell), duration, 1);
-        println!("hardbody alone, lists: {ours:.3} us/collision over {collisions} collisions");
+        // For a profiler: hardbody's list run alone (`ONLY_OURS=cells`: its
+        // cell run).
+        let cells = std::env::var("ONLY_OURS").is_ok_and(|v| v == "cells");
+        let (shell, name) = if cells {
+            (None, "cells")
+        } else {
+            (Some(our_shell), "lists")
+        };
+        let (ours, collisions) = our_time_per_collision(&system, shell, duration, 1);
+        println!("hardbody alone, {name}: {ours:.3} us/collision over {collisions} collisions");
         return;
     }
     for (name, shell, code) in [

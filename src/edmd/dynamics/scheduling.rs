@@ -78,13 +78,23 @@ impl Dynamics {
                 }
                 None => {
                     let cells = &self.cells;
-                    let around = cells.neighbour_cells(cells.cell_of(i));
-                    let earliest = self.earliest_closed_form_in_cells(
-                        i,
-                        around.iter().map(|&nc| cells.members(nc as usize)),
-                        keep,
-                        f64::INFINITY,
-                    );
+                    let cell = cells.cell_of(i);
+                    let mut near = [0u32; 27 * 16];
+                    let earliest = match cells.gather_around(cell, &mut near) {
+                        Some(count) => {
+                            prefetch_bodies(&self.bodies, &near[..count]);
+                            self.earliest_closed_form_listed(i, &near[..count], keep, f64::INFINITY)
+                        }
+                        None => self.earliest_closed_form_in_cells(
+                            i,
+                            cells
+                                .neighbour_cells(cell)
+                                .iter()
+                                .map(|&nc| cells.members(nc as usize)),
+                            keep,
+                            f64::INFINITY,
+                        ),
+                    };
                     (f64::INFINITY, earliest)
                 }
             };
