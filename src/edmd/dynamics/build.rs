@@ -413,6 +413,7 @@ impl Dynamics {
             cell_lengths,
             neighbours,
             candidates: Vec::new(),
+            around: Box::new([0; AROUND]),
             cell_shifts,
             calendar: Calendar::new(n),
             predictor: Predictor::new(options.predictor),

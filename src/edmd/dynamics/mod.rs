@@ -460,6 +460,9 @@ pub struct Dynamics {
     neighbours: Option<NeighbourSpheres>,
     /// Scratch: the bodies a search looks at.
     candidates: Vec<u32>,
+    /// Scratch: the members of the cells around a sphere, filled (not
+    /// cleared) by each search with cells.
+    around: Box<[u32; AROUND]>,
     /// Per body, with cells and closed-form pairs: what to add to the
     /// stored position to put it in its cell's image (the pose is kept
     /// through periodic crossings; see `closed_form`).

@@ -79,11 +79,11 @@ impl Dynamics {
                 None => {
                     let cells = &self.cells;
                     let cell = cells.cell_of(i);
-                    let mut near = [0u32; 27 * 16];
-                    let earliest = match cells.gather_around(cell, &mut near) {
+                    let earliest = match cells.gather_around(cell, &mut self.around[..]) {
                         Some(count) => {
-                            prefetch_bodies(&self.bodies, &near[..count]);
-                            self.earliest_closed_form_listed(i, &near[..count], keep, f64::INFINITY)
+                            let near = &self.around[..count];
+                            prefetch_bodies(&self.bodies, near);
+                            self.earliest_closed_form_listed(i, near, keep, f64::INFINITY)
                         }
                         None => self.earliest_closed_form_in_cells(
                             i,
@@ -661,6 +661,10 @@ fn earlier(a: f64, b: f64) -> f64 {
 fn later(a: f64, b: f64) -> f64 {
     if b > a { b } else { a }
 }
+
+/// Slots of the cells around a sphere gathered at once, rooms of 16 at
+/// most (more go one cell at a time).
+pub(super) const AROUND: usize = 27 * 16;
 
 /// Candidates gathered from the cells around a sphere at most (dense
 /// spheres have about 27; more fall back to one at a time).
