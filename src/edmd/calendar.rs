@@ -126,8 +126,10 @@ pub struct Calendar {
     /// The earliest event of all: the winner of the top group.
     root: Entry,
     /// Particles whose slots changed since the tree was last brought up
-    /// to date, each once (`pending`).
+    /// to date, each once (`pending`): the first `dirty_count` of `dirty`
+    /// (room for every particle, and one slot to write past the last).
     dirty: Vec<u32>,
+    dirty_count: usize,
     pending: Vec<bool>,
 }
 
@@ -162,7 +164,8 @@ impl Calendar {
                 time: f64::INFINITY,
                 leaf: 0,
             },
-            dirty: Vec::new(),
+            dirty: vec![0; n + 1],
+            dirty_count: 0,
             pending: vec![false; n],
         }
     }
@@ -307,23 +310,29 @@ impl Calendar {
     /// the earliest event is next read.
     #[inline]
     fn mark(&mut self, i: usize) {
-        if !self.pending[i] {
-            self.pending[i] = true;
-            self.dirty.push(i as u32);
-        }
+        // Without a branch on whether it already was (it often is, at
+        // random): written past the end, and counted only if new.
+        let new = !self.pending[i];
+        self.pending[i] = true;
+        self.dirty[self.dirty_count] = i as u32;
+        self.dirty_count += usize::from(new);
     }
 
     /// Brings the paths of every changed particle up to date.
     fn flush(&mut self) {
-        while let Some(p) = self.dirty.pop() {
-            self.pending[p as usize] = false;
-            self.update(p as usize);
+        while self.dirty_count > 0 {
+            self.dirty_count -= 1;
+            let p = self.dirty[self.dirty_count] as usize;
+            self.pending[p] = false;
+            self.update(p);
         }
     }
 
     /// Empties the slot of particle `p` that holds `e`.
     fn clear_slot(&mut self, p: usize, e: &Event) {
-        let held = usize::from(self.slots[p][COLLISION] != *e);
+        // Collisions are held in the collision slot, all else in the other.
+        let held = usize::from(e.kind != EventKind::Collision);
+        debug_assert_eq!(self.slots[p][[COLLISION, NEIGHBOURHOOD][held]], *e);
         self.put(p, [COLLISION, NEIGHBOURHOOD][held], NONE);
     }
 
