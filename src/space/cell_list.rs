@@ -186,18 +186,27 @@ impl CellList {
 
     /// The members of the cells around `cell` ([`CellList::neighbour_cells`],
     /// in its order), one after another in `into`, and how many; `None` if
-    /// they do not fit. Each cell's whole room is copied and only its
-    /// members counted, without a branch on how many a cell holds (which
-    /// varies at random); rooms of more than 16 slots go member by member.
+    /// they do not fit (see [`CellList::gather`]).
     #[inline]
     pub fn gather_around(&self, cell: usize, into: &mut [u32]) -> Option<usize> {
+        let around = self.neighbour_cells(cell).iter().map(|&nc| nc as usize);
+        self.gather(around, into)
+    }
+
+    /// The members of `cells`, one after another in `into`, and how many;
+    /// `None` if they do not fit. Each cell's whole room is copied and
+    /// only its members counted, without a branch on how many a cell
+    /// holds (which varies at random); rooms of more than 16 slots go
+    /// member by member.
+    #[inline]
+    pub fn gather(&self, cells: impl Iterator<Item = usize>, into: &mut [u32]) -> Option<usize> {
         match self.capacity {
-            8 => self.gather_rooms::<8>(cell, into),
-            16 => self.gather_rooms::<16>(cell, into),
+            8 => self.gather_rooms::<8>(cells, into),
+            16 => self.gather_rooms::<16>(cells, into),
             _ => {
                 let mut count = 0;
-                for &nc in self.neighbour_cells(cell) {
-                    for &j in self.members(nc as usize) {
+                for c in cells {
+                    for &j in self.members(c) {
                         *into.get_mut(count)? = j;
                         count += 1;
                     }
@@ -207,16 +216,20 @@ impl CellList {
         }
     }
 
-    /// [`CellList::gather_around`] with rooms of `ROOM` slots.
+    /// [`CellList::gather`] with rooms of `ROOM` slots.
     #[inline(always)]
-    fn gather_rooms<const ROOM: usize>(&self, cell: usize, into: &mut [u32]) -> Option<usize> {
+    fn gather_rooms<const ROOM: usize>(
+        &self,
+        cells: impl Iterator<Item = usize>,
+        into: &mut [u32],
+    ) -> Option<usize> {
         let mut count = 0;
-        for &nc in self.neighbour_cells(cell) {
-            let base = nc as usize * ROOM;
+        for c in cells {
+            let base = c * ROOM;
             let room: &[u32; ROOM] = self.slots[base..base + ROOM].try_into().ok()?;
             let to: &mut [u32; ROOM] = into.get_mut(count..count + ROOM)?.try_into().ok()?;
             *to = *room;
-            count += self.counts[nc as usize] as usize;
+            count += self.counts[c] as usize;
         }
         Some(count)
     }

@@ -688,18 +688,6 @@ mod tests {
         assert!(check(&md) > 64);
     }
 
-    /// The cells' members are gathered in order, and a gathering that
-    /// does not fit says so (the search then goes one by one).
-    #[test]
-    fn gathering_keeps_the_order_and_reports_overflow() {
-        let cells: [&[u32]; 3] = [&[4, 1], &[], &[7, 3, 9]];
-        let mut into = [0u32; 5];
-        assert_eq!(gather(cells.iter().copied(), &mut into), Some(5));
-        assert_eq!(into, [4, 1, 7, 3, 9]);
-        let mut small = [0u32; 4];
-        assert_eq!(gather(cells.iter().copied(), &mut small), None);
-    }
-
     /// A batch of sphere pairs is skipped only when none can touch before
     /// its lane's horizon: never when a lane's computed time is before it
     /// (by one ulp), always when every lane's is well after it (the bound

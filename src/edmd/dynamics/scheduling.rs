@@ -25,21 +25,14 @@ impl Dynamics {
     ) -> Result<(), EdmdError> {
         let dims = self.cells.dims();
         let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-        let cells = &self.cells;
-        let layer_cells = [dims[a] - 1, 0, 1].into_iter().flat_map(|da| {
-            [dims[b] - 1, 0, 1].into_iter().map(move |db| {
-                let mut c = layer;
-                c[a] = (c[a] + da) % dims[a];
-                c[b] = (c[b] + db) % dims[b];
-                cells.index_of(c)
-            })
+        let layer_cells: [u32; 9] = std::array::from_fn(|k| {
+            let mut c = layer;
+            c[a] = (c[a] + [dims[a] - 1, 0, 1][k / 3]) % dims[a];
+            c[b] = (c[b] + [dims[b] - 1, 0, 1][k % 3]) % dims[b];
+            self.cells.index_of(c) as u32
         });
-        let earliest = self.earliest_closed_form_in_cells(
-            i,
-            layer_cells.map(|c| cells.members(c)),
-            |j| j != i,
-            self.bodies[i].horizon,
-        );
+        let horizon = self.bodies[i].horizon;
+        let earliest = self.earliest_closed_form_in_cells(i, &layer_cells, |j| j != i, horizon);
         self.schedule_earliest(i, earliest);
         Ok(())
     }
@@ -77,24 +70,12 @@ impl Dynamics {
                     )
                 }
                 None => {
-                    let cells = &self.cells;
-                    let cell = cells.cell_of(i);
-                    let earliest = match cells.gather_around(cell, &mut self.around[..]) {
-                        Some(count) => {
-                            let near = &self.around[..count];
-                            prefetch_bodies(&self.bodies, near);
-                            self.earliest_closed_form_listed(i, near, keep, f64::INFINITY)
-                        }
-                        None => self.earliest_closed_form_in_cells(
-                            i,
-                            cells
-                                .neighbour_cells(cell)
-                                .iter()
-                                .map(|&nc| cells.members(nc as usize)),
-                            keep,
-                            f64::INFINITY,
-                        ),
-                    };
+                    let mut around = [0u32; 27];
+                    let cells = self.cells.neighbour_cells(self.cells.cell_of(i));
+                    around[..cells.len()].copy_from_slice(cells);
+                    let around = &around[..cells.len()];
+                    let earliest =
+                        self.earliest_closed_form_in_cells(i, around, keep, f64::INFINITY);
                     (f64::INFINITY, earliest)
                 }
             };
@@ -283,24 +264,27 @@ impl Dynamics {
     }
 
     /// [`Dynamics::earliest_closed_form_listed`] over the members of
-    /// `cells` that `keep` lets through, gathered into a small array first
-    /// (and prefetched); more than fit are searched one at a time.
+    /// `cells` that `keep` lets through, gathered room by room first (and
+    /// prefetched); more than fit are searched one at a time.
     #[inline(always)]
-    pub(super) fn earliest_closed_form_in_cells<'a>(
-        &self,
+    pub(super) fn earliest_closed_form_in_cells(
+        &mut self,
         i: usize,
-        cells: impl Iterator<Item = &'a [u32]> + Clone,
+        cells: &[u32],
         keep: impl Fn(usize) -> bool,
         horizon: f64,
     ) -> Option<(f64, usize)> {
-        let mut near = [0u32; GATHERED];
-        match gather(cells.clone(), &mut near) {
+        let cells = cells.iter().map(|&c| c as usize);
+        match self.cells.gather(cells.clone(), &mut self.around[..]) {
             Some(count) => {
-                prefetch_bodies(&self.bodies, &near[..count]);
-                self.earliest_closed_form_listed(i, &near[..count], keep, horizon)
+                let near = &self.around[..count];
+                prefetch_bodies(&self.bodies, near);
+                self.earliest_closed_form_listed(i, near, keep, horizon)
             }
             None => {
-                let near = cells.flatten().map(|&j| j as usize);
+                let near = cells
+                    .flat_map(|c| self.cells.members(c))
+                    .map(|&j| j as usize);
                 self.earliest_closed_form(i, near.filter(|&j| keep(j)), horizon)
             }
         }
@@ -662,29 +646,6 @@ fn later(a: f64, b: f64) -> f64 {
     if b > a { b } else { a }
 }
 
-/// Slots of the cells around a sphere gathered at once, rooms of 16 at
-/// most (more go one cell at a time).
+/// Slots of the cells around a sphere gathered at once: 27 rooms of 16
+/// (more are searched one at a time).
 pub(super) const AROUND: usize = 27 * 16;
-
-/// Candidates gathered from the cells around a sphere at most (dense
-/// spheres have about 27; more fall back to one at a time).
-pub(super) const GATHERED: usize = 64;
-
-/// The members of `cells` one after another in `into`, and how many;
-/// `None` if they do not fit.
-#[inline]
-pub(super) fn gather<'a>(
-    cells: impl Iterator<Item = &'a [u32]>,
-    into: &mut [u32],
-) -> Option<usize> {
-    let mut count = 0;
-    for members in cells {
-        // One by one (a cell holds a few: a library copy per cell cost
-        // a tenth of a dense sphere run).
-        for &j in members {
-            *into.get_mut(count)? = j;
-            count += 1;
-        }
-    }
-    Some(count)
-}
