@@ -567,17 +567,22 @@ mod tests {
     use crate::state::{Particle, Species, System};
     use rand::SeedableRng;
 
-    /// A binary hard-sphere mixture run for a while, so that the bodies'
-    /// stored times differ and some have crossed the box.
-    fn mixture(neighbour_shell: Option<f64>) -> Dynamics {
-        let species: Vec<Species> = ["Sphere(radius: 0.5)", "Sphere(radius: 0.3)"]
+    /// Species of the shapes written in `shapes`, not turning.
+    fn spheres(shapes: &[&str]) -> Vec<Species> {
+        shapes
             .iter()
             .map(|s| Species {
                 name: s.to_string(),
                 shape: s.parse().unwrap(),
                 rotation: false,
             })
-            .collect();
+            .collect()
+    }
+
+    /// A binary hard-sphere mixture run for a while, so that the bodies'
+    /// stored times differ and some have crossed the box.
+    fn mixture(neighbour_shell: Option<f64>) -> Dynamics {
+        let species = spheres(&["Sphere(radius: 0.5)", "Sphere(radius: 0.3)"]);
         let mut rng = rand_pcg::Pcg64::seed_from_u64(11);
         let box_ = PeriodicBox::new(Vector3::repeat(7.0)).unwrap();
         let system = crate::state::start::lattice(box_, species, &[100, 100], &mut rng).unwrap();
@@ -622,14 +627,7 @@ mod tests {
     /// gathering; before and after a run of rebuilds.
     #[test]
     fn lists_hold_exactly_the_overlapping_spheres() {
-        let species: Vec<Species> = ["Sphere(radius: 1.6)", "Sphere(radius: 0.1)"]
-            .iter()
-            .map(|s| Species {
-                name: s.to_string(),
-                shape: s.parse().unwrap(),
-                rotation: false,
-            })
-            .collect();
+        let species = spheres(&["Sphere(radius: 1.6)", "Sphere(radius: 0.1)"]);
         // Six large spheres 6 apart, small ones placed at random where
         // they overlap nothing.
         let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
