@@ -331,9 +331,9 @@ impl Calendar {
     /// Empties the slot of particle `p` that holds `e`.
     fn clear_slot(&mut self, p: usize, e: &Event) {
         // Collisions are held in the collision slot, all else in the other.
-        let held = usize::from(e.kind != EventKind::Collision);
-        debug_assert_eq!(self.slots[p][[COLLISION, NEIGHBOURHOOD][held]], *e);
-        self.put(p, [COLLISION, NEIGHBOURHOOD][held], NONE);
+        let held = [COLLISION, NEIGHBOURHOOD][usize::from(e.kind != EventKind::Collision)];
+        debug_assert_eq!(self.slots[p][held], *e);
+        self.put(p, held, NONE);
     }
 
     /// Particle `p`'s slots changed: its leaf and the winners above it.

@@ -199,13 +199,12 @@ impl Dynamics {
         // The rest as one more batch, its last partner repeated (found
         // twice, kept once: the comparison is strict).
         let rest = lanes.remainder();
-        let mut padded = [0; LANES];
-        if let Some(&last) = rest.last() {
-            padded = [last; LANES];
+        let padded = rest.last().map(|&last| {
+            let mut padded = [last; LANES];
             padded[..rest.len()].copy_from_slice(rest);
-        }
-        let padded = &padded[..LANES * usize::from(!rest.is_empty())];
-        let lanes = lanes.chain(std::iter::once(padded).filter(|p| !p.is_empty()));
+            padded
+        });
+        let lanes = lanes.chain(padded.as_ref().map(|p| &p[..]));
         // The common cases apart, each with its constants out of the loop:
         // a body just moved to now (after a collision) and one species.
         let at_now = self.bodies[i].time == self.now;
