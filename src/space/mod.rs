@@ -14,7 +14,7 @@ pub mod sphere_lists;
 pub use aabb_cells::AabbCells;
 pub use capsule_lists::CapsuleLists;
 pub use cell_list::CellList;
-pub use neighbour_list::NeighbourLists;
+pub use neighbour_list::{Marks, NeighbourLists};
 pub use packed_cells::PackedCells;
 pub use periodic_box::PeriodicBox;
 pub use sphere_lists::SphereLists;

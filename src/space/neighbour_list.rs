@@ -71,6 +71,64 @@ impl NeighbourLists {
         self.lists.push(i, j as u32);
         self.lists.push(j, i as u32);
     }
+
+    /// Makes `near` (distinct, without `i`) body `i`'s list, in its order,
+    /// as [`NeighbourLists::unlink_all`] and a [`NeighbourLists::link`] to
+    /// each would; but a neighbour that stays keeps `i` where it is in its
+    /// own list, so that only those that leave or arrive are touched.
+    pub fn relink(&mut self, i: usize, near: &[u32], marks: &mut Marks) {
+        let arriving = marks.next();
+        for &j in near {
+            debug_assert!(j as usize != i);
+            marks.stamps[j as usize] = arriving;
+        }
+        for k in 0..self.lists.of(i).len() {
+            let j = self.lists.of(i)[k] as usize;
+            if marks.stamps[j] == arriving {
+                marks.stamps[j] = STAYING;
+            } else {
+                self.lists.remove(j, i as u32);
+            }
+        }
+        self.lists.clear(i);
+        for &j in near {
+            self.lists.push(i, j);
+            if marks.stamps[j as usize] == arriving {
+                self.lists.push(j as usize, i as u32);
+            }
+        }
+    }
+}
+
+/// Per body, a stamp for [`NeighbourLists::relink`]: which bodies it is
+/// asked to link, without clearing anything between calls.
+#[derive(Debug, Clone)]
+pub struct Marks {
+    stamps: Vec<u32>,
+    last: u32,
+}
+
+/// The mark of a neighbour that was linked and stays (no call's stamp).
+const STAYING: u32 = 0;
+
+impl Marks {
+    /// Marks for `n` bodies.
+    pub fn new(n: usize) -> Self {
+        Self {
+            stamps: vec![STAYING; n],
+            last: STAYING,
+        }
+    }
+
+    /// A stamp no body carries yet.
+    fn next(&mut self) -> u32 {
+        self.last = self.last.wrapping_add(1);
+        if self.last == STAYING {
+            self.stamps.fill(STAYING);
+            self.last = STAYING + 1;
+        }
+        self.last
+    }
 }
 
 /// Lists of indices in one flat array, `capacity` slots per list (no
@@ -259,5 +317,43 @@ mod tests {
             lists.longest() > 2,
             "the lists grew past their first capacity"
         );
+    }
+
+    /// Relinking against a brute-force set of pairs, with the marks
+    /// wrapping round on the way: the lists stay symmetric and exact, and
+    /// the relinked body's list is the one asked for, in its order.
+    #[test]
+    fn relinking_keeps_the_lists_symmetric_and_exact() {
+        let mut u = crate::test_support::uniform(12);
+        let n = 30;
+        let mut lists = NeighbourLists::new(n, 2);
+        let mut marks = Marks::new(n);
+        marks.last = u32::MAX - 40;
+        let mut pairs = std::collections::BTreeSet::new();
+        for step in 0..600 {
+            let i = (u() * n as f64) as usize;
+            let mut near: Vec<u32> = Vec::new();
+            for _ in 0..(u() * 12.0) as usize {
+                let j = (u() * n as f64) as u32;
+                if j as usize != i && !near.contains(&j) {
+                    near.push(j);
+                }
+            }
+            lists.relink(i, &near, &mut marks);
+            pairs.retain(|&(a, b)| a != i && b != i);
+            pairs.extend(near.iter().map(|&j| (i.min(j as usize), i.max(j as usize))));
+            assert_eq!(lists.of(i), &near[..], "body {i}'s list at step {step}");
+            for a in 0..n {
+                let mut got: Vec<usize> = lists.of(a).iter().map(|&k| k as usize).collect();
+                got.sort_unstable();
+                let mut want: Vec<usize> = pairs
+                    .iter()
+                    .filter_map(|&(p, q)| (p == a).then_some(q).or((q == a).then_some(p)))
+                    .collect();
+                want.sort_unstable();
+                assert_eq!(got, want, "body {a} at step {step}");
+            }
+        }
+        assert!(marks.last < 600, "the marks wrapped round");
     }
 }

@@ -392,6 +392,7 @@ impl Dynamics {
                     centres: positions,
                     boxes,
                     lists: NeighbourLists::new(n, 16),
+                    marks: Marks::new(n),
                 };
                 for i in 0..n {
                     link_overlapping(i, true, &box_, &cells, &bodies, &mut spheres);
@@ -466,8 +467,9 @@ impl Dynamics {
     }
 }
 
-/// Links body `i` to every body whose neighbour sphere overlaps its own
-/// (`after`: only bodies with a higher index, for the first build).
+/// Links body `i` to every body whose neighbour region overlaps its own:
+/// its list becomes exactly those (`after`: links only those of higher
+/// index, to a list built in order of index, for the first build).
 pub(super) fn link_overlapping(
     i: usize,
     after: bool,
@@ -501,15 +503,33 @@ pub(super) fn link_overlapping(
         }
     };
     let mut near = [0u32; 64];
-    match overlapping(&mut near) {
-        Some(count) => link_near(i, &near[..count], box_, bodies, spheres),
+    let mut more;
+    let near = match overlapping(&mut near) {
+        Some(count) => &mut near[..count],
         None => {
             // More than fit (a crowd of small bodies around a large one):
             // room for every candidate.
             let candidates = cells.neighbour_cells(cell).iter();
-            let mut near = vec![0u32; candidates.map(|&nc| cells.members(nc as usize).len()).sum()];
-            let count = overlapping(&mut near).expect("room for every candidate");
-            link_near(i, &near[..count], box_, bodies, spheres);
+            more = vec![0u32; candidates.map(|&nc| cells.members(nc as usize).len()).sum()];
+            let count = overlapping(&mut more).expect("room for every candidate");
+            &mut more[..count]
+        }
+    };
+    let near = keep_box_overlaps(i, near, box_, bodies, spheres);
+    if after {
+        for &j in near {
+            spheres.lists.link(i, j as usize);
+        }
+    } else if spheres.boxes.is_none() {
+        spheres.lists.relink(i, near, &mut spheres.marks);
+    } else {
+        // A body's search meets its partners in its list's order, and
+        // what a bodies' run logs depends on it (pinned to the bit by the
+        // reference states): each neighbour drops `i` and lists it again
+        // last.
+        spheres.lists.unlink_all(i);
+        for &j in near {
+            spheres.lists.link(i, j as usize);
         }
     }
 }
@@ -571,35 +591,37 @@ fn overlapping_into<'a>(
     Some(count)
 }
 
-/// Links body `i` to each of `near` (bodies whose neighbour spheres
-/// overlap its own) whose neighbour box, where there are boxes, overlaps
-/// its own.
-pub(super) fn link_near(
+/// The first of `near` (bodies whose neighbour spheres overlap body
+/// `i`'s), in their order, whose neighbour boxes, where there are boxes,
+/// overlap `i`'s too.
+fn keep_box_overlaps<'a>(
     i: usize,
-    near: &[u32],
+    near: &'a mut [u32],
     box_: &PeriodicBox,
     bodies: &[Body],
-    spheres: &mut NeighbourSpheres,
-) {
+    spheres: &NeighbourSpheres,
+) -> &'a [u32] {
+    let Some((half, axes)) = &spheres.boxes else {
+        return near;
+    };
     let si = bodies[i].species as usize;
-    for &j in near {
-        let j = j as usize;
-        if let Some((half, axes)) = &spheres.boxes {
-            let sj = bodies[j].species as usize;
-            let d = box_.minimum_image_near(&(spheres.centres[j] - spheres.centres[i]));
-            // The 15-axis test in i's box frame (De Michele eqs. 62–64).
-            let apart = !crate::geometry::obb::boxes_overlap(
-                &half[si],
-                &half[sj],
-                &axes[i].tr_mul(&axes[j]),
-                &axes[i].tr_mul(&d),
-            );
-            if apart {
-                continue;
-            }
+    let mut kept = 0;
+    for k in 0..near.len() {
+        let j = near[k] as usize;
+        let sj = bodies[j].species as usize;
+        let d = box_.minimum_image_near(&(spheres.centres[j] - spheres.centres[i]));
+        // The 15-axis test in i's box frame (De Michele eqs. 62–64).
+        if crate::geometry::obb::boxes_overlap(
+            &half[si],
+            &half[sj],
+            &axes[i].tr_mul(&axes[j]),
+            &axes[i].tr_mul(&d),
+        ) {
+            near[kept] = j as u32;
+            kept += 1;
         }
-        spheres.lists.link(i, j);
     }
+    &near[..kept]
 }
 
 /// `species` with their shapes scaled by `scale` (as they are at 1).

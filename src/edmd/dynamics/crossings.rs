@@ -69,7 +69,6 @@ impl Dynamics {
         if let Some((_, axes)) = &mut spheres.boxes {
             axes[i] = orientation.to_rotation_matrix().into_inner();
         }
-        spheres.lists.unlink_all(i);
         link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
         // A sphere's trajectory and its events stand (its search stopped
         // at this escape, and runs again over the new list); a body's

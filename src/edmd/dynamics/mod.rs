@@ -32,7 +32,7 @@ use crate::edmd::predict::{Predictor, PredictorOptions};
 use crate::edmd::search::SearchError;
 use crate::edmd::search::{Growth, Progress};
 use crate::geometry::{Shape, WarmStart};
-use crate::space::{CellList, NeighbourLists, PeriodicBox};
+use crate::space::{CellList, Marks, NeighbourLists, PeriodicBox};
 use crate::state::{Species, StateError};
 
 type V3 = Vector3<f64>;
@@ -243,6 +243,8 @@ struct NeighbourSpheres {
     /// it was built). `None`: spheres.
     boxes: Option<(Vec<V3>, Vec<Matrix3<f64>>)>,
     lists: NeighbourLists,
+    /// Scratch for relinking a body's list.
+    marks: Marks,
 }
 
 /// A box region stops being trusted when its body is this fraction of the
