@@ -106,18 +106,16 @@ const NEIGHBOURHOOD: usize = 1;
 /// earliest event is next asked for (a collision changes both bodies'
 /// slots several times: one walk each); the earliest event is at the
 /// root. Unlike a heap with lazy deletion, stale events are overwritten in
-/// place rather than piled up, so the calendar's size is fixed (about 120
-/// bytes per particle, up to eight times the leaves' share when n is just
-/// above a power of eight) and it stays in cache.
+/// place rather than piled up, so the calendar's size is fixed (about 90
+/// bytes per particle, of which the tree's 18 grow up to eight times when
+/// n is just above a power of eight) and it stays in cache. A leaf's event
+/// is read from its particle's slots, not kept twice.
 #[derive(Debug, Clone)]
 pub struct Calendar {
     stamps: Vec<u32>,
     /// Per particle: its next collision and its next neighbourhood event
     /// ([`NONE`] when empty).
     slots: Vec<[Event; 2]>,
-    /// Per leaf (particles, then padding up to a power of eight): the
-    /// earlier of its two slots.
-    next: Vec<Event>,
     /// The tree's levels, leaves first: entry k of level l is the earliest
     /// event under node k of level l (its leaf and time); the eight
     /// children of node k of level l + 1 are the group `levels[l][k]`,
@@ -158,7 +156,6 @@ impl Calendar {
         Self {
             stamps: vec![0; n],
             slots: vec![[NONE; 2]; n],
-            next: vec![NONE; leaves],
             levels,
             root: Entry {
                 time: f64::INFINITY,
@@ -241,11 +238,12 @@ impl Calendar {
     pub fn peek(&mut self) -> Option<Event> {
         loop {
             self.flush();
-            let p = self.root.leaf as usize;
-            let e = self.next[p];
-            if e.time == f64::INFINITY {
+            // Padding leaves win only when every slot is empty.
+            if self.root.time == f64::INFINITY {
                 return None;
             }
+            let p = self.root.leaf as usize;
+            let e = self.next(p);
             if self.is_current(&e) {
                 return Some(e);
             }
@@ -336,14 +334,18 @@ impl Calendar {
         self.put(p, held, NONE);
     }
 
+    /// Particle `p`'s next event: the earlier of its two slots.
+    #[inline(always)]
+    fn next(&self, p: usize) -> Event {
+        let [a, b] = &self.slots[p];
+        if earlier(b, a) { *b } else { *a }
+    }
+
     /// Particle `p`'s slots changed: its leaf and the winners above it.
     #[inline]
     fn update(&mut self, p: usize) {
-        let [a, b] = &self.slots[p];
-        let e = if earlier(b, a) { *b } else { *a };
-        self.next[p] = e;
         let mut entry = Entry {
-            time: e.time,
+            time: self.next(p).time,
             leaf: p as u32,
         };
         let mut k = p;
@@ -382,7 +384,7 @@ impl Calendar {
             for c in first + 1..ARITY {
                 let leaf = group.leaves[c];
                 if at & (1 << c) != 0
-                    && earlier(&self.next[leaf as usize], &self.next[best.leaf as usize])
+                    && earlier(&self.next(leaf as usize), &self.next(best.leaf as usize))
                 {
                     best.leaf = leaf;
                 }
