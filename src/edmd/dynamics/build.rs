@@ -483,12 +483,22 @@ pub(super) fn link_overlapping(
     let overlapping = |into: &mut [u32]| match &images {
         // Each neighbour cell's members brought next to i's by whole box
         // lengths, where the box is three cells wide or more.
+        // Cells wholly out of reach are skipped.
         Some(images) => {
             let l = box_.lengths();
-            let around = images.iter().map(|&(nc, wrap)| {
-                let image = V3::from_fn(|k, _| f64::from(wrap[k]) * l[k]);
-                (cells.members(nc as usize), image)
-            });
+            let reach = &spheres.reach;
+            // Room for rounding: only cells no member of which can pass.
+            let limit = 1.000_001
+                * (reach[bodies[i].species as usize] + reach.iter().copied().fold(0.0, f64::max));
+            let within = cells_within(cells, cell, &spheres.centres[i], &l, limit);
+            let around = images
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| within & (1 << k) != 0)
+                .map(|(_, &(nc, wrap))| {
+                    let image = V3::from_fn(|k, _| f64::from(wrap[k]) * l[k]);
+                    (cells.members(nc as usize), image)
+                });
             overlapping_in(i, after, around, spheres, bodies, |d| d, into)
         }
         // Else the minimum image of each (centres are wrapped into the
@@ -532,6 +542,32 @@ pub(super) fn link_overlapping(
             spheres.lists.link(i, j as usize);
         }
     }
+}
+
+/// Which of the cells around `cell` (bit k for step k of
+/// [`CellList::neighbour_images`]) come within `limit` of `centre`, a
+/// point in `cell`.
+pub(super) fn cells_within(cells: &CellList, cell: usize, centre: &V3, l: &V3, limit: f64) -> u32 {
+    let c = cells.coords_of(cell);
+    let cl = cells.cell_lengths();
+    // Per axis, the squared distance to the cells one step below, level
+    // with and one step above `cell`.
+    let gaps: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        let u = centre[a] + 0.5 * l[a] - c[a] as f64 * cl[a];
+        // By a box length if rounding wrapped the centre into the far cell.
+        let u = if u > 0.5 * l[a] { u - l[a] } else { u };
+        let u = u.clamp(0.0, cl[a]);
+        [u * u, 0.0, (cl[a] - u) * (cl[a] - u)]
+    });
+    let mut within = 0;
+    for (z, gz) in gaps[2].iter().enumerate() {
+        for (y, gy) in gaps[1].iter().enumerate() {
+            for (x, gx) in gaps[0].iter().enumerate() {
+                within |= u32::from(gx + gy + gz <= limit * limit) << (9 * z + 3 * y + x);
+            }
+        }
+    }
+    within
 }
 
 /// [`overlapping_into`] with the contact distance of each pair: one for
