@@ -111,12 +111,14 @@ impl Dynamics {
                     let centre = V3::from_fn(|a, _| {
                         -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a]
                     });
+                    // The pose is now in its cell's image (only cells
+                    // read the shift).
+                    self.cell_shifts[k] = V3::zeros();
                     p + self.box_.image_shift(&(p - centre))
                 }
             };
             self.images[k] += p - wrapped;
             self.bodies[k].position = wrapped;
-            self.cell_shifts[k] = V3::zeros();
         }
         let impulse = if sphere_contact.is_some() {
             let len = d.norm();

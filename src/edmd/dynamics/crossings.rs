@@ -58,16 +58,21 @@ impl Dynamics {
     /// sphere is rebuilt around it, and `i` searches its new list.
     pub(super) fn escape(&mut self, i: usize) -> Result<(), EdmdError> {
         // The stored pose stays (see `closed_form`).
-        let (centre, orientation) = self.pose_at(i, self.now);
+        let b = &self.bodies[i];
+        let centre = position_after(&b.position, &b.velocity, self.now - b.time);
         let wrapped = self.box_.wrap(&centre);
         self.cells.update(i, &wrapped);
+        let boxes = self.neighbours.as_ref().is_some_and(|s| s.boxes.is_some());
+        // Boxes turn with their bodies; a sphere region needs its centre
+        // alone.
+        let orientation = boxes.then(|| self.pose_at(i, self.now).1);
         let spheres = self
             .neighbours
             .as_mut()
             .expect("escapes come with neighbour lists");
         spheres.centres[i] = wrapped;
-        if let Some((_, axes)) = &mut spheres.boxes {
-            axes[i] = orientation.to_rotation_matrix().into_inner();
+        if let (Some((_, axes)), Some(q)) = (&mut spheres.boxes, orientation) {
+            axes[i] = q.to_rotation_matrix().into_inner();
         }
         link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
         // A sphere's trajectory and its events stand (its search stopped
