@@ -32,6 +32,13 @@ impl NeighbourLists {
         self.lists.longest()
     }
 
+    /// The memory of body `i`'s list, its unused room included (to fetch
+    /// it ahead, without reading how long the list is).
+    #[inline]
+    pub fn room_of(&self, i: usize) -> &[u32] {
+        self.lists.room_of(i)
+    }
+
     /// Unlinks body `i` from every neighbour (its list empties, and it
     /// leaves theirs).
     pub fn unlink_all(&mut self, i: usize) {
@@ -167,6 +174,13 @@ impl FlatLists {
     /// The longest list.
     pub fn longest(&self) -> usize {
         self.counts.iter().copied().max().unwrap_or(0) as usize
+    }
+
+    /// All of list `i`'s slots, used or not.
+    #[inline]
+    pub fn room_of(&self, i: usize) -> &[u32] {
+        let base = i * self.capacity;
+        &self.slots[base..base + self.capacity]
     }
 
     /// Appends `j` to list `i`.

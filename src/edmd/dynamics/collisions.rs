@@ -16,6 +16,12 @@ impl Dynamics {
         // The body of lower index first, whichever body's search found the
         // pair: the same bits for the same collision (see `closed_form`).
         let (i, j) = (i.min(j), i.max(j));
+        // Both lists are on their way from memory while the impulse is
+        // found.
+        if let Some(spheres) = &self.neighbours {
+            prefetch_lines(spheres.lists.room_of(i));
+            prefetch_lines(spheres.lists.room_of(j));
+        }
         // A collision that fails leaves both bodies as they were, so that a
         // dump taken then replays it (see `DynamicsDump`). Two spheres are
         // checked before anything changes; bodies are kept aside.
@@ -47,6 +53,11 @@ impl Dynamics {
         }
         self.calendar.invalidate(i);
         self.calendar.invalidate(j);
+        // The second body's neighbours are on their way from memory while
+        // the first's are searched.
+        if let Some(spheres) = &self.neighbours {
+            prefetch_bodies(&self.bodies, spheres.lists.of(j));
+        }
         self.schedule_crossing(i);
         self.schedule_crossing(j);
         self.schedule_collisions(i, Some(j), false)?;
