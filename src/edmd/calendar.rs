@@ -167,6 +167,19 @@ impl Calendar {
         }
     }
 
+    /// Asks for what scheduling an event of particle `i` will touch (its
+    /// slots, stamp and leaf), ahead of it (a hint: nothing changes).
+    #[inline]
+    pub fn prefetch(&self, i: usize) {
+        crate::edmd::prefetch::prefetch_lines(self.slots.get(i..=i).unwrap_or_default());
+        crate::edmd::prefetch::prefetch_lines(self.stamps.get(i..=i).unwrap_or_default());
+        if let Some(leaves) = self.levels.first() {
+            crate::edmd::prefetch::prefetch_lines(
+                leaves.get(i / ARITY..=i / ARITY).unwrap_or_default(),
+            );
+        }
+    }
+
     /// Particle `i`'s current stamp.
     #[inline]
     pub fn stamp(&self, i: usize) -> u32 {

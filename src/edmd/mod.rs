@@ -13,6 +13,7 @@ pub mod jam;
 pub mod motion;
 mod outcome;
 pub mod predict;
+mod prefetch;
 pub mod search;
 
 pub use dynamics::{

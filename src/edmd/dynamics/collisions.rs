@@ -5,6 +5,7 @@ use nalgebra::Vector3;
 
 use crate::edmd::collision::{Kinetics, collide, collide_patch, collide_spheres};
 use crate::edmd::motion::position_after;
+use crate::edmd::prefetch::prefetch_lines;
 use crate::geometry::Relative;
 
 type V3 = Vector3<f64>;
@@ -16,11 +17,16 @@ impl Dynamics {
         // The body of lower index first, whichever body's search found the
         // pair: the same bits for the same collision (see `closed_form`).
         let (i, j) = (i.min(j), i.max(j));
-        // Both lists are on their way from memory while the impulse is
-        // found.
-        if let Some(spheres) = &self.neighbours {
-            prefetch_lines(spheres.lists.room_of(i));
-            prefetch_lines(spheres.lists.room_of(j));
+        // What the two bodies' new events touch is on its way from memory
+        // while the impulse is found.
+        for k in [i, j] {
+            if let Some(spheres) = &self.neighbours {
+                prefetch_lines(spheres.lists.room_of(k));
+                prefetch_lines(&spheres.centres[k..=k]);
+            }
+            prefetch_lines(&self.images[k..=k]);
+            prefetch_lines(&self.crossing_times[k..=k]);
+            self.calendar.prefetch(k);
         }
         // A collision that fails leaves both bodies as they were, so that a
         // dump taken then replays it (see `DynamicsDump`). Two spheres are

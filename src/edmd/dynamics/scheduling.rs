@@ -583,30 +583,7 @@ pub(super) fn prefetch_bodies(bodies: &[Body], list: &[u32]) {
 #[inline(always)]
 pub(super) fn prefetch_body(bodies: &[Body], j: usize) {
     // No bounds check: a prefetch never faults, whatever the address.
-    prefetch_address(bodies.as_ptr().wrapping_add(j).cast());
-}
-
-/// Asks for every cache line of `items` at once.
-#[inline]
-pub(super) fn prefetch_lines<T>(items: &[T]) {
-    let bytes = std::mem::size_of_val(items);
-    let start = items.as_ptr().cast::<u8>();
-    for offset in (0..bytes).step_by(64) {
-        prefetch_address(start.wrapping_add(offset));
-    }
-}
-
-/// Asks for the cache line at `address` (a hint: nothing is read).
-#[inline(always)]
-fn prefetch_address(address: *const u8) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: SSE is part of the x86_64 baseline, and a prefetch is a hint
-    // that reads and writes no memory and never faults.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(address.cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = address;
+    crate::edmd::prefetch::prefetch_address(bodies.as_ptr().wrapping_add(j).cast());
 }
 
 /// Partners whose closed-form contact times are computed side by side:
