@@ -184,6 +184,32 @@ impl CellList {
         }))
     }
 
+    /// Which of the cells of [`CellList::neighbour_images`] (bit k for its
+    /// step k) come within `limit` of `centre`, a point in `cell` (in
+    /// [−L/2, L/2)).
+    pub fn neighbours_within(&self, cell: usize, centre: &Vector3<f64>, limit: f64) -> u32 {
+        let c = self.coords_of(cell);
+        let (l, cl) = (self.lengths, self.cell_lengths());
+        // Per axis, the squared distance to the cells one step below, level
+        // with and one step above `cell`.
+        let gaps: [[f64; 3]; 3] = std::array::from_fn(|a| {
+            let u = centre[a] + 0.5 * l[a] - c[a] as f64 * cl[a];
+            // By a box length if rounding binned the centre in the far cell.
+            let u = if u > 0.5 * l[a] { u - l[a] } else { u };
+            let u = u.clamp(0.0, cl[a]);
+            [u * u, 0.0, (cl[a] - u) * (cl[a] - u)]
+        });
+        let mut within = 0;
+        for (z, gz) in gaps[2].iter().enumerate() {
+            for (y, gy) in gaps[1].iter().enumerate() {
+                for (x, gx) in gaps[0].iter().enumerate() {
+                    within |= u32::from(gx + gy + gz <= limit * limit) << (9 * z + 3 * y + x);
+                }
+            }
+        }
+        within
+    }
+
     /// The members of the cells around `cell` ([`CellList::neighbour_cells`],
     /// in its order), one after another in `into`, and how many; `None` if
     /// they do not fit (see [`CellList::gather`]).
@@ -325,6 +351,55 @@ impl CellList {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Only cells out of reach are left out: from centres anywhere,
+    /// also one that rounding puts in the cell across the boundary, every
+    /// neighbour cell whose box (its nearest image) comes within the limit
+    /// is kept; and some are skipped.
+    #[test]
+    fn only_cells_out_of_reach_are_left_out() {
+        let l = Vector3::repeat(12.0);
+        let mut u = crate::test_support::uniform(3);
+        let mut centres: Vec<Vector3<f64>> = (0..2000)
+            .map(|_| Vector3::from_fn(|_, _| 12.0 * (u() - 0.5)))
+            .collect();
+        let below_half = f64::from_bits(6.0f64.to_bits() - 1);
+        centres.push(Vector3::repeat(below_half));
+        centres.push(Vector3::repeat(-6.0));
+        let cells = CellList::new(l, 2.5, &centres);
+        let (cl, dims) = (cells.cell_lengths(), cells.dims());
+        assert_eq!(cells.coords_of(cells.cell_of(2000)), [0, 0, 0], "wrapped");
+        let mut skipped = 0;
+        for (i, centre) in centres.iter().enumerate() {
+            let cell = cells.cell_of(i);
+            let c = cells.coords_of(cell);
+            for limit in [1.0, 2.5, 3.5] {
+                let within = cells.neighbours_within(cell, centre, limit);
+                for k in 0..27 {
+                    let step = [k % 3, (k / 3) % 3, k / 9];
+                    let gap = |a: usize| {
+                        let lo = -6.0 + ((c[a] + step[a] + dims[a] - 1) % dims[a]) as f64 * cl[a];
+                        [-12.0, 0.0, 12.0]
+                            .map(|shift| {
+                                let (from, to) = (lo + shift, lo + shift + cl[a]);
+                                (from - centre[a]).max(centre[a] - to).max(0.0)
+                            })
+                            .into_iter()
+                            .fold(f64::INFINITY, f64::min)
+                    };
+                    let nearest = (0..3).map(|a| gap(a) * gap(a)).sum::<f64>().sqrt();
+                    if within & (1 << k) == 0 {
+                        skipped += 1;
+                        assert!(
+                            nearest > limit,
+                            "body {i} at {centre:?}, step {step:?}: {nearest} within {limit}"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(skipped > 10_000, "{skipped} cells skipped");
+    }
 
     /// Every pair closer than the range is found, in boxes of 1 to 5 cells.
     #[test]

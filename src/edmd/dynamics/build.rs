@@ -490,7 +490,7 @@ pub(super) fn link_overlapping(
             // Room for rounding: only cells no member of which can pass.
             let limit = 1.000_001
                 * (reach[bodies[i].species as usize] + reach.iter().copied().fold(0.0, f64::max));
-            let within = cells_within(cells, cell, &spheres.centres[i], &l, limit);
+            let within = cells.neighbours_within(cell, &spheres.centres[i], limit);
             let around = images
                 .iter()
                 .enumerate()
@@ -534,40 +534,14 @@ pub(super) fn link_overlapping(
         spheres.lists.relink(i, near, &mut spheres.marks);
     } else {
         // A body's search meets its partners in its list's order, and
-        // what a bodies' run logs depends on it (pinned to the bit by the
-        // reference states): each neighbour drops `i` and lists it again
-        // last.
+        // what a run of bodies logs depends on it (pinned to the bit by
+        // the reference states): each neighbour drops `i` and lists it
+        // again last.
         spheres.lists.unlink_all(i);
         for &j in near {
             spheres.lists.link(i, j as usize);
         }
     }
-}
-
-/// Which of the cells around `cell` (bit k for step k of
-/// [`CellList::neighbour_images`]) come within `limit` of `centre`, a
-/// point in `cell`.
-pub(super) fn cells_within(cells: &CellList, cell: usize, centre: &V3, l: &V3, limit: f64) -> u32 {
-    let c = cells.coords_of(cell);
-    let cl = cells.cell_lengths();
-    // Per axis, the squared distance to the cells one step below, level
-    // with and one step above `cell`.
-    let gaps: [[f64; 3]; 3] = std::array::from_fn(|a| {
-        let u = centre[a] + 0.5 * l[a] - c[a] as f64 * cl[a];
-        // By a box length if rounding wrapped the centre into the far cell.
-        let u = if u > 0.5 * l[a] { u - l[a] } else { u };
-        let u = u.clamp(0.0, cl[a]);
-        [u * u, 0.0, (cl[a] - u) * (cl[a] - u)]
-    });
-    let mut within = 0;
-    for (z, gz) in gaps[2].iter().enumerate() {
-        for (y, gy) in gaps[1].iter().enumerate() {
-            for (x, gx) in gaps[0].iter().enumerate() {
-                within |= u32::from(gx + gy + gz <= limit * limit) << (9 * z + 3 * y + x);
-            }
-        }
-    }
-    within
 }
 
 /// [`overlapping_into`] with the contact distance of each pair: one for
@@ -627,9 +601,9 @@ fn overlapping_into<'a>(
     Some(count)
 }
 
-/// The first of `near` (bodies whose neighbour spheres overlap body
-/// `i`'s), in their order, whose neighbour boxes, where there are boxes,
-/// overlap `i`'s too.
+/// Those of `near` (bodies whose neighbour spheres overlap body `i`'s)
+/// whose neighbour boxes, where there are boxes, overlap `i`'s too: moved
+/// to the front of `near`, in their order.
 fn keep_box_overlaps<'a>(
     i: usize,
     near: &'a mut [u32],
