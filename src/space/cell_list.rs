@@ -210,15 +210,6 @@ impl CellList {
         within
     }
 
-    /// The members of the cells around `cell` ([`CellList::neighbour_cells`],
-    /// in its order), one after another in `into`, and how many; `None` if
-    /// they do not fit (see [`CellList::gather`]).
-    #[inline]
-    pub fn gather_around(&self, cell: usize, into: &mut [u32]) -> Option<usize> {
-        let around = self.neighbour_cells(cell).iter().map(|&nc| nc as usize);
-        self.gather(around, into)
-    }
-
     /// The members of `cells`, one after another in `into`, and how many;
     /// `None` if they do not fit. Each cell's whole room is copied and
     /// only its members counted, without a branch on how many a cell
@@ -461,12 +452,13 @@ mod tests {
                     .iter()
                     .flat_map(|&nc| cl.members(nc as usize).iter().copied())
                     .collect();
+                let around = || cl.neighbour_cells(cell).iter().map(|&nc| nc as usize);
                 let mut into = vec![0; 27 * cl.capacity];
-                let count = cl.gather_around(cell, &mut into).unwrap();
+                let count = cl.gather(around(), &mut into).unwrap();
                 assert_eq!(&into[..count], &expected[..], "cell {cell}");
                 if !expected.is_empty() {
                     let mut small = vec![0; expected.len() - 1];
-                    assert_eq!(cl.gather_around(cell, &mut small), None);
+                    assert_eq!(cl.gather(around(), &mut small), None);
                 }
             }
         }

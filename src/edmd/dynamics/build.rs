@@ -526,21 +526,19 @@ pub(super) fn link_overlapping(
         }
     };
     let near = keep_box_overlaps(i, near, box_, bodies, spheres);
-    if after {
-        for &j in near {
-            spheres.lists.link(i, j as usize);
+    if !after {
+        if spheres.boxes.is_none() {
+            spheres.lists.relink(i, near, &mut spheres.marks);
+            return;
         }
-    } else if spheres.boxes.is_none() {
-        spheres.lists.relink(i, near, &mut spheres.marks);
-    } else {
         // A body's search meets its partners in its list's order, and
         // what a run of bodies logs depends on it (pinned to the bit by
         // the reference states): each neighbour drops `i` and lists it
         // again last.
         spheres.lists.unlink_all(i);
-        for &j in near {
-            spheres.lists.link(i, j as usize);
-        }
+    }
+    for &j in near {
+        spheres.lists.link(i, j as usize);
     }
 }
 

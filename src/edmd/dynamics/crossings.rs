@@ -57,15 +57,21 @@ impl Dynamics {
     /// Body `i` has moved the shell from its neighbour sphere's centre: the
     /// sphere is rebuilt around it, and `i` searches its new list.
     pub(super) fn escape(&mut self, i: usize) -> Result<(), EdmdError> {
-        // The stored pose stays (see `closed_form`).
-        let b = &self.bodies[i];
-        let centre = position_after(&b.position, &b.velocity, self.now - b.time);
+        // The stored pose stays (see `closed_form`). Boxes turn with their
+        // bodies; a sphere region needs its centre alone.
+        let boxes = self.neighbours.as_ref().is_some_and(|s| s.boxes.is_some());
+        let (centre, orientation) = if boxes {
+            let (centre, orientation) = self.pose_at(i, self.now);
+            (centre, Some(orientation))
+        } else {
+            let b = &self.bodies[i];
+            (
+                position_after(&b.position, &b.velocity, self.now - b.time),
+                None,
+            )
+        };
         let wrapped = self.box_.wrap(&centre);
         self.cells.update(i, &wrapped);
-        let boxes = self.neighbours.as_ref().is_some_and(|s| s.boxes.is_some());
-        // Boxes turn with their bodies; a sphere region needs its centre
-        // alone.
-        let orientation = boxes.then(|| self.pose_at(i, self.now).1);
         let spheres = self
             .neighbours
             .as_mut()
