@@ -373,6 +373,7 @@ pub fn contact_sum(a: &Shape, b: &Shape) -> Option<f64> {
 pub use sphere_sphere::contact_time as sphere_contact_time;
 pub use sphere_sphere::contact_time_from_products as sphere_contact_time_from_products;
 pub use sphere_sphere::contact_time_or_never as sphere_contact_time_or_never;
+pub use sphere_sphere::contact_times_from_products as sphere_contact_times_from_products;
 pub use sphere_sphere::grown_contact_time_from_products as grown_sphere_contact_time;
 
 /// The kernels the dispatch uses for a pair of shapes: (overlap test,
