@@ -251,7 +251,10 @@ impl Dynamics {
             let lane = earliest_lane(times, before, kept, horizon);
             // A conditional move: which lane, if any, comes first is a
             // coin toss to the branch predictor.
-            partner = std::hint::select_unpredictable(lane < LANES, lanes[lane % LANES], partner);
+            // Indexed by selection, not by address: the lanes stay in
+            // registers.
+            let found = std::hint::select_unpredictable(lane == 1, lanes[1], lanes[0]);
+            partner = std::hint::select_unpredictable(lane < LANES, found, partner);
         }
         (partner != usize::MAX).then_some((*horizon, partner))
     }
@@ -336,7 +339,9 @@ impl Dynamics {
         // The products of each lane: the image nearest now (as
         // `closed_form_contact`), in the order of nalgebra's (from zero, x,
         // y, z).
-        let mut b = [0.0; LANES];
+        // d·Δv from its first term, not from zero: they differ only in
+        // the sign of a zero d·Δv, a pair that never meets either way.
+        let mut b = [-0.0; LANES];
         let mut dd = [0.0; LANES];
         let mut v2 = [0.0; LANES];
         for k in 0..LANES {
@@ -615,7 +620,8 @@ impl LaneProducts {
         let mut any = false;
         for (k, &before) in before.iter().enumerate() {
             let c = self.dd[k] - self.sigma[k] * self.sigma[k];
-            let ruled_out = c >= -2.0 * self.b[k] * (before - self.t0[k]) * (1.0 + 1e-6);
+            // The constants folded into one factor.
+            let ruled_out = c >= self.b[k] * (before - self.t0[k]) * (-2.0 * (1.0 + 1e-6));
             any |= (self.b[k] < 0.0) & !ruled_out;
         }
         any
