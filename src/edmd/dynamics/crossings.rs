@@ -115,25 +115,29 @@ impl Dynamics {
         }
         let c = self.cells.coords_of(self.cells.cell_of(i));
         let half = self.box_.lengths() * 0.5;
+        // Without a branch on the signs of the velocity or on which face
+        // comes first (coin tosses to the branch predictor): the face by
+        // arithmetic, the earliest by selection.
         let mut best = (f64::INFINITY, 0u8, false);
         for k in 0..3 {
             let v = b.velocity[k];
             if v == 0.0 {
                 continue;
             }
+            let up = v > 0.0;
             let lower = -half[k] + c[k] as f64 * self.cell_lengths[k];
-            let (face, up) = if v > 0.0 {
-                (lower + self.cell_lengths[k], true)
-            } else {
-                (lower, false)
-            };
+            // 1 upwards, 0 downwards, from the sign bit (a selection of
+            // 1 or 0 the compiler would turn back into a jump).
+            let upwards = 0.5 + 0.5 * 1.0f64.copysign(v);
+            let face = lower + self.cell_lengths[k] * upwards;
             // The stored position in the image of its cell (they differ
             // when the pose is kept through a periodic crossing).
             let x = b.position[k] + self.cell_shifts[i][k];
             let t = ((face - x) / v).max(0.0);
-            if t < best.0 {
-                best = (t, k as u8, up);
-            }
+            let first = t < best.0;
+            best.0 = if first { t } else { best.0 };
+            best.1 = std::hint::select_unpredictable(first, k as u8, best.1);
+            best.2 = std::hint::select_unpredictable(first, up, best.2);
         }
         let time = b.time + best.0;
         self.schedule_neighbourhood_event(
