@@ -357,8 +357,11 @@ impl Calendar {
     /// Particle `p`'s slots changed: its leaf and the winners above it.
     #[inline]
     fn update(&mut self, p: usize) {
+        // The earlier of the two slots' times (which slot holds it, the
+        // tree does not record): a minimum, not a branch on which.
+        let [a, b] = &self.slots[p];
         let mut entry = Entry {
-            time: self.next(p).time,
+            time: if b.time < a.time { b.time } else { a.time },
             leaf: p as u32,
         };
         let mut k = p;
