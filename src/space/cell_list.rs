@@ -60,7 +60,7 @@ impl CellList {
         let mut this = Self {
             dims,
             lengths,
-            capacity: 8,
+            capacity: 4,
             slots: Vec::new(),
             counts: vec![0; count],
             cell_of: vec![0; positions.len()],
@@ -218,6 +218,7 @@ impl CellList {
     #[inline]
     pub fn gather(&self, cells: impl Iterator<Item = usize>, into: &mut [u32]) -> Option<usize> {
         match self.capacity {
+            4 => self.gather_rooms::<4>(cells, into),
             8 => self.gather_rooms::<8>(cells, into),
             16 => self.gather_rooms::<16>(cells, into),
             _ => {
@@ -432,14 +433,14 @@ mod tests {
     }
 
     /// The cells around each cell gathered at once are their members in
-    /// order, for rooms of 8, 16 and more slots, and a gathering that does
+    /// order, for rooms of 4, 8, 16 and more slots, and a gathering that does
     /// not fit says so.
     #[test]
     fn gathering_around_a_cell_lists_its_neighbours_members_in_order() {
         let mut u = crate::test_support::uniform(10);
         let lengths = Vector3::new(6.0, 6.0, 6.0);
         let mut capacities = Vec::new();
-        for (n, spread) in [(150, 1.0), (1200, 1.0), (400, 0.2)] {
+        for (n, spread) in [(150, 1.0), (400, 1.0), (1200, 1.0), (400, 0.2)] {
             // A narrow spread crowds the cells, whose rooms then grow.
             let pos: Vec<Vector3<f64>> = (0..n)
                 .map(|_| Vector3::from_fn(|_, _| (u() - 0.5) * 6.0 * spread))
@@ -462,8 +463,8 @@ mod tests {
                 }
             }
         }
-        assert_eq!(capacities[..2], [8, 16]);
-        assert!(capacities[2] > 16, "{capacities:?}");
+        assert_eq!(capacities[..3], [4, 8, 16]);
+        assert!(capacities[3] > 16, "{capacities:?}");
     }
 
     /// A neighbour cell's image brings each of its members within two cell
