@@ -249,10 +249,9 @@ impl Dynamics {
             let times = self.lane_times(&products);
             let kept = lanes.map(keep);
             let lane = earliest_lane(times, before, kept, horizon);
-            // A conditional move: which lane, if any, comes first is a
-            // coin toss to the branch predictor.
-            // Indexed by selection, not by address: the lanes stay in
-            // registers.
+            // Conditional moves (which lane, if any, comes first is a coin
+            // toss to the branch predictor), and the lanes picked by
+            // selection, not by address, so that they stay in registers.
             let found = std::hint::select_unpredictable(lane == 1, lanes[1], lanes[0]);
             partner = std::hint::select_unpredictable(lane < LANES, found, partner);
         }
@@ -337,10 +336,10 @@ impl Dynamics {
             }
         }
         // The products of each lane: the image nearest now (as
-        // `closed_form_contact`), in the order of nalgebra's (from zero, x,
-        // y, z).
-        // d·Δv from its first term, not from zero: they differ only in
-        // the sign of a zero d·Δv, a pair that never meets either way.
+        // `closed_form_contact`), in the order of nalgebra's (x, y, z).
+        // nalgebra sums from zero; d·Δv here from −0, its first term:
+        // they differ only in the sign of a zero d·Δv, a pair that never
+        // meets either way.
         let mut b = [-0.0; LANES];
         let mut dd = [0.0; LANES];
         let mut v2 = [0.0; LANES];
