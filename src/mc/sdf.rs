@@ -53,8 +53,8 @@ impl Sdf {
         let cells = CellList::new(system.box_.lengths(), width, system.positions.as_slice());
         let pairs = (0..system.len()).flat_map(|i| {
             let cells = &cells;
-            (cells.neighbour_cells(cells.cell_of(i)).iter())
-                .flat_map(move |&cell| cells.members(cell as usize))
+            (cells.neighbour_cells(cells.cell_of(i)).into_iter())
+                .flat_map(move |cell| cells.members(cell as usize))
                 .map(|&j| j as usize)
                 .filter(move |&j| j > i)
                 .map(move |j| (i, j))

@@ -506,8 +506,8 @@ pub(super) fn link_overlapping(
         None => {
             let around = cells
                 .neighbour_cells(cell)
-                .iter()
-                .map(|&nc| (cells.members(nc as usize), V3::zeros()));
+                .into_iter()
+                .map(|nc| (cells.members(nc as usize), V3::zeros()));
             let image = |d: V3| box_.minimum_image_near(&d);
             overlapping_in(i, after, around, spheres, bodies, image, into)
         }
@@ -519,8 +519,8 @@ pub(super) fn link_overlapping(
         None => {
             // More than fit (a crowd of small bodies around a large one):
             // room for every candidate.
-            let candidates = cells.neighbour_cells(cell).iter();
-            more = vec![0u32; candidates.map(|&nc| cells.members(nc as usize).len()).sum()];
+            let candidates = cells.neighbour_cells(cell).into_iter();
+            more = vec![0u32; candidates.map(|nc| cells.members(nc as usize).len()).sum()];
             let count = overlapping(&mut more).expect("room for every candidate");
             &mut more[..count]
         }

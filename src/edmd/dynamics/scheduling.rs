@@ -72,12 +72,9 @@ impl Dynamics {
                     )
                 }
                 None => {
-                    let mut around = [0u32; 27];
-                    let cells = self.cells.neighbour_cells(self.cells.cell_of(i));
-                    around[..cells.len()].copy_from_slice(cells);
-                    let around = &around[..cells.len()];
+                    let around = self.cells.neighbour_cells(self.cells.cell_of(i));
                     let earliest =
-                        self.earliest_closed_form_in_cells(i, around, keep, f64::INFINITY);
+                        self.earliest_closed_form_in_cells(i, &around, keep, f64::INFINITY);
                     (f64::INFINITY, earliest)
                 }
             };
@@ -99,7 +96,7 @@ impl Dynamics {
         match &self.neighbours {
             Some(spheres) => candidates.extend_from_slice(spheres.lists.of(i)),
             None => {
-                for &nc in self.cells.neighbour_cells(self.cells.cell_of(i)) {
+                for nc in self.cells.neighbour_cells(self.cells.cell_of(i)) {
                     candidates.extend_from_slice(self.cells.members(nc as usize));
                 }
             }
