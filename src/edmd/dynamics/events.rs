@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 
-use crate::edmd::calendar::EventKind;
+use crate::edmd::calendar::{Event, EventKind};
 use crate::edmd::motion::position_after;
 
 type V3 = Vector3<f64>;
@@ -35,12 +35,11 @@ impl Dynamics {
         let target = self.collisions.saturating_add(count);
         while self.collisions < target {
             // Relative to the origin, which a rebase moves.
-            match self.calendar.peek() {
-                Some(e) if e.time <= t_end - self.origin => {
-                    self.process_next()?;
-                }
-                _ => {
-                    self.advance_clock(t_end - self.origin);
+            let end = t_end - self.origin;
+            match self.calendar.pop_if(|e| e.time <= end) {
+                Some(e) => self.process(e)?,
+                None => {
+                    self.advance_clock(end);
                     break;
                 }
             }
@@ -61,6 +60,12 @@ impl Dynamics {
         let Some(e) = self.calendar.pop() else {
             return Ok(false);
         };
+        self.process(e)?;
+        Ok(true)
+    }
+
+    /// Processes `e`, just taken from the calendar.
+    fn process(&mut self, e: Event) -> Result<(), EdmdError> {
         if e.time > self.now {
             self.now = e.time;
             self.events_at_now = 0;
@@ -104,7 +109,7 @@ impl Dynamics {
         if due {
             self.rebase()?;
         }
-        Ok(true)
+        Ok(())
     }
 
     /// Advances body `i` to the current time.
