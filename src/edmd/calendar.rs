@@ -386,32 +386,34 @@ impl Calendar {
             if old == entry && entry.leaf as usize != p {
                 return;
             }
-            entry = self.group_winner(&self.levels[l][g]);
+            let (earliest, at) = earliest_of(&group.times);
+            // The first of the earliest (`at` has a bit set: the minimum
+            // is one of the times).
+            let first = at.trailing_zeros() as usize % ARITY;
+            entry = Entry {
+                time: earliest,
+                leaf: group.leaves[first],
+            };
+            if at & (at - 1) != 0 && earliest != f64::INFINITY {
+                entry.leaf = self.tie_winner(&self.levels[l][g], at);
+            }
             k = g;
         }
         self.root = entry;
     }
 
-    /// The earliest of a group's eight entries (equal times decided by the
-    /// events' keys; empty ones by position). Without a branch on the
-    /// times, which are in random order.
-    #[inline(always)]
-    fn group_winner(&self, group: &Group) -> Entry {
-        let (earliest, at) = earliest_of(&group.times);
+    /// Which of a group's entries whose times are equal and earliest (bit
+    /// c of `at` for entry c) wins: the events' keys decide. Rare, and
+    /// kept out of the walk.
+    #[cold]
+    #[inline(never)]
+    fn tie_winner(&self, group: &Group, at: u32) -> u32 {
         let first = at.trailing_zeros() as usize;
-        let mut best = Entry {
-            time: earliest,
-            leaf: group.leaves[first],
-        };
-        if at & (at - 1) != 0 && earliest != f64::INFINITY {
-            // Equal times: the events' keys decide.
-            for c in first + 1..ARITY {
-                let leaf = group.leaves[c];
-                if at & (1 << c) != 0
-                    && earlier(&self.next(leaf as usize), &self.next(best.leaf as usize))
-                {
-                    best.leaf = leaf;
-                }
+        let mut best = group.leaves[first];
+        for c in first + 1..ARITY {
+            let leaf = group.leaves[c];
+            if at & (1 << c) != 0 && earlier(&self.next(leaf as usize), &self.next(best as usize)) {
+                best = leaf;
             }
         }
         best
