@@ -30,39 +30,6 @@ impl CellList {
     pub fn new(lengths: Vector3<f64>, range: f64, positions: &[Vector3<f64>]) -> Self {
         let dims = super::cell_grid(&lengths, range, positions.len());
         let count = dims[0] * dims[1] * dims[2];
-        // Only a box narrower than three cells along an axis needs the
-        // table (its neighbour cells repeat); elsewhere they are computed,
-        // which keeps 108 bytes a cell out of the caches.
-        let narrow = dims.iter().any(|&n| n < 3);
-        let tabled = if narrow { count } else { 0 };
-        let mut neighbours = vec![0u32; 27 * tabled];
-        let mut neighbour_counts = vec![0u8; tabled];
-        for c in 0..tabled {
-            let (x, y, z) = (
-                c % dims[0],
-                (c / dims[0]) % dims[1],
-                c / (dims[0] * dims[1]),
-            );
-            let list = &mut neighbours[27 * c..27 * c + 27];
-            let mut used = 0;
-            for dz in [-1i64, 0, 1] {
-                for dy in [-1i64, 0, 1] {
-                    for dx in [-1i64, 0, 1] {
-                        let wrap = |v: usize, d: i64, n: usize| {
-                            ((v as i64 + d).rem_euclid(n as i64)) as usize
-                        };
-                        let n = (wrap(x, dx, dims[0])
-                            + dims[0] * (wrap(y, dy, dims[1]) + dims[1] * wrap(z, dz, dims[2])))
-                            as u32;
-                        if !list[..used].contains(&n) {
-                            list[used] = n;
-                            used += 1;
-                        }
-                    }
-                }
-            }
-            neighbour_counts[c] = used as u8;
-        }
         let mut this = Self {
             dims,
             lengths,
@@ -70,9 +37,29 @@ impl CellList {
             slots: Vec::new(),
             counts: vec![0; count],
             cell_of: vec![0; positions.len()],
-            neighbours,
-            neighbour_counts,
+            neighbours: Vec::new(),
+            neighbour_counts: Vec::new(),
         };
+        // Only a box narrower than three cells along an axis needs the
+        // table (its neighbour cells repeat, and are kept once each);
+        // elsewhere they are computed, which keeps 108 bytes a cell out of
+        // the caches.
+        if dims.iter().any(|&n| n < 3) {
+            let mut neighbours = vec![0u32; 27 * count];
+            let mut neighbour_counts = vec![0u8; count];
+            for c in 0..count {
+                let list = &mut neighbours[27 * c..27 * c + 27];
+                let mut used = 0;
+                for n in this.steps_around(c) {
+                    if !list[..used].contains(&n) {
+                        list[used] = n;
+                        used += 1;
+                    }
+                }
+                neighbour_counts[c] = used as u8;
+            }
+            (this.neighbours, this.neighbour_counts) = (neighbours, neighbour_counts);
+        }
         this.rebin(
             positions
                 .iter()
@@ -169,10 +156,20 @@ impl CellList {
             cells[..used as usize].copy_from_slice(&self.neighbours[27 * cell..][..used as usize]);
             return NeighbourCells { cells, used };
         }
+        NeighbourCells {
+            cells: self.steps_around(cell),
+            used: 27,
+        }
+    }
+
+    /// The cell one step down, none or one step up from `cell` along each
+    /// axis, across the periodic boundary, in the order of
+    /// [`CellList::neighbour_cells`]; in a box narrower than three cells
+    /// along an axis, some more than once.
+    #[inline]
+    fn steps_around(&self, cell: usize) -> [u32; 27] {
         let [nx, ny, _] = self.dims;
         let c = self.coords_of(cell);
-        // One step down, none, one step up along each axis, across the
-        // periodic boundary (every axis is three cells wide or more).
         let [xs, ys, zs] = std::array::from_fn(|a| {
             let (at, n) = (c[a], self.dims[a]);
             [
@@ -181,12 +178,7 @@ impl CellList {
                 if at + 1 == n { 0 } else { at + 1 },
             ]
         });
-        NeighbourCells {
-            cells: std::array::from_fn(|k| {
-                (xs[k % 3] + nx * (ys[(k / 3) % 3] + ny * zs[k / 9])) as u32
-            }),
-            used: 27,
-        }
+        std::array::from_fn(|k| (xs[k % 3] + nx * (ys[(k / 3) % 3] + ny * zs[k / 9])) as u32)
     }
 
     /// In a box at least three cells wide along every axis: the cells of
@@ -366,6 +358,7 @@ impl CellList {
         false
     }
 }
+
 /// The cells of [`CellList::neighbour_cells`], held by value.
 #[derive(Debug, Clone, Copy)]
 pub struct NeighbourCells {
