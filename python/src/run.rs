@@ -122,6 +122,7 @@ fn deliver(py: Python<'_>, callback: &Py<PyAny>, event: Event) -> PyResult<()> {
 pub(crate) fn run_error(py: Python<'_>, e: RustRunError) -> PyErr {
     match &e {
         RustRunError::Request(m) => PyValueError::new_err(m.clone()),
+        RustRunError::Output(_) => PyValueError::new_err(e.to_string()),
         RustRunError::Start(_) | RustRunError::Resume(_) => {
             let err = SceneError::new_err(e.to_string());
             let _ = err.value(py).setattr("field", "start");

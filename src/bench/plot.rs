@@ -97,6 +97,23 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 
 /// Writes `series` as an SVG line plot with points to `path`.
 pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), String> {
+    let mut svg = String::new();
+    draw_lines(&mut svg, path, figure, series)?;
+    write_svg(path, &svg)
+}
+
+/// Writes `svg` to `path` through a temporary file renamed into place,
+/// never through a symbolic link.
+fn write_svg(path: &Path, svg: &str) -> Result<(), String> {
+    crate::log::file::write_replacing(path, svg.as_bytes()).map_err(|e| e.to_string())
+}
+
+fn draw_lines(
+    svg: &mut String,
+    path: &Path,
+    figure: &Figure,
+    series: &[Series],
+) -> Result<(), String> {
     let (x0, x1) = range(
         series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
         figure.log_x,
@@ -105,7 +122,7 @@ pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), 
         series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
         figure.log_y,
     );
-    let root = SVGBackend::new(path, (800, 520)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (800, 520)).into_drawing_area();
     let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let mut builder = ChartBuilder::on(&root);
@@ -168,10 +185,23 @@ pub fn bar_plot(
     bars: &[(String, f64)],
     reference: f64,
 ) -> Result<(), String> {
+    let mut svg = String::new();
+    draw_bars(&mut svg, path, title, x_label, bars, reference)?;
+    write_svg(path, &svg)
+}
+
+fn draw_bars(
+    svg: &mut String,
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    bars: &[(String, f64)],
+    reference: f64,
+) -> Result<(), String> {
     let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let top = bars.iter().map(|b| b.1).fold(reference, f64::max) * 1.15;
     let height = 120 + 40 * bars.len() as u32;
-    let root = SVGBackend::new(path, (900, height)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (900, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let n = bars.len() as f64;
     // Bar i spans y in [i + 0.15, i + 0.85]; its label sits at i + 0.5.
@@ -235,6 +265,17 @@ pub fn eos_plot(
     points: &[ErrorPoint],
     reference: &[(f64, f64)],
 ) -> Result<(), String> {
+    let mut svg = String::new();
+    draw_eos(&mut svg, path, points, reference)?;
+    write_svg(path, &svg)
+}
+
+fn draw_eos(
+    svg: &mut String,
+    path: &Path,
+    points: &[ErrorPoint],
+    reference: &[(f64, f64)],
+) -> Result<(), String> {
     let (x0, x1) = range(
         points
             .iter()
@@ -249,7 +290,7 @@ pub fn eos_plot(
             .chain(reference.iter().map(|r| r.1)),
         false,
     );
-    let root = SVGBackend::new(path, (800, 520)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (800, 520)).into_drawing_area();
     let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let mut chart = ChartBuilder::on(&root)

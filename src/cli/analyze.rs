@@ -45,7 +45,7 @@ pub(super) fn analyze(
             return bad_input(format!("--plot {}: {e}", dir.display()));
         }
         for stage in &stages {
-            if let Err(e) = plot_stage(dir, &stats, stage) {
+            if let Err(e) = plot_stage(dir, &stats, stage, &[path]) {
                 return bad_input(e);
             }
         }
@@ -153,6 +153,7 @@ pub(super) fn analyze_replicas(
         Err(e) => return bad_input(e),
     };
     if let Some(dir) = plot {
+        let inputs: Vec<&std::path::Path> = paths.iter().map(PathBuf::as_path).collect();
         for (k, ((_, c), stages)) in contents.iter().zip(&replicas.runs).enumerate() {
             let stats: Vec<_> = c.stats.iter().map(|(_, s)| s.clone()).collect();
             let dir = dir.join(format!("replica{}", k + 1));
@@ -160,7 +161,7 @@ pub(super) fn analyze_replicas(
                 return bad_input(format!("--plot {}: {e}", dir.display()));
             }
             for stage in stages {
-                if let Err(e) = plot_stage(&dir, &stats, stage) {
+                if let Err(e) = plot_stage(&dir, &stats, stage, &inputs) {
                     return bad_input(e);
                 }
             }
@@ -219,6 +220,7 @@ pub(super) fn plot_stage(
     dir: &std::path::Path,
     stats: &[hardbody::log::Stats],
     stage: &hardbody::log::averages::StageAverages,
+    inputs: &[&std::path::Path],
 ) -> Result<(), String> {
     use hardbody::bench::plot::{Figure, Series, line_plot};
     let dynamics = stage.stage == "dynamics";
@@ -265,6 +267,7 @@ pub(super) fn plot_stage(
             log_y: false,
         };
         let path = dir.join(format!("stage{}-{name}.svg", stage.stage_index));
+        check_output(&path, false, inputs).map_err(|e| e.to_string())?;
         line_plot(&path, &figure, &series)?;
     }
     Ok(())
@@ -444,7 +447,7 @@ pub(super) fn analyze_packing(
     // The last bin's centre plus half a bin (the first bin's centre).
     let r_max = rdf.r.last().zip(rdf.r.first()).map_or(0.0, |(l, f)| l + f);
     if let Some(dir) = plot
-        && let Err(e) = packing_plots(dir, rdf, (k, s_k), &network.contact_number_histogram)
+        && let Err(e) = packing_plots(dir, rdf, (k, s_k), &network.contact_number_histogram, path)
     {
         return bad_input(format!("--plot {}: {e}", dir.display()));
     }
@@ -556,9 +559,16 @@ fn packing_plots(
     rdf: &hardbody::analysis::structure::Rdf,
     (k, s): (&[f64], &[f64]),
     histogram: &[usize],
+    input: &std::path::Path,
 ) -> Result<(), String> {
     use hardbody::bench::plot::{Figure, Series, bar_plot, line_plot};
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    let rdf_path = dir.join("rdf.svg");
+    let sk_path = dir.join("structure-factor.svg");
+    let histogram_path = dir.join("contact-numbers.svg");
+    for p in [&rdf_path, &sk_path, &histogram_path] {
+        check_output(p, false, &[input]).map_err(|e| e.to_string())?;
+    }
     let figure = |title, x_label, y_label| Figure {
         title,
         x_label,
@@ -570,13 +580,11 @@ fn packing_plots(
         name: name.into(),
         points: x.iter().copied().zip(y.iter().copied()).collect(),
     };
-    let rdf_path = dir.join("rdf.svg");
     line_plot(
         &rdf_path,
         &figure("radial distribution of the centres", "r", "g(r)"),
         &[series("g(r)", &rdf.r, &rdf.g)],
     )?;
-    let sk_path = dir.join("structure-factor.svg");
     line_plot(
         &sk_path,
         &figure("structure factor from g(r)", "k", "S(k)"),
@@ -587,7 +595,6 @@ fn packing_plots(
         .enumerate()
         .map(|(z, &n)| (z.to_string(), n as f64))
         .collect();
-    let histogram_path = dir.join("contact-numbers.svg");
     bar_plot(
         &histogram_path,
         "bodies by contact number",

@@ -57,11 +57,14 @@ pub(super) fn run(
         return bad_input(e);
     }
     let log_path = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));
-    let inputs: Vec<&std::path::Path> = scene_path
+    let mut inputs: Vec<&std::path::Path> = scene_path
         .iter()
         .chain(&resume)
         .map(|p| p.as_path())
         .collect();
+    if let hardbody::scene::Start::Resume(start) = &scene.start {
+        inputs.push(std::path::Path::new(start));
+    }
     if let Err(e) = check_output(&log_path, true, &inputs) {
         return bad_input(e);
     }
@@ -190,7 +193,11 @@ pub(super) fn preflight(
     if let Err(e) = check_start(scene) {
         return Err(scene_refusal(path, text, "start", e));
     }
-    if !out_given && let Err(e) = check_output(std::path::Path::new(&scene.log.path), true, &[path])
+    let mut inputs = vec![path];
+    if let hardbody::scene::Start::Resume(start) = &scene.start {
+        inputs.push(std::path::Path::new(start));
+    }
+    if !out_given && let Err(e) = check_output(std::path::Path::new(&scene.log.path), true, &inputs)
     {
         return Err(scene_refusal(path, text, "log.path", e));
     }
@@ -220,6 +227,10 @@ pub(super) fn check(path: &std::path::Path) -> ExitCode {
 /// stopped); a complete log means there is nothing to do; otherwise the
 /// scene runs from the start. A run stopped by Ctrl-C leaves its log as
 /// OUT.partial, so that only a finished run puts OUT in place.
+///
+/// Every log found must be of SCENE (with `--seed`, of that seed): a log
+/// of another scene is never resumed, never taken for this job's result
+/// and never replaced; a complete OUT is never replaced by a partial one.
 pub(super) fn continue_run(
     scene_path: Option<PathBuf>,
     out: Option<PathBuf>,
@@ -228,16 +239,43 @@ pub(super) fn continue_run(
     let Some(out) = out else {
         return bad_input("--continue needs --out");
     };
+    let mut scene = match &scene_path {
+        Some(p) => match load_scene(p) {
+            Ok((scene, _)) => scene,
+            Err(e) => return bad_input(e),
+        },
+        None => Scene::parse(DEFAULT_SCENE).expect("the default scene is valid"),
+    };
+    if let Some(seed) = seed {
+        scene.seed = seed;
+    }
+    let scene_name = scene_path
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| "the default scene".into());
     let partial = hardbody::log::partial_path(&out);
-    if out.exists() && !partial.exists() {
+    if out.exists() {
+        if let Err(e) = log_of_scene(&out, &scene, &scene_name) {
+            return bad_input(e);
+        }
         say(&format!("{}: complete; nothing to do", out.display()));
+        if partial.exists() {
+            esay(&format!(
+                "hardbody: {} is left as it is: {} is complete",
+                partial.display(),
+                out.display()
+            ));
+        }
         return ExitCode::SUCCESS;
     }
     let resumable = partial.exists()
         && hardbody::log::read::read_log(&partial, false)
             .is_ok_and(|c| c.last_state.is_some_and(|(_, s)| s.resume.is_some()));
+    if resumable && let Err(e) = log_of_scene(&partial, &scene, &scene_name) {
+        return bad_input(e);
+    }
     let code = if resumable {
-        resume_log(&partial, Some(out.clone()), seed)
+        resume_log(&partial, Some(out.clone()), None)
     } else {
         run(scene_path, Some(out.clone()), seed, None)
     };
@@ -257,4 +295,28 @@ pub(super) fn continue_run(
         }
     }
     code
+}
+
+/// Whether the log at `log` is a run of `scene` (seed included), as its
+/// metadata records it; the refusal says what differs.
+fn log_of_scene(log: &std::path::Path, scene: &Scene, name: &str) -> Result<(), String> {
+    let contents = hardbody::log::read::read_log(log, false).map_err(|e| e.to_string())?;
+    let logged = contents
+        .metadata
+        .get("scene_resolved")
+        .and_then(|text| Scene::parse(text).ok())
+        .ok_or_else(|| format!("{}: no readable scene in its metadata", log.display()))?;
+    if logged == *scene {
+        return Ok(());
+    }
+    let what = if logged.seed != scene.seed {
+        format!("seed {} where {name} has seed {}", logged.seed, scene.seed)
+    } else {
+        format!("a scene other than {name}")
+    };
+    Err(format!(
+        "{}: is a run of {what}; refusing to continue it or take it as this job's result \
+         (move it away to run {name} afresh)",
+        log.display()
+    ))
 }

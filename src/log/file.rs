@@ -27,9 +27,17 @@ pub enum OutputError {
     /// socket): it is never replaced.
     #[error("{}: exists and is not a regular file (a device, FIFO or socket); refusing to replace it", .0.display())]
     NotRegular(PathBuf),
+    /// A symbolic link is where a file of the run's own would be written
+    /// (a `.partial` file): it is never written through, since its target
+    /// may be anyone's file.
+    #[error("{}: is a symbolic link; refusing to write through it (remove the link or choose another output path)", .0.display())]
+    Link(PathBuf),
     /// Writing there would overwrite an input of the same command.
     #[error("{}: is the input {}; refusing to overwrite it (choose another output path)", .0.display(), .1.display())]
     IsInput(PathBuf, PathBuf),
+    /// The file could not be created or written (the reason given).
+    #[error("{}: {}", .0.display(), .1)]
+    Create(PathBuf, String),
 }
 
 /// Whether `path` may be written as a command's output (directly or
@@ -54,6 +62,9 @@ pub fn check_output(path: &Path, partial: bool, inputs: &[&Path]) -> Result<(), 
     if partial {
         written.push(partial_path(path));
     }
+    if partial && is_link(&written[1]) {
+        return Err(OutputError::Link(written[1].clone()));
+    }
     for target in &written {
         if let Ok(meta) = std::fs::metadata(target) {
             if !meta.is_file() {
@@ -65,6 +76,52 @@ pub fn check_output(path: &Path, partial: bool, inputs: &[&Path]) -> Result<(), 
         }
     }
     Ok(())
+}
+
+/// Whether `path` is a symbolic link (to anything, or dangling).
+pub fn is_link(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())
+}
+
+/// Creates `path` as a new, empty regular file of this process, for a
+/// temporary file a result is written to before it is renamed into
+/// place: a stale regular file there is removed first, and anything else
+/// (a symbolic link above all, whose target may be anyone's file) is
+/// refused. The file is created exclusively, so a link planted there
+/// meanwhile makes the creation fail rather than be followed.
+pub fn create_fresh(path: &Path) -> Result<File, OutputError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => return Err(OutputError::Link(path.to_path_buf())),
+        Ok(m) if !m.is_file() => return Err(OutputError::NotRegular(path.to_path_buf())),
+        Ok(_) => {
+            let _ = std::fs::remove_file(path);
+        }
+        Err(_) => {}
+    }
+    OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+        .map_err(|e| OutputError::Create(path.to_path_buf(), super::io_reason(&e)))
+}
+
+/// Writes `bytes` to `path` through `<path>.partial` (made by
+/// [`create_fresh`]) renamed into place: `path` is never left half
+/// written, and neither it nor the temporary file is written through a
+/// symbolic link (a link at `path` itself is replaced, its target left
+/// alone).
+pub fn write_replacing(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    use std::io::Write;
+    let partial = partial_path(path);
+    let fail = |e: std::io::Error| {
+        let _ = std::fs::remove_file(&partial);
+        OutputError::Create(path.to_path_buf(), super::io_reason(&e))
+    };
+    let mut file = create_fresh(&partial)?;
+    file.write_all(bytes).map_err(fail)?;
+    file.sync_all().map_err(fail)?;
+    drop(file);
+    std::fs::rename(&partial, path).map_err(fail)
 }
 
 /// Whether two paths name one existing file.
@@ -95,19 +152,29 @@ pub(crate) fn create_locked(path: &Path) -> Result<File, LogError> {
         path: path.to_path_buf(),
         source,
     };
+    let refused = |e: OutputError| LogError::Content {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    if is_link(path) {
+        return Err(refused(OutputError::Link(path.to_path_buf())));
+    }
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
-        return Err(LogError::Content {
-            path: path.to_path_buf(),
-            message: OutputError::NotRegular(path.to_path_buf()).to_string(),
-        });
+        return Err(refused(OutputError::NotRegular(path.to_path_buf())));
     }
     for _ in 0..16 {
-        let file = OpenOptions::new()
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(path)
-            .map_err(io)?;
+        let mut options = OpenOptions::new();
+        options.write(true).create(true).truncate(false);
+        // A link planted after the check above is not followed either.
+        #[cfg(unix)]
+        std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NOFOLLOW);
+        let file = options.open(path).map_err(|e| {
+            if is_link(path) {
+                refused(OutputError::Link(path.to_path_buf()))
+            } else {
+                io(e)
+            }
+        })?;
         match file.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {

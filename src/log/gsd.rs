@@ -164,6 +164,9 @@ pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
         .ok_or_else(|| fail("the log has no frames to export".into()))?
         .1;
     let application = format!("hardbody {}", env!("CARGO_PKG_VERSION"));
+    // Made here first: a link planted at the partial path is refused, not
+    // followed by the GSD writer.
+    drop(super::file::create_fresh(&partial).map_err(|e| fail(e.to_string()))?);
     let mut gsd = GsdFile::create(&partial, &application, "hoomd", (1, 4))
         .map_err(|e| fail(e.to_string()))?;
     let names: Vec<[u8; NAME_BYTES]> = first

@@ -42,14 +42,14 @@ use rand_pcg::Pcg64;
 
 use crate::edmd::EdmdError;
 use crate::edmd::dynamics::{Dynamics, DynamicsDump};
-use crate::log::file::{lock_for_reading, same_file};
+use crate::log::file::{OutputError, check_output, lock_for_reading, same_file};
 use crate::log::read::{RawMessage, ReadOptions, read_log_with};
 use crate::log::{FailureRecord, LogError, LogWriter, ResumeInfo, StateRecord, partial_path};
 use crate::mc::compress::{CompressError, CompressOptions};
 use crate::mc::moves::MoveSizes;
 use crate::mc::tuning::DriftWatch;
 use crate::scene::plan::Plan;
-use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage};
+use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
 use crate::state::StateError;
 use crate::state::System;
 use crate::state::start::StartError;
@@ -88,6 +88,10 @@ pub enum RunError {
     /// configuration that overlaps).
     #[error("{0}")]
     Request(String),
+    /// The output path may not be written (it is an input, a link, a
+    /// directory...).
+    #[error("{0}")]
+    Output(#[from] OutputError),
     /// The log could not be written.
     #[error("log: {0}")]
     Log(#[from] LogError),
@@ -151,7 +155,7 @@ impl RunError {
     pub fn is_bad_input(&self) -> bool {
         matches!(
             self,
-            RunError::Start(_) | RunError::Resume(_) | RunError::Request(_)
+            RunError::Start(_) | RunError::Resume(_) | RunError::Request(_) | RunError::Output(_)
         ) || matches!(
             self,
             RunError::Log(LogError::Io { .. } | LogError::Busy { .. })

@@ -115,6 +115,13 @@ impl Simulation {
                 )
             }
         };
+        if from.is_none()
+            && let Start::Resume(input) = &scene.start
+        {
+            // The log a scene starts from is an input like any other: a
+            // run never replaces it.
+            check_output(log_path, true, &[Path::new(input)])?;
+        }
         let species = runner.plan.mc_species();
         let created = match &from {
             Some(point) if point.in_place => {

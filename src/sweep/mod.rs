@@ -516,9 +516,13 @@ pub fn write_workspace(
 
 /// Writes `text` to `path` through a temporary file renamed into place.
 fn write_new(path: &Path, text: &str) -> Result<(), SweepError> {
-    let partial = crate::log::partial_path(path);
-    std::fs::write(&partial, text).map_err(io(path))?;
-    std::fs::rename(&partial, path).map_err(io(path))
+    crate::log::file::write_replacing(path, text.as_bytes()).map_err(|e| SweepError::Workspace {
+        path: path.to_path_buf(),
+        message: match e {
+            crate::log::file::OutputError::Create(_, reason) => reason,
+            other => other.to_string(),
+        },
+    })
 }
 
 #[cfg(test)]

@@ -1,0 +1,293 @@
+//! The surfaces added with the Python package, sweeps, jamming and
+//! `analyze`, as an adversary tried them (issue 51): one regression test
+//! per fault, named `item_NN_...` after the issue's numbering.
+//! docs/RELIABILITY.md lists the promises they check.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::AtomicBool;
+
+mod common;
+
+use common::cut_after_frames;
+use hardbody::log::partial_path;
+use hardbody::log::read::read_log;
+use hardbody::run::{RunError, Silent, run_scene};
+use hardbody::scene::Scene;
+
+const EXE: &str = env!("CARGO_BIN_EXE_hardbody");
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hardbody-surf-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// 24 rods and 8 balls: compressed, a little Monte Carlo and a little
+/// dynamics, a frame every 20 sweeps and every 0.25 time units.
+fn small(seed: u64, start: &str) -> String {
+    format!(
+        r#"Scene(
+    seed: {seed},
+    box: (7.0, 7.0, 7.0),
+    start: {start},
+    species: [
+        Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 24),
+        Species(name: "ball", shape: Sphere(radius: 0.4), count: 8),
+    ],
+    stages: [
+        Compress(packing_fraction: 0.25),
+        MonteCarlo(ensemble: Nvt, sweeps: 60),
+        Dynamics(duration: 0.5, stats_every: 0.1, frames_every: 0.25),
+    ],
+    log: Log(path: "unused.mcap", stats_every: 10, frames_every: 20),
+)"#
+    )
+}
+
+fn run_to(text: &str, path: &Path) {
+    let scene = Scene::parse(text).unwrap();
+    run_scene(&scene, text, path, &mut Silent, &AtomicBool::new(false)).unwrap();
+}
+
+/// Runs the command line; (exit code, standard output and error).
+fn cli(args: &[&str]) -> (i32, String) {
+    let out = Command::new(EXE)
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    (
+        out.status.code().expect("exited, not killed by a signal"),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    )
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn write(path: &Path, text: &str) -> PathBuf {
+    std::fs::write(path, text).unwrap();
+    path.to_path_buf()
+}
+
+/// A killed run's partial log at `path`: the first `k` frames of `log`.
+fn cut_to(log: &Path, k: usize, path: &Path) {
+    let bytes = std::fs::read(log).unwrap();
+    std::fs::write(path, &bytes[..cut_after_frames(&bytes, k)]).unwrap();
+}
+
+#[test]
+fn item_01_a_scene_never_replaces_the_log_it_starts_from() {
+    let dir = scratch("resume-start");
+    let log = dir.join("x.mcap");
+    run_to(&small(1, "Lattice"), &log);
+    let before = std::fs::read(&log).unwrap();
+    let partial = partial_path(&dir.join("y.mcap"));
+    std::fs::copy(&log, &partial).unwrap();
+    let partial_before = std::fs::read(&partial).unwrap();
+    for (start, out) in [(&log, &log), (&partial, &dir.join("y.mcap"))] {
+        let text = small(2, &format!("Resume({:?})", s(start))).replace("unused.mcap", s(out));
+        let scene = write(&dir.join("s.ron"), &text);
+        // The scene's own log path, and the same path given by --out.
+        for args in [
+            vec!["run", s(&scene)],
+            vec!["check", s(&scene)],
+            vec!["run", s(&scene), "--out", s(out)],
+        ] {
+            let (code, err) = cli(&args);
+            assert_eq!(code, 2, "{args:?}: {err}");
+            assert!(err.contains("is the input"), "{args:?}: {err}");
+        }
+        // The library refuses it too, whoever calls it.
+        let parsed = Scene::parse(&text).unwrap();
+        let refused = run_scene(&parsed, &text, out, &mut Silent, &AtomicBool::new(false));
+        assert!(matches!(refused, Err(RunError::Output(_))), "{refused:?}");
+    }
+    assert!(std::fs::read(&log).unwrap() == before);
+    assert!(std::fs::read(&partial).unwrap() == partial_before);
+    // Written elsewhere, the same scene runs.
+    let text =
+        small(2, &format!("Resume({:?})", s(&log))).replace("unused.mcap", s(&dir.join("z.mcap")));
+    let scene = write(&dir.join("s.ron"), &text);
+    let (code, err) = cli(&["run", s(&scene)]);
+    assert_eq!(code, 0, "{err}");
+}
+
+#[test]
+fn item_02_continue_never_replaces_a_complete_log_with_a_stray_partial() {
+    let dir = scratch("stray");
+    let a = write(&dir.join("a.ron"), &small(1, "Lattice"));
+    let b = write(&dir.join("b.ron"), &small(2, "Lattice"));
+    let out = dir.join("job.mcap");
+    run_to(&small(1, "Lattice"), &out);
+    let other = dir.join("other.mcap");
+    run_to(&small(2, "Lattice"), &other);
+    cut_to(&other, 3, &partial_path(&out));
+    let complete = std::fs::read(&out).unwrap();
+    let stray = std::fs::read(partial_path(&out)).unwrap();
+    let (code, err) = cli(&["run", s(&a), "--out", s(&out), "--continue"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("nothing to do"), "{err}");
+    // A complete log of another scene is not this job's result.
+    let (code, err) = cli(&["run", s(&b), "--out", s(&out), "--continue"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("seed 1") && err.contains("seed 2"), "{err}");
+    assert!(std::fs::read(&out).unwrap() == complete);
+    assert!(std::fs::read(partial_path(&out)).unwrap() == stray);
+}
+
+#[test]
+fn item_03_a_link_at_a_partial_path_is_never_written_through() {
+    let dir = scratch("links");
+    let victim = write(&dir.join("victim.txt"), "another user's file\n");
+    let scene = write(&dir.join("s.ron"), &small(1, "Lattice"));
+    let linked = |path: &Path| {
+        let _ = std::fs::remove_file(path);
+        std::os::unix::fs::symlink(&victim, path).unwrap();
+    };
+    // The partial log of a run.
+    let out = dir.join("x.mcap");
+    linked(&partial_path(&out));
+    let (code, err) = cli(&["run", s(&scene), "--out", s(&out)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("symbolic link"), "{err}");
+    // The file an in-place resume writes first.
+    let log = dir.join("l.mcap");
+    run_to(&small(1, "Lattice"), &log);
+    let resumed = dir.join("r.mcap");
+    cut_to(&log, 3, &partial_path(&resumed));
+    let mut resuming = partial_path(&resumed).into_os_string();
+    resuming.push(".resuming");
+    linked(Path::new(&resuming));
+    let (code, err) = cli(&["run", "--resume", s(&partial_path(&resumed))]);
+    assert_ne!(code, 0, "{err}");
+    assert!(err.contains("symbolic link"), "{err}");
+    // A GSD export's partial file.
+    let gsd = dir.join("x.gsd");
+    linked(&partial_path(&gsd));
+    let (code, err) = cli(&["export", s(&log), "--gsd", s(&gsd)]);
+    assert_ne!(code, 0, "{err}");
+    assert!(err.contains("symbolic link"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(&victim).unwrap(),
+        "another user's file\n"
+    );
+    assert!(!gsd.exists());
+}
+
+#[test]
+fn item_04_plots_never_write_through_links_or_over_an_input() {
+    let dir = scratch("plots");
+    let log = dir.join("l.mcap");
+    run_to(&small(1, "Lattice"), &log);
+    // The plots' names, from a clean folder.
+    let clean = dir.join("clean");
+    for args in [
+        vec!["analyze", s(&log), "--plot", s(&clean)],
+        vec!["analyze", s(&log), "--packing", "--plot", s(&clean)],
+    ] {
+        let (code, err) = cli(&args);
+        assert_eq!(code, 0, "{err}");
+    }
+    let names: Vec<_> = std::fs::read_dir(&clean)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(names.len() >= 4, "{names:?}");
+    // Every plot's name a link to a file of someone else's.
+    let linked = dir.join("linked");
+    std::fs::create_dir_all(&linked).unwrap();
+    let victim = write(&dir.join("victim.txt"), "keep me\n");
+    for name in &names {
+        std::os::unix::fs::symlink(&victim, linked.join(name)).unwrap();
+    }
+    for args in [
+        vec!["analyze", s(&log), "--plot", s(&linked)],
+        vec!["analyze", s(&log), "--packing", "--plot", s(&linked)],
+    ] {
+        let (code, err) = cli(&args);
+        assert_eq!(code, 0, "{err}");
+    }
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep me\n");
+    for name in &names {
+        let plot = std::fs::read_to_string(linked.join(name)).unwrap();
+        assert!(plot.contains("<svg"), "{name:?}");
+    }
+    // The input log under a plot's name, in the plot folder.
+    for name in &names {
+        let input = linked.join(name);
+        std::fs::copy(&log, &input).unwrap();
+        let before = std::fs::read(&input).unwrap();
+        let stage_plot = name.to_string_lossy().starts_with("stage");
+        let mut args = vec!["analyze", s(&input), "--plot", s(&linked)];
+        if !stage_plot {
+            args.insert(2, "--packing");
+        }
+        let (code, err) = cli(&args);
+        assert_eq!(code, 2, "{name:?}: {err}");
+        assert!(err.contains("is the input"), "{err}");
+        assert!(std::fs::read(&input).unwrap() == before, "{name:?}");
+    }
+}
+
+#[test]
+fn item_08_continue_refuses_a_partial_log_of_another_scene() {
+    let dir = scratch("continue-scene");
+    let a = write(&dir.join("a.ron"), &small(1, "Lattice"));
+    let out = dir.join("job.mcap");
+    let full = dir.join("full.mcap");
+    run_to(&small(1, "Lattice"), &full);
+    cut_to(&full, 3, &partial_path(&out));
+    let partial = std::fs::read(partial_path(&out)).unwrap();
+    // Another seed, another pressure, or a scene file that is gone.
+    let b = write(&dir.join("b.ron"), &small(7, "Lattice"));
+    let c = write(
+        &dir.join("c.ron"),
+        &small(1, "Lattice").replace("sweeps: 60", "sweeps: 80"),
+    );
+    for (scene, says) in [
+        (b.clone(), "seed"),
+        (c, "a scene other than"),
+        (dir.join("gone.ron"), "gone.ron"),
+    ] {
+        let (code, err) = cli(&["run", s(&scene), "--out", s(&out), "--continue"]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains(says), "{says}: {err}");
+        assert!(std::fs::read(partial_path(&out)).unwrap() == partial);
+        assert!(!out.exists());
+    }
+    // --seed names the run the partial log is of.
+    let (code, err) = cli(&["run", s(&b), "--out", s(&out), "--continue", "--seed", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(same_last_state(&out, &full));
+    // Its own scene continues it, bit for bit.
+    std::fs::remove_file(&out).unwrap();
+    cut_to(&full, 3, &partial_path(&out));
+    let (code, err) = cli(&["run", s(&a), "--out", s(&out), "--continue"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(same_last_state(&out, &full));
+}
+
+/// Whether two logs end in the same state, bit for bit.
+fn same_last_state(a: &Path, b: &Path) -> bool {
+    let last = |p: &Path| {
+        let (time, state) = read_log(p, false).unwrap().last_state.unwrap();
+        let bits: Vec<u64> = state
+            .positions
+            .iter()
+            .flatten()
+            .chain(state.orientations.iter().flatten())
+            .chain(state.velocities.iter().flatten().flatten())
+            .map(|x| x.to_bits())
+            .collect();
+        (time, bits)
+    };
+    last(a) == last(b)
+}
