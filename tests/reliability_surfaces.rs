@@ -291,3 +291,65 @@ fn same_last_state(a: &Path, b: &Path) -> bool {
     };
     last(a) == last(b)
 }
+
+#[test]
+fn item_07_one_run_is_never_averaged_as_two_replicas() {
+    let dir = scratch("replicas");
+    let a = dir.join("a.mcap");
+    run_to(&small(1, "Lattice"), &a);
+    let b = dir.join("b.mcap");
+    run_to(&small(2, "Lattice"), &b);
+    let copy = dir.join("copy.mcap");
+    std::fs::copy(&a, &copy).unwrap();
+    let (early, late) = (dir.join("early.mcap"), dir.join("late.mcap"));
+    cut_to(&a, 2, &early);
+    cut_to(&a, 5, &late);
+    for (x, y) in [(&a, &copy), (&early, &late)] {
+        let (code, err) = cli(&["analyze", s(x), s(y)]);
+        assert_eq!(code, 2, "{err}");
+        assert!(
+            err.contains("the same run") && err.contains("seed 1"),
+            "{err}"
+        );
+    }
+    let (code, err) = cli(&["analyze", s(&a), s(&b)]);
+    assert_eq!(code, 0, "{err}");
+    // A sweep job holding another job's log is not averaged.
+    std::fs::write(dir.join("t.ron"), small(1, "Lattice")).unwrap();
+    let w = dir.join("w");
+    let (code, err) = cli(&[
+        "sweep",
+        s(&dir.join("t.ron")),
+        "--set",
+        "seed=1,2",
+        "--workspace",
+        s(&w),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut jobs: Vec<PathBuf> = std::fs::read_dir(w.join("workspace"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    jobs.sort();
+    let first = &jobs[0];
+    let (code, err) = cli(&[
+        "run",
+        s(&first.join("scene.ron")),
+        "--out",
+        s(&first.join("log.mcap")),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::copy(first.join("log.mcap"), jobs[1].join("log.mcap")).unwrap();
+    let out = Command::new(EXE)
+        .args(["sweep", "collect", s(&w), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let row = &rows[0];
+    assert_eq!(row["finished"], 1, "{row}");
+    assert_eq!(row["foreign"], 1, "{row}");
+    let (code, err) = cli(&["sweep", "collect", s(&w)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("another scene"), "{err}");
+}

@@ -88,6 +88,12 @@ pub(super) fn sweep_collect(
             "hardbody: {unfinished} jobs have not finished: submitting again resumes the partial ones"
         ));
     }
+    let foreign: usize = rows.iter().map(|r| r.foreign).sum();
+    if foreign > 0 {
+        esay(&format!(
+            "hardbody: warning: {foreign} jobs hold a log of another scene than their own (a regenerated state point, or a copied log): not averaged; move those logs away and submit again"
+        ));
+    }
     if rows.iter().any(|r| r.finished > 0 && !r.equilibrated) {
         esay(
             "hardbody: warning: the measured stage never equilibrated in some job: its averages are not equilibrium values",

@@ -260,12 +260,24 @@ pub struct Replicas {
 /// a scene that differs from the first's other than in its seed and log.
 pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, String> {
     let mut first: Option<(&str, Scene)> = None;
+    let mut seeds: Vec<(u64, &str)> = Vec::with_capacity(logs.len());
     let mut runs = Vec::with_capacity(logs.len());
     for (name, contents) in logs {
-        let scene = contents
+        let resolved = contents
             .metadata
             .get("scene_resolved")
-            .and_then(|t| Scene::parse(t).ok())
+            .and_then(|t| Scene::parse(t).ok());
+        // One scene and one seed make one run, bit for bit: a copy of a
+        // log, or two cuts of one, is not a second replica.
+        if let Some(scene) = &resolved {
+            if let Some((seed, other)) = seeds.iter().find(|(s, _)| *s == scene.seed) {
+                return Err(format!(
+                    "{name}: the same run as {other} (seed {seed}); replicas need different seeds"
+                ));
+            }
+            seeds.push((scene.seed, name));
+        }
+        let scene = resolved
             .map(|s| Scene {
                 seed: 0,
                 log: Default::default(),

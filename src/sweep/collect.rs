@@ -28,6 +28,9 @@ pub enum JobStatus {
     Failed,
     /// No log yet.
     NotStarted,
+    /// Its log is of another scene than the job's own (a state point's
+    /// folder regenerated, or a log copied in): never averaged.
+    Foreign,
 }
 
 /// One job read back.
@@ -52,6 +55,8 @@ pub struct StatePointRow {
     pub parameters: Map<String, Value>,
     /// Jobs by status.
     pub finished: usize,
+    /// Jobs whose log is of another scene ([`JobStatus::Foreign`]).
+    pub foreign: usize,
     /// See [`JobStatus::Partial`].
     pub partial: usize,
     /// See [`JobStatus::Failed`].
@@ -136,6 +141,14 @@ fn read_job(folder: &Path) -> Result<JobResult, SweepError> {
         }
     } else {
         (JobStatus::NotStarted, None, None)
+    };
+    // A log is this job's only if it is of the job's own scene.
+    let own = std::fs::read_to_string(folder.join(super::JOB_SCENE))
+        .ok()
+        .and_then(|text| Scene::parse(&text).ok());
+    let status = match (&scene, &own) {
+        (Some(logged), Some(own)) if logged != own => JobStatus::Foreign,
+        _ => status,
     };
     let stages = match (status, &contents) {
         (JobStatus::Finished, Some(c)) => {
@@ -238,6 +251,7 @@ pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Vec<StatePointRow>, S
             partial: count(JobStatus::Partial),
             failed: count(JobStatus::Failed),
             not_started: count(JobStatus::NotStarted),
+            foreign: count(JobStatus::Foreign),
             stage_index: stage,
             observables,
             equilibrated,
