@@ -551,7 +551,7 @@ fn grown_superballs_resume_bit_for_bit() {
 }
 
 /// A scene's `fluid_rate` reaches the stage (its plan names it, and the
-/// stage ends at γ), and one outside (0, 0.1] is refused by name.
+/// stage ends at γ), and one outside [10⁻⁶, 0.1] is refused by name.
 #[test]
 fn a_scene_sets_the_fluid_rate() {
     const SCENE: &str = r#"Scene(
@@ -580,7 +580,7 @@ fn a_scene_sets_the_fluid_rate() {
     let bad = SCENE.replace("fluid_rate: 0.05", "fluid_rate: 0.5");
     let err = Scene::parse(&bad).unwrap_err().to_string();
     assert!(
-        err.contains("stages[0].fluid_rate") && err.contains("(0, 0.1]"),
+        err.contains("stages[0].fluid_rate") && err.contains("[1e-6, 0.1]"),
         "{err}"
     );
 }

@@ -353,3 +353,64 @@ fn item_07_one_run_is_never_averaged_as_two_replicas() {
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("another scene"), "{err}");
 }
+
+/// 64 spheres of two species, of masses 1 and `heavy`, compressed to
+/// 0.3 and grown at 10⁻² to βPV/N = 10⁸.
+fn two_masses(heavy: f64) -> String {
+    format!(
+        r#"Scene(
+    seed: 3,
+    box: (6.0, 6.0, 6.0),
+    species: [
+        Species(name: "light", shape: Sphere(radius: 0.5), count: 32),
+        Species(name: "heavy", shape: Sphere(radius: 0.5), count: 32, mass: {heavy:e}),
+    ],
+    stages: [Compress(packing_fraction: 0.3), Jam(growth_rate: 1e-2, pressure: 1e8)],
+    log: Log(path: "unused.mcap"),
+)"#
+    )
+}
+
+#[test]
+fn item_05_a_jam_does_not_depend_on_the_masses() {
+    let dir = scratch("jam-masses");
+    let last = |heavy: f64| {
+        let log = dir.join(format!("m{heavy:e}.mcap"));
+        run_to(&two_masses(heavy), &log);
+        read_log(&log, false).unwrap().last_state.unwrap().1
+    };
+    let equal = last(1.0);
+    let phi = |s: &hardbody::log::StateRecord| {
+        let volume: f64 = s.box_lengths.iter().product();
+        64.0 * s.species[0].shape.volume() / volume
+    };
+    assert!(phi(&equal) > 0.6, "phi {}", phi(&equal));
+    for heavy in [1e-6, 1e6] {
+        let other = last(heavy);
+        // The same packing, bit for bit: the growth never sees a mass.
+        assert!(other.positions == equal.positions, "mass {heavy:e}");
+    }
+}
+
+#[test]
+fn item_12_22_jams_that_would_never_end_or_call_a_gas_jammed_are_refused() {
+    let jam = |stage: &str| {
+        small(1, "Lattice").replace(
+            "Dynamics(duration: 0.5, stats_every: 0.1, frames_every: 0.25)",
+            stage,
+        )
+    };
+    for (stage, says) in [
+        ("Jam(growth_rate: 1e-9)", "growth_rate"),
+        ("Jam(growth_rate: 1e-300)", "growth_rate"),
+        ("Jam(fluid_rate: 1e-7)", "fluid_rate"),
+        ("Jam(pressure: 1.0000001)", "pressure"),
+        ("Jam(pressure: 100.0)", "pressure"),
+    ] {
+        let err = Scene::parse(&jam(stage)).unwrap_err().to_string();
+        assert!(err.contains(says), "{stage}: {err}");
+    }
+    for stage in ["Jam(growth_rate: 1e-6, pressure: 1e3)", "Jam()"] {
+        assert!(Scene::parse(&jam(stage)).is_ok(), "{stage}");
+    }
+}

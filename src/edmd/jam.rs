@@ -45,7 +45,8 @@ type V3 = Vector3<f64>;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JamOptions {
     /// γ: the relative growth of every body's linear size per unit time
-    /// (time in units of σ√(m/kT), σ the bodies' size).
+    /// (time in units of σ√(1/kT), σ the bodies' size: the growth runs
+    /// every body at unit mass, whatever the species' masses).
     pub growth_rate: f64,
     /// The rate until Z reaches [`SETTLE_FROM`] (default: γ). Faster
     /// keeps the structure of the fluid (random jammed packings of bodies
@@ -207,6 +208,19 @@ pub struct JamProgress {
     pub solver: SolverWork,
 }
 
+/// `dynamics` with every body at unit mass. The growth makes a packing,
+/// a geometric object the masses have no part in; with unequal masses
+/// the heavy bodies, slower than the growing surfaces that push them,
+/// would carry a collision pressure past any bound long before the
+/// packing jams (masses 1 and 10⁶ passed βPV/N = 10¹² at φ = 0.37). So
+/// every body grows at unit mass, and γ's time unit is σ√(1/kT).
+fn unit_masses(dynamics: &DynamicsOptions) -> DynamicsOptions {
+    DynamicsOptions {
+        masses: Vec::new(),
+        ..dynamics.clone()
+    }
+}
+
 /// A jamming run, chunk by chunk.
 #[derive(Debug, Clone)]
 pub struct JamRun {
@@ -231,6 +245,7 @@ impl JamRun {
         rng: &mut R,
     ) -> Result<Self, EdmdError> {
         check(options)?;
+        let dynamics = &unit_masses(dynamics);
         let velocities = Dynamics::from_state(system, dynamics, rng)?.velocities();
         let progress = JamProgress {
             chunk: 0,
@@ -270,7 +285,7 @@ impl JamRun {
             velocities: velocities.to_vec(),
             progress,
             options: *options,
-            dynamics: dynamics.clone(),
+            dynamics: unit_masses(dynamics),
             end: None,
             last_failure: None,
         })

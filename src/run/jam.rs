@@ -12,7 +12,7 @@ use crate::edmd::jam::{
 };
 use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::Counts;
-use crate::scene::Stage;
+use crate::scene::{JAM_COLLISIONS_PER_BODY, Stage};
 
 use super::cadence::{Mark, StageRun};
 use super::records::Interval;
@@ -56,6 +56,7 @@ impl JamStage {
             fluid_rate,
             pressure: pressure.unwrap_or(DEFAULT_JAM_PRESSURE),
             packing_fraction,
+            max_collisions: JAM_COLLISIONS_PER_BODY * runner.scene.particle_count() as u64,
             ..JamOptions::default()
         };
         let resumed = resume.and_then(|r| r.jam);
@@ -240,7 +241,9 @@ impl StageRun for JamStage {
             ),
             Some(JamEnd::PackingFraction) => format!("grown to packing fraction {phi:.4}{figures}"),
             Some(JamEnd::Budget) => {
-                format!("collision budget spent at packing fraction {phi:.4}{figures}")
+                format!(
+                    "collision budget ({JAM_COLLISIONS_PER_BODY:e} per body) spent at packing fraction {phi:.4}{figures}: not jammed"
+                )
             }
             Some(JamEnd::Stopped) | None => {
                 debug_assert!(stopped);

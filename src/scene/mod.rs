@@ -62,6 +62,18 @@ pub const MAX_FRAMES_PER_STAGE: f64 = 1e6;
 /// body): beyond it a stage would not end in any real time.
 pub const MAX_SIZES_TRAVELLED: f64 = 1e12;
 
+/// The slowest growth a `Jam` stage may ask: a jam's collisions grow as
+/// 1/γ (about 2×10⁵ per sphere at 3×10⁻⁴), so slower would not end in any
+/// real time.
+pub const MIN_GROWTH_RATE: f64 = 1e-6;
+/// The lowest βPV/N a `Jam` stage may take for jammed: dense fluids and
+/// glasses reach tens, and at 10³ the gaps are a thousandth of the size.
+pub const MIN_JAM_PRESSURE: f64 = 1e3;
+/// The collisions per body a `Jam` stage may run at most; it then ends,
+/// not jammed, and says so. Jams at the slowest rates measured took
+/// under 2×10⁵ per sphere and 10⁵ per superball.
+pub const JAM_COLLISIONS_PER_BODY: u64 = 10_000_000;
+
 fn default_seed() -> u64 {
     1
 }

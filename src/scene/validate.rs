@@ -168,17 +168,29 @@ impl Scene {
                 } => {
                     for (name, rate) in [("growth_rate", growth_rate), ("fluid_rate", fluid_rate)] {
                         if let Some(rate) = rate
-                            && !(rate.is_finite() && *rate > 0.0 && *rate <= 0.1)
+                            && !(rate.is_finite() && (MIN_GROWTH_RATE..=0.1).contains(rate))
                         {
-                            return bad(&f(name), format!("must lie in (0, 0.1], got {rate}"));
+                            return bad(
+                                &f(name),
+                                format!(
+                                    "must lie in [{MIN_GROWTH_RATE:e}, 0.1], got {rate:e}{}",
+                                    if *rate < MIN_GROWTH_RATE {
+                                        " (slower growth would not jam in any real time)"
+                                    } else {
+                                        ""
+                                    }
+                                ),
+                            );
                         }
                     }
                     if let Some(p) = pressure
-                        && !(p.is_finite() && *p > 1.0 && *p <= 1e14)
+                        && !(p.is_finite() && (MIN_JAM_PRESSURE..=1e14).contains(p))
                     {
                         return bad(
                             &f("pressure"),
-                            format!("must lie in (1, 1e14] (βPV/N), got {p:e}"),
+                            format!(
+                                "must lie in [{MIN_JAM_PRESSURE:e}, 1e14] (βPV/N), got {p:e}: fluids and glasses reach βPV/N of tens, so a lower bound would call them jammed (to stop at a density, give packing_fraction)"
+                            ),
                         );
                     }
                     if let Some(target) = packing_fraction {
