@@ -24,7 +24,7 @@ def analyze(
     logs: Union[LogArg, Sequence[LogArg]],
     packing: bool = False,
     frame: Optional[int] = None,
-    gap: float = 1e-2,
+    gap: Optional[float] = None,
 ) -> Dict[str, Any]:
     """The equilibrium averages of a log's stages, as `hardbody analyze
     LOG --json` gives them: per stage, whether it equilibrated and, per
@@ -36,12 +36,16 @@ def analyze(
     With `packing=True`, the structure of one frame (`frame`, default the
     last; negative counts from the end) as `hardbody analyze LOG --packing
     --json` gives it: the contact network at `gap` (relative to the
-    smaller body's smallest half-extent), g(r), S(k) (numpy arrays),
-    Steinhardt Q4/Q6, nematic and cubatic order."""
+    smaller body's smallest half-extent; by default read from the packing,
+    on the plateau of the contact count, with a RuntimeWarning where there
+    is none: see report["gap"]), g(r), S(k) (numpy arrays), Steinhardt
+    Q4/Q6, nematic and cubatic order."""
     if packing:
         if not isinstance(logs, (RunLog, str, os.PathLike)):
             raise TypeError("packing: one log at a time")
         report = json.loads(_core.analyze_packing(_path(logs), frame=frame, gap=gap))
+        if report["gap"]["warning"]:
+            warnings.warn(report["gap"]["warning"], RuntimeWarning, stacklevel=2)
         report["rdf"] = {k: np.asarray(v, dtype=float) for k, v in report["rdf"].items()}
         report["structure_factor"] = {
             k: np.asarray(v, dtype=float) for k, v in report["structure_factor"].items()

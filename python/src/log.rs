@@ -291,16 +291,18 @@ pub fn analyze_logs(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<String> {
 /// `hardbody analyze --packing` of frame `frame` (default the last) of
 /// the log at `path`, as JSON.
 #[pyfunction]
-#[pyo3(signature = (path, frame=None, gap=1e-2))]
+#[pyo3(signature = (path, frame=None, gap=None))]
 pub fn analyze_packing(
     py: Python<'_>,
     path: PathBuf,
     frame: Option<isize>,
-    gap: f64,
+    gap: Option<f64>,
 ) -> PyResult<String> {
     use hardbody::log::packing::PackingReport;
     use pyo3::exceptions::{PyIndexError, PyValueError};
-    if !(gap.is_finite() && gap >= 0.0) {
+    if let Some(gap) = gap
+        && !(gap.is_finite() && gap >= 0.0)
+    {
         return Err(PyValueError::new_err(format!(
             "gap must be a finite number >= 0, got {gap}"
         )));
@@ -318,15 +320,10 @@ pub fn analyze_packing(
             frame.unwrap_or(-1)
         )));
     }
-    let (_, state) = &contents.states[index as usize];
-    let walls = contents
-        .metadata
-        .get("scene_resolved")
-        .and_then(|text| hardbody::scene::Scene::parse(text).ok())
-        .map(|scene| scene.wall_axes())
-        .unwrap_or_default();
     let report = py
-        .detach(|| PackingReport::of_frame(state, walls, gap))
+        .detach(|| {
+            PackingReport::of_log_frame(&contents, index as usize, gap).expect("a frame in range")
+        })
         .map_err(|e| LogError::new_err(format!("{}: frame {index}: {e}", path.display())))?;
     let mut value = serde_json::to_value(&report).expect("a report serialises");
     value["frame"] = index.into();

@@ -57,9 +57,17 @@ def test_the_packing_report_is_the_command_lines(small_log):
     assert isinstance(report["rdf"]["g"], np.ndarray)
     assert np.array_equal(report["rdf"]["g"], expected["rdf"]["g"])
     assert np.array_equal(report["structure_factor"]["s"], expected["structure_factor"]["s"])
-    for key in ["network", "steinhardt", "nematic", "cubatic", "steinhardt_cutoff", "frame"]:
+    for key in ["gap", "network", "steinhardt", "nematic", "cubatic", "steinhardt_cutoff", "frame"]:
         assert report[key] == expected[key], key
-    first = hb.analyze(small_log, packing=True, frame=0)
+    assert report["gap"]["source"] == "given"
+    # Without a gap, one read from the packing: a fluid has no plateau,
+    # and says so.
+    with pytest.warns(RuntimeWarning, match="no plateau"):
+        own = hb.analyze(small_log, packing=True)
+    assert own["gap"] == cli_json(small_log.path, "--packing")["gap"]
+    assert own["gap"]["source"] == "no_plateau"
+    with pytest.warns(RuntimeWarning, match="no plateau"):
+        first = hb.analyze(small_log, packing=True, frame=0)
     assert first["frame"] == 0 and first["network"]["bodies"] == 64
     with pytest.raises(IndexError):
         hb.analyze(small_log, packing=True, frame=len(small_log.frames))

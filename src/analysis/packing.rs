@@ -1,9 +1,21 @@
 //! The contact network of a packing: which bodies touch (their exact
-//! signed distance within a gap tolerance), the rattlers (bodies with too
-//! few contacts to be held, removed one round after another), and the
+//! signed distance within a gap tolerance), the rattlers (bodies whose
+//! contacts cannot hold them, removed one round after another), and the
 //! mean contact number of the backbone that remains, against the
 //! isostatic value 2 d_f (d_f = 3 for spheres, 5 for bodies of
 //! revolution, 6 for other bodies; Donev, Torquato & Stillinger).
+//!
+//! A body is a rattler when, its neighbours held still, its contacts
+//! cannot block every translation: when their normals all lie in one
+//! closed hemisphere, some direction moves it away from or along every
+//! contact. For spheres this is local jamming (Torquato & Stillinger, J.
+//! Phys. Chem. B 105, 11849 (2001)): at least d + 1 = 4 contacts, not
+//! all on one side. Rotations are not tested: bodies in the hypostatic
+//! packings of ellipsoids and superballs are held against rotation by
+//! the curvature of their surfaces at second order, not by first-order
+//! constraints (Donev, Connelly, Stillinger & Torquato, Phys. Rev. E 75,
+//! 051304 (2007)), so a first-order test of rotations, like counting
+//! d_f + 1 contacts, would call every body of such a packing a rattler.
 //!
 //! Two flat bodies can touch along a line or over a face, and such a
 //! contact holds them as two or three point contacts would (an edge on a
@@ -56,18 +68,15 @@ pub struct ContactNetwork {
     pub contact_numbers: Vec<usize>,
     /// Constraints per body (the contact numbers, for curved bodies).
     pub constraint_numbers: Vec<usize>,
-    /// Bodies with fewer than d_f + 1 constraints among the bodies left,
-    /// removed round after round.
+    /// Bodies whose contacts with the bodies left cannot block their
+    /// translations, removed round after round.
     pub rattlers: Vec<usize>,
     /// Mean contacts per body of the backbone (the bodies left), 2 C / N.
     pub backbone_contact_number: f64,
     /// Mean constraints per body of the backbone: what is set against
     /// the isostatic number (the contact number, for curved bodies).
     pub backbone_constraint_number: f64,
-    /// Mean contacts per body over all bodies, rattlers included (defined
-    /// where the backbone is empty: a hypostatic packing of nearly round
-    /// bodies, few of them with d_f + 1 contacts, loses every body to the
-    /// rattler rule).
+    /// Mean contacts per body over all bodies, rattlers included.
     pub mean_contact_number: f64,
     /// Mean constraints per body over all bodies.
     pub mean_constraint_number: f64,
@@ -75,6 +84,73 @@ pub struct ContactNetwork {
     pub isostatic_contact_number: f64,
     /// How many bodies have 0, 1, 2, ... contacts (all bodies).
     pub contact_number_histogram: Vec<usize>,
+}
+
+/// Which bodies are rattlers (see the module's notes): round after round,
+/// those whose contacts with the bodies left cannot block their
+/// translations. `normals[k]` is contact k's normal, pointing from its
+/// first body to its second.
+fn rattlers(n: usize, contacts: &[(usize, usize)], normals: &[V3]) -> Vec<bool> {
+    let mut touching: Vec<Vec<(usize, V3)>> = vec![Vec::new(); n];
+    for (&(i, j), normal) in contacts.iter().zip(normals) {
+        touching[i].push((j, *normal));
+        touching[j].push((i, -normal));
+    }
+    let mut rattler = vec![false; n];
+    let mut towards = Vec::new();
+    loop {
+        let newly: Vec<usize> = (0..n)
+            .filter(|&i| !rattler[i])
+            .filter(|&i| {
+                towards.clear();
+                towards.extend(
+                    touching[i]
+                        .iter()
+                        .filter(|(j, _)| !rattler[*j])
+                        .map(|(_, normal)| *normal),
+                );
+                in_closed_hemisphere(&towards)
+            })
+            .collect();
+        if newly.is_empty() {
+            return rattler;
+        }
+        for i in newly {
+            rattler[i] = true;
+        }
+    }
+}
+
+/// Whether the directions `towards` (to a body's contacts) all lie in one
+/// closed hemisphere: then some translation moves the body away from or
+/// along every contact, and nothing holds it. Fewer than four always do.
+/// Such a hemisphere, if there is one, can be turned until its rim passes
+/// through two of the directions: its pole is ± their cross product
+/// (or, were they all parallel, any direction across them).
+fn in_closed_hemisphere(towards: &[V3]) -> bool {
+    const ROUND_OFF: f64 = 1e-9;
+    if towards.len() < 4 {
+        return true;
+    }
+    let one_side = |pole: &V3| {
+        towards.iter().all(|u| pole.dot(u) >= -ROUND_OFF)
+            || towards.iter().all(|u| pole.dot(u) <= ROUND_OFF)
+    };
+    let mut any_pole = false;
+    for (k, a) in towards.iter().enumerate() {
+        for b in &towards[k + 1..] {
+            let pole = a.cross(b);
+            let length = pole.norm();
+            if length > ROUND_OFF {
+                any_pole = true;
+                if one_side(&(pole / length)) {
+                    return true;
+                }
+            }
+        }
+    }
+    // All parallel or opposite: free across them.
+    !any_pole
 }
 
 /// Degrees of freedom of a rigid body of this shape whose rotations
@@ -173,12 +249,16 @@ pub fn contact_network(
         }
         if contact.distance < tolerance {
             let patch = contact_patch(shape_a, shape_b, &rel, &contact.normal, tolerance);
-            contacts.push((i, j, constraints_of(patch.points(), tolerance)));
+            // From A's body frame to the lab's.
+            let normal = a.orientation * contact.normal;
+            let normal = [normal.x, normal.y, normal.z];
+            contacts.push((i, j, constraints_of(patch.points(), tolerance), normal));
         }
     });
     // In index order, whatever order the cells gave them in.
-    contacts.sort_unstable();
+    contacts.sort_unstable_by_key(|c| (c.0, c.1));
     let constraints: Vec<usize> = contacts.iter().map(|c| c.2).collect();
+    let normals: Vec<V3> = contacts.iter().map(|c| V3::from(c.3)).collect();
     let contacts: Vec<(usize, usize)> = contacts.iter().map(|c| (c.0, c.1)).collect();
     let mut contact_numbers = vec![0; n];
     let mut constraint_numbers = vec![0; n];
@@ -188,32 +268,11 @@ pub fn contact_network(
         constraint_numbers[i] += c;
         constraint_numbers[j] += c;
     }
-    // Rattlers: fewer than d_f + 1 constraints among the bodies left,
-    // round after round (removing one can free its neighbours).
     let freedom: Vec<usize> = bodies
         .iter()
         .map(|b| degrees_of_freedom(&shapes[b.shape]))
         .collect();
-    let mut left = constraint_numbers.clone();
-    let mut rattler = vec![false; n];
-    loop {
-        let newly: Vec<bool> = (0..n)
-            .map(|i| !rattler[i] && left[i] < freedom[i] + 1)
-            .collect();
-        if !newly.contains(&true) {
-            break;
-        }
-        for (&(i, j), &c) in contacts.iter().zip(&constraints) {
-            if newly[i] && !newly[j] && !rattler[j] {
-                left[j] -= c;
-            } else if newly[j] && !newly[i] && !rattler[i] {
-                left[i] -= c;
-            }
-        }
-        for (r, new) in rattler.iter_mut().zip(&newly) {
-            *r |= *new;
-        }
-    }
+    let rattler = rattlers(n, &contacts, &normals);
     let backbone: Vec<usize> = (0..n).filter(|&i| !rattler[i]).collect();
     let in_backbone = |&(i, j): &(usize, usize)| !rattler[i] && !rattler[j];
     let backbone_contacts = contacts.iter().filter(|c| in_backbone(c)).count();
@@ -334,23 +393,66 @@ mod tests {
     }
 
     /// Removing a rattler can free its neighbours: a sphere touching four
-    /// others that touch only it is held in the first round and freed in
-    /// the second.
+    /// others at the corners of a tetrahedron, which touch only it, is
+    /// held in the first round and freed in the second.
     #[test]
     fn rattlers_go_round_after_round() {
         let box_ = PeriodicBox::new(V3::repeat(20.0)).unwrap();
-        let bodies = [
-            at(0.0, 0.0, 0.0),
-            at(1.0, 0.0, 0.0),
-            at(-1.0, 0.0, 0.0),
-            at(0.0, 1.0, 0.0),
-            at(0.0, -1.0, 0.0),
+        let corners = [
+            V3::new(1.0, 1.0, 1.0),
+            V3::new(1.0, -1.0, -1.0),
+            V3::new(-1.0, 1.0, -1.0),
+            V3::new(-1.0, -1.0, 1.0),
         ];
+        let mut bodies = vec![at(0.0, 0.0, 0.0)];
+        bodies.extend(corners.iter().map(|c| {
+            let p = c.normalize();
+            at(p.x, p.y, p.z)
+        }));
         let network = contact_network(&box_, &[sphere(0.5)], &bodies, 1e-6);
         assert_eq!(network.contact_numbers, vec![4, 1, 1, 1, 1]);
         assert_eq!(network.rattlers, vec![0, 1, 2, 3, 4]);
         assert_eq!(network.contact_number_histogram, vec![0, 4, 0, 0, 1]);
         assert_eq!(network.overlaps, 0);
+        let contacts = [0, 1, 2, 3].map(|k| (0, k + 1));
+        let normals = corners.map(|c| c.normalize());
+        let direct = rattlers(5, &contacts, &normals[..]);
+        assert_eq!(direct, vec![true; 5]);
+    }
+
+    /// Four or more contacts hold a sphere only if they do not all lie on
+    /// one side: the tetrahedron's corners do, five directions of the
+    /// upper half space and four in a plane do not.
+    #[test]
+    fn contacts_on_one_side_hold_nothing() {
+        let tetrahedron = [
+            V3::new(1.0, 1.0, 1.0),
+            V3::new(1.0, -1.0, -1.0),
+            V3::new(-1.0, 1.0, -1.0),
+            V3::new(-1.0, -1.0, 1.0),
+        ]
+        .map(|c| c.normalize());
+        assert!(!in_closed_hemisphere(&tetrahedron));
+        let upper = [
+            V3::new(0.0, 0.0, 1.0),
+            V3::new(1.0, 0.0, 0.2),
+            V3::new(-1.0, 0.0, 0.2),
+            V3::new(0.0, 1.0, 0.2),
+            V3::new(0.0, -1.0, 0.0),
+        ]
+        .map(|c| c.normalize());
+        assert!(in_closed_hemisphere(&upper));
+        let plane = [V3::x(), -V3::x(), V3::y(), -V3::y()];
+        assert!(in_closed_hemisphere(&plane));
+        let octahedron = [V3::x(), -V3::x(), V3::y(), -V3::y(), V3::z(), -V3::z()];
+        assert!(!in_closed_hemisphere(&octahedron));
+        assert!(in_closed_hemisphere(&tetrahedron[..3]));
+        assert!(in_closed_hemisphere(&[
+            V3::x(),
+            -V3::x(),
+            V3::x(),
+            -V3::x()
+        ]));
     }
 
     /// Overlapping pairs are contacts and are counted as overlaps.

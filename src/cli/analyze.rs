@@ -8,7 +8,6 @@ use hardbody::analysis::virial::excluded_volume;
 use hardbody::geometry::Shape;
 use hardbody::log::file::check_output;
 use hardbody::log::read::read_log;
-use hardbody::scene::Scene;
 
 use super::*;
 
@@ -404,12 +403,15 @@ pub(super) fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
 pub(super) fn analyze_packing(
     path: &std::path::Path,
     frame: Option<usize>,
-    gap: f64,
+    gap: Option<f64>,
     json: bool,
     plot: Option<&std::path::Path>,
 ) -> ExitCode {
+    use hardbody::analysis::contact_gap::GapSource;
     use hardbody::log::packing::PackingReport;
-    if !(gap.is_finite() && gap >= 0.0) {
+    if let Some(gap) = gap
+        && !(gap.is_finite() && gap >= 0.0)
+    {
         return bad_input(format!("--gap must be a finite number >= 0, got {gap}"));
     }
     let contents = match read_log(path, true) {
@@ -418,23 +420,19 @@ pub(super) fn analyze_packing(
     };
     let frames = contents.states.len();
     let index = frame.unwrap_or(frames.saturating_sub(1));
-    let Some((_, state)) = contents.states.get(index) else {
+    let Some(report) = PackingReport::of_log_frame(&contents, index, gap) else {
         return bad_input(format!(
             "{}: --frame {index}: the log holds {frames} frames",
             path.display()
         ));
     };
-    let walls = contents
-        .metadata
-        .get("scene_resolved")
-        .and_then(|text| Scene::parse(text).ok())
-        .map(|scene| scene.wall_axes())
-        .unwrap_or_default();
-    let report = match PackingReport::of_frame(state, walls, gap) {
+    let report = match report {
         Ok(r) => r,
         Err(e) => return bad_input(format!("{}: frame {index}: {e}", path.display())),
     };
+    let state = &contents.states[index].1;
     let PackingReport {
+        gap: choice,
         network,
         rdf,
         structure_factor,
@@ -447,7 +445,14 @@ pub(super) fn analyze_packing(
     // The last bin's centre plus half a bin (the first bin's centre).
     let r_max = rdf.r.last().zip(rdf.r.first()).map_or(0.0, |(l, f)| l + f);
     if let Some(dir) = plot
-        && let Err(e) = packing_plots(dir, rdf, (k, s_k), &network.contact_number_histogram, path)
+        && let Err(e) = packing_plots(
+            dir,
+            rdf,
+            (k, s_k),
+            &network.contact_number_histogram,
+            &choice.curve,
+            path,
+        )
     {
         return bad_input(format!("--plot {}: {e}", dir.display()));
     }
@@ -469,8 +474,22 @@ pub(super) fn analyze_packing(
         network.bodies,
         network.packing_fraction
     ));
+    let gap = choice.gap;
+    say(&match (choice.source, choice.flattest) {
+        (GapSource::Given, _) => format!("contact gap: {gap:e} (given by --gap)"),
+        (GapSource::Plateau, Some(r)) => format!(
+            "contact gap: {gap:.1e}, read from the packing: on the plateau of the contact count from gaps {:.1e} to {:.1e} ({} pairs below, {} more across it)",
+            r.from, r.to, r.contacts, r.added
+        ),
+        _ => format!("contact gap: {gap:e} (no plateau: see the warning)"),
+    });
+    if let Some(z) = choice.reduced_pressure {
+        say(&format!(
+            "reduced pressure of the frame: betaPV/N = {z:.3e} (contacts expected near gaps of 1/Z)"
+        ));
+    }
     say(&format!(
-        "contacts: {} (gaps under {gap:e} of the smaller body's smallest half-extent){}",
+        "contacts: {} (gaps under {gap:.1e} of the smaller body's smallest half-extent){}",
         network.contacts.len(),
         if network.overlaps > 0 {
             format!("; {} pairs OVERLAP by more than that", network.overlaps)
@@ -479,7 +498,7 @@ pub(super) fn analyze_packing(
         }
     ));
     say(&format!(
-        "rattlers: {} ({:.1} %), removed while they had fewer than d_f + 1 constraints",
+        "rattlers: {} ({:.1} %), removed while their contacts could not block their translations",
         network.rattlers.len(),
         100.0 * network.rattlers.len() as f64 / network.bodies.max(1) as f64
     ));
@@ -489,12 +508,18 @@ pub(super) fn analyze_packing(
     ));
     if network.backbone_contact_number.is_nan() {
         say(
-            "backbone: none (every body is a rattler at this tolerance: is --gap below the packing's gaps, or is the packing hypostatic?)",
+            "backbone: none (every body is a rattler at this gap: the contacts hold no body in place; is --gap below the packing's gaps, or is the packing not jammed?)",
         );
     } else {
         say(&format!(
-            "backbone: mean contact number z = {:.4}, isostatic 2 d_f = {:.4}",
-            network.backbone_contact_number, network.isostatic_contact_number
+            "backbone: mean contact number z = {:.4}, isostatic 2 d_f = {:.4}{}",
+            network.backbone_contact_number,
+            network.isostatic_contact_number,
+            if choice.warning.is_some() {
+                " (no certificate: see the warning)"
+            } else {
+                ""
+            }
         ));
         if network.backbone_constraint_number != network.backbone_contact_number {
             say(&format!(
@@ -549,16 +574,20 @@ pub(super) fn analyze_packing(
             "cubatic order of the cuboids: {order:.4} (1 aligned up to the cube's symmetries, 1/N random)"
         ));
     }
+    if let Some(warning) = &choice.warning {
+        esay(&format!("hardbody: warning: {warning}"));
+    }
     ExitCode::SUCCESS
 }
 
-/// g(r), S(k) and the contact-number histogram of `analyze --packing
-/// --plot DIR`.
+/// g(r), S(k), the contact-number histogram and the contact count
+/// against the gap of `analyze --packing --plot DIR`.
 fn packing_plots(
     dir: &std::path::Path,
     rdf: &hardbody::analysis::structure::Rdf,
     (k, s): (&[f64], &[f64]),
     histogram: &[usize],
+    curve: &[(f64, usize)],
     input: &std::path::Path,
 ) -> Result<(), String> {
     use hardbody::bench::plot::{Figure, Series, bar_plot, line_plot};
@@ -566,7 +595,8 @@ fn packing_plots(
     let rdf_path = dir.join("rdf.svg");
     let sk_path = dir.join("structure-factor.svg");
     let histogram_path = dir.join("contact-numbers.svg");
-    for p in [&rdf_path, &sk_path, &histogram_path] {
+    let curve_path = dir.join("contacts-against-gap.svg");
+    for p in [&rdf_path, &sk_path, &histogram_path, &curve_path] {
         check_output(p, false, &[input]).map_err(|e| e.to_string())?;
     }
     let figure = |title, x_label, y_label| Figure {
@@ -602,7 +632,22 @@ fn packing_plots(
         &bars,
         0.0,
     )?;
-    for p in [rdf_path, sk_path, histogram_path] {
+    line_plot(
+        &curve_path,
+        &Figure {
+            log_x: true,
+            ..figure(
+                "pairs closer than the gap (a plateau: the contacts)",
+                "gap (of the smaller body's smallest half-extent)",
+                "pairs",
+            )
+        },
+        &[Series {
+            name: "pairs".into(),
+            points: curve.iter().map(|&(g, n)| (g, n as f64)).collect(),
+        }],
+    )?;
+    for p in [rdf_path, sk_path, histogram_path, curve_path] {
         esay(&format!("plot written: {}", p.display()));
     }
     Ok(())

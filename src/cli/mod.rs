@@ -102,10 +102,11 @@ enum Command {
         #[arg(long, value_name = "K", requires = "packing")]
         frame: Option<usize>,
         /// With --packing: the gap below which two bodies touch, relative
-        /// to the smaller one's smallest half-extent (packings jammed by
-        /// compression keep gaps of 1e-3 to 1e-2 of the size).
-        #[arg(long, value_name = "GAP", default_value_t = 1e-2, requires = "packing")]
-        gap: f64,
+        /// to the smaller one's smallest half-extent (default: read from
+        /// the packing, on the plateau of the contact count against the
+        /// gap; the report says which it used).
+        #[arg(long, value_name = "GAP", requires = "packing")]
+        gap: Option<f64>,
     },
     /// Print a log's channels, message counts, stages and last stats.
     Inspect {

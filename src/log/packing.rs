@@ -7,12 +7,15 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use super::StateRecord;
+use super::read::LogContents;
+use crate::analysis::contact_gap::{GapChoice, choose_gap, given_gap, relative_gaps};
 use crate::analysis::order::{cubatic_order, molecular_axis, nematic_director};
 use crate::analysis::packing::{ContactNetwork, PackedBody, contact_network};
 use crate::analysis::structure::{
     Rdf, Steinhardt, neighbours, radial_distribution, steinhardt, structure_factor,
 };
 use crate::geometry::Shape;
+use crate::scene::Scene;
 use crate::space::PeriodicBox;
 use crate::space::periodic_box::BoxError;
 
@@ -37,6 +40,8 @@ pub struct Nematic {
 /// The structure of a frame.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PackingReport {
+    /// The gap the contacts were read at, and how it was chosen.
+    pub gap: GapChoice,
     /// Contacts, rattlers, the backbone and its contact numbers.
     pub network: ContactNetwork,
     /// g(r) of the centres, to just under half the shortest edge (at most
@@ -55,11 +60,55 @@ pub struct PackingReport {
     pub cubatic: Option<f64>,
 }
 
+/// The reduced pressure βPV/N a log records for its frame `index`: the
+/// `/stats` written with it (a jam stage writes both at each frame).
+pub fn reduced_pressure_at(contents: &LogContents, index: usize) -> Option<f64> {
+    let (time, state) = contents.states.get(index)?;
+    let pressure = contents
+        .stats
+        .iter()
+        .find(|(t, s)| t == time && s.stage_index == state.stage_index)?
+        .1
+        .pressure?;
+    let volume: f64 = state.box_lengths.iter().product();
+    Some(pressure * volume / state.positions.len() as f64)
+}
+
 impl PackingReport {
+    /// The report of frame `index` of a log (the box's walls and the
+    /// frame's pressure from the log; see [`PackingReport::of_frame`]).
+    /// `None` if there is no such frame.
+    pub fn of_log_frame(
+        contents: &LogContents,
+        index: usize,
+        gap: Option<f64>,
+    ) -> Option<Result<Self, BoxError>> {
+        let (_, state) = contents.states.get(index)?;
+        let walls = contents
+            .metadata
+            .get("scene_resolved")
+            .and_then(|text| Scene::parse(text).ok())
+            .map(|scene| scene.wall_axes())
+            .unwrap_or_default();
+        Some(Self::of_frame(
+            state,
+            walls,
+            gap,
+            reduced_pressure_at(contents, index),
+        ))
+    }
+
     /// The report of `state`, in a box closed by walls on `walls`, with
     /// bodies in contact where their gap is under `gap` of the smaller
-    /// one's smallest half-extent.
-    pub fn of_frame(state: &StateRecord, walls: [bool; 3], gap: f64) -> Result<Self, BoxError> {
+    /// one's smallest half-extent, or, without `gap`, under the gap on
+    /// the plateau of the contact count ([`choose_gap`]; `reduced_pressure`,
+    /// the frame's βPV/N where known, guides it).
+    pub fn of_frame(
+        state: &StateRecord,
+        walls: [bool; 3],
+        gap: Option<f64>,
+        reduced_pressure: Option<f64>,
+    ) -> Result<Self, BoxError> {
         let box_ = PeriodicBox::new(Vector3::from(state.box_lengths))?.with_walls(walls);
         let shapes: Vec<Shape> = state.species.iter().map(|s| s.shape).collect();
         let bodies: Vec<PackedBody> = state
@@ -75,7 +124,12 @@ impl PackingReport {
                 shape: k as usize,
             })
             .collect();
-        let network = contact_network(&box_, &shapes, &bodies, gap);
+        let gaps = relative_gaps(&box_, &shapes, &bodies);
+        let choice = match gap {
+            Some(gap) => given_gap(gap, &gaps, bodies.len(), reduced_pressure),
+            None => choose_gap(&gaps, bodies.len(), reduced_pressure),
+        };
+        let network = contact_network(&box_, &shapes, &bodies, choice.gap);
         let centres: Vec<Vector3<f64>> = bodies.iter().map(|b| b.position).collect();
         let diameter = shapes
             .iter()
@@ -110,6 +164,7 @@ impl PackingReport {
                 .map(|b| *b.orientation.to_rotation_matrix().matrix()),
         );
         Ok(Self {
+            gap: choice,
             network,
             rdf,
             structure_factor: StructureFactor { k, s },
