@@ -261,15 +261,18 @@ const JAM_SCENE: &str = r#"Scene(
     stages: [Compress(packing_fraction: 0.4), Jam(growth_rate: 0.01, pressure: 1e7)],
 )"#;
 
-/// A scene's Jam stage: it jams (the summary says so, the last frame's
+/// A scene's Jam stage: it grows to its bound (the summary says so, the last frame's
 /// species are grown and its state overlap-free at φ > 0.6), its `/stats`
 /// carry the growth, and a run resumed from any of its frames writes the
 /// uninterrupted run's frames bit for bit.
 #[test]
 fn a_scene_jams_and_resumes_bit_for_bit() {
     let (dir, path, summary) = run_scene_in("jam", JAM_SCENE);
+    // Grown at 10⁻² the bound is passed, but the contacts hold too few
+    // bodies to certify a jam (tests/packing.rs), and the line says so.
     assert!(
-        summary.stages[1].contains("jam): jammed at packing fraction"),
+        summary.stages[1].contains("jam): betaPV/N passed its bound at packing fraction")
+            && summary.stages[1].contains("NOT certified jammed"),
         "{:?}",
         summary.stages
     );

@@ -74,13 +74,34 @@ const GROWN: &str = r#"Scene(
     log: Log(path: "grown.mcap", stats_every: 100, frames_every: 5000),
 )"#;
 
+/// `hardbody run SCENE --out LOG`: (standard output, standard error).
+fn run_saying(scene: &Path, log: &Path) -> (String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .arg("run")
+        .arg(scene)
+        .arg("--out")
+        .arg(log)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 #[test]
 fn a_grown_sphere_packing_is_isostatic_at_the_gap_it_shows() {
     let dir = scratch("packing-grown");
     let scene = dir.join("grown.ron");
     std::fs::write(&scene, GROWN).unwrap();
     let log = dir.join("grown.mcap");
-    run(&scene, &log);
+    // The jam stage certifies its packing as it ends.
+    let (said, _) = run_saying(&scene, &log);
+    assert!(
+        said.contains("jammed at packing fraction") && said.contains("backbone of"),
+        "{said}"
+    );
     let report = analyze(&log, None);
     let gap = &report["gap"];
     assert_eq!(gap["source"], "plateau", "{gap}");
@@ -117,6 +138,26 @@ fn a_grown_sphere_packing_is_isostatic_at_the_gap_it_shows() {
     );
     let svg = std::fs::read_to_string(plots.join("contacts-against-gap.svg")).unwrap();
     assert!(svg.contains("<svg") && svg.contains("gap"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Grown ten times faster, the same spheres pass βPV/N = 10¹² with no
+/// body held by its contacts (the pressure was made by the growth): the
+/// jam stage says so, and so does the analysis, where the old rule left a
+/// hypostatic backbone of z near 5.8.
+#[test]
+fn a_jam_that_grew_faster_than_it_settled_is_not_certified() {
+    let dir = scratch("packing-fast");
+    let scene = dir.join("fast.ron");
+    std::fs::write(&scene, GROWN.replace("Jam()", "Jam(growth_rate: 1e-2)")).unwrap();
+    let log = dir.join("fast.mcap");
+    let (said, noted) = run_saying(&scene, &log);
+    assert!(said.contains("NOT certified jammed"), "{said}");
+    assert!(noted.contains("no body is held"), "{noted}");
+    let report = analyze(&log, None);
+    assert_eq!(report["gap"]["source"], "plateau");
+    assert_eq!(report["network"]["rattlers"].as_array().unwrap().len(), 250);
+    assert!(report["network"]["backbone_contact_number"].is_null());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

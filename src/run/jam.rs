@@ -97,6 +97,38 @@ impl JamStage {
     }
 }
 
+/// The contact network of a packing the jam ended: `Ok` with its
+/// backbone where the contacts hold at least half the bodies at the gap
+/// the packing shows, `Err` with why it is not jammed otherwise (a
+/// pressure made by growth faster than the packing could settle into
+/// its cages, which relaxes once the growth stops).
+fn certify(system: &System, reduced_pressure: Option<f64>) -> Result<String, String> {
+    let (choice, network) = system.read_contact_network(reduced_pressure);
+    let held = network.bodies - network.rattlers.len();
+    let certified = choice.warning.is_none() && 2 * held >= network.bodies;
+    let reading = if held == 0 {
+        format!("contacts at gap {:.1e}: no body is held", choice.gap)
+    } else {
+        format!(
+            "contacts at gap {:.1e}: backbone of {held} bodies ({:.1} %), z = {:.3} against 2 d_f = {:.3}",
+            choice.gap,
+            100.0 * held as f64 / network.bodies.max(1) as f64,
+            network.backbone_contact_number,
+            network.isostatic_contact_number
+        )
+    };
+    if certified {
+        Ok(reading)
+    } else {
+        Err(format!(
+            "the packing is NOT certified jammed ({reading}; {}): betaPV/N passed its bound while the bodies grew faster than they could settle into their cages; grow slower (a smaller growth_rate) and check with `hardbody analyze LOG --packing`",
+            choice
+                .warning
+                .unwrap_or_else(|| "fewer than half the bodies are held".into())
+        ))
+    }
+}
+
 /// The frame of `run` where it stands.
 fn record(runner: &Runner, run: &JamRun, index: usize, complete: bool) -> StateRecord {
     let system = run.system();
@@ -234,7 +266,20 @@ impl StageRun for JamStage {
             })
             .unwrap_or_default();
         let line = match self.run.end() {
-            Some(JamEnd::Jammed) => format!("jammed at packing fraction {phi:.4}{figures}"),
+            Some(JamEnd::Jammed) => {
+                let certificate = certify(system, self.last.map(|c| c.pressure));
+                if let Err(why) = &certificate {
+                    runner.notes.push(format!("stage {index} (jam): {why}"));
+                }
+                match certificate {
+                    Ok(reading) => {
+                        format!("jammed at packing fraction {phi:.4}{figures}; {reading}")
+                    }
+                    Err(_) => format!(
+                        "betaPV/N passed its bound at packing fraction {phi:.4}{figures}, but NOT certified jammed (see below)"
+                    ),
+                }
+            }
             Some(JamEnd::GrowthFloor) => format!(
                 "growth rate lowered to its floor at packing fraction {phi:.4}{figures}: not jammed ({})",
                 self.run.last_failure().unwrap_or("-")

@@ -295,8 +295,38 @@ impl System {
     /// `gap_tolerance` times the smaller one's smallest half-extent (see
     /// [`crate::analysis::packing::contact_network`]).
     pub fn contact_network(&self, gap_tolerance: f64) -> crate::analysis::packing::ContactNetwork {
-        let shapes: Vec<_> = self.species.iter().map(|s| s.shape).collect();
-        let bodies: Vec<_> = self
+        let (shapes, bodies) = self.packed();
+        crate::analysis::packing::contact_network(&self.box_, &shapes, &bodies, gap_tolerance)
+    }
+
+    /// The contact network read at the gap the packing itself shows (see
+    /// [`crate::analysis::contact_gap`]), at reduced pressure
+    /// `reduced_pressure` where known; with the choice of the gap.
+    pub fn read_contact_network(
+        &self,
+        reduced_pressure: Option<f64>,
+    ) -> (
+        crate::analysis::contact_gap::GapChoice,
+        crate::analysis::packing::ContactNetwork,
+    ) {
+        use crate::analysis::contact_gap::{choose_gap, relative_gaps};
+        let (shapes, bodies) = self.packed();
+        let gaps = relative_gaps(&self.box_, &shapes, &bodies);
+        let choice = choose_gap(&gaps, bodies.len(), reduced_pressure);
+        let network =
+            crate::analysis::packing::contact_network(&self.box_, &shapes, &bodies, choice.gap);
+        (choice, network)
+    }
+
+    /// The shapes and the bodies as the packing analysis takes them.
+    fn packed(
+        &self,
+    ) -> (
+        Vec<crate::geometry::Shape>,
+        Vec<crate::analysis::packing::PackedBody>,
+    ) {
+        let shapes = self.species.iter().map(|s| s.shape).collect();
+        let bodies = self
             .particles
             .iter()
             .map(|p| crate::analysis::packing::PackedBody {
@@ -305,6 +335,6 @@ impl System {
                 shape: p.species as usize,
             })
             .collect();
-        crate::analysis::packing::contact_network(&self.box_, &shapes, &bodies, gap_tolerance)
+        (shapes, bodies)
     }
 }
