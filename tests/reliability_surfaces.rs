@@ -414,3 +414,150 @@ fn item_12_22_jams_that_would_never_end_or_call_a_gas_jammed_are_refused() {
         assert!(Scene::parse(&jam(stage)).is_ok(), "{stage}");
     }
 }
+
+#[test]
+fn item_10_a_damaged_or_cut_log_says_what_is_analysed() {
+    let dir = scratch("damaged-analyze");
+    let log = dir.join("l.mcap");
+    run_to(&small(1, "Lattice"), &log);
+    // Cut after three frames, as a kill leaves it.
+    let cut = dir.join("cut.mcap");
+    cut_to(&log, 3, &cut);
+    let (code, err) = cli(&["analyze", s(&cut)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("ends before its footer"), "{err}");
+    let out = Command::new(EXE)
+        .args(["analyze", s(&cut), "--json"])
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["truncated"], true);
+    let out = Command::new(EXE)
+        .args(["analyze", s(&log), "--json"])
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["truncated"], false);
+    assert!(json["damage"].is_null());
+    // A frame whose orientation is no unit quaternion (item 11) is
+    // damage: the packing analysed is the last intact frame, and the
+    // command says so.
+    let bytes = std::fs::read(&log).unwrap();
+    let contents = read_log(&log, true).unwrap();
+    let frames = contents.states.len();
+    let (_, last) = contents.states.last().unwrap();
+    let q = last.orientations[0];
+    let resolved = contents.metadata.get("scene_resolved").unwrap();
+    let plan = hardbody::scene::plan::Plan::of(&Scene::parse(resolved).unwrap());
+    let mut writer = hardbody::log::LogWriter::create(
+        &dir.join("bad.mcap"),
+        contents.scene_text().unwrap(),
+        resolved,
+        &plan.mc_species(),
+    )
+    .unwrap();
+    for (t, state) in &contents.states {
+        writer.frame(*t, state).unwrap();
+    }
+    let mut zero = last.clone();
+    zero.orientations[0] = [0.0; 4];
+    writer.frame(u64::MAX / 2, &zero).unwrap();
+    writer.finish().unwrap();
+    let bad = dir.join("bad.mcap");
+    let damaged = read_log(&bad, true).unwrap();
+    assert_eq!(damaged.states.len(), frames, "the zero quaternion was read");
+    assert!(
+        damaged
+            .damage
+            .unwrap()
+            .to_string()
+            .contains("unit quaternion")
+    );
+    let (code, err) = cli(&["analyze", s(&bad), "--packing"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("unit quaternion") && err.contains("intact frames"),
+        "{err}"
+    );
+    let (code, err) = cli(&["run", "--resume", s(&bad), "--out", s(&dir.join("r.mcap"))]);
+    assert!(err.contains("unit quaternion"), "{code}: {err}");
+    assert!(q.iter().map(|x| x * x).sum::<f64>() > 0.99);
+    assert!(!bytes.is_empty());
+}
+
+#[test]
+fn item_14_15_21_inputs_that_block_and_counts_without_end_are_refused() {
+    use std::time::{Duration, Instant};
+    let dir = scratch("fifo-inputs");
+    let fifo = dir.join("pipe.mcap");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let scene_fifo = dir.join("pipe.ron");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&scene_fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let within = |args: &[&str]| {
+        let mut child = Command::new(EXE)
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = Instant::now();
+        loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                let mut err = String::new();
+                std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+                return (status.code().unwrap(), err);
+            }
+            if started.elapsed() > Duration::from_secs(20) {
+                let _ = child.kill();
+                panic!("{args:?} blocked");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    for args in [
+        vec!["inspect", s(&fifo)],
+        vec!["analyze", s(&fifo)],
+        vec!["analyze", "/dev/zero"],
+        vec!["export", s(&fifo), "--gsd", s(&dir.join("x.gsd"))],
+        vec!["run", s(&scene_fifo)],
+        vec!["check", "/dev/zero"],
+    ] {
+        let (code, err) = within(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains("not a regular file"), "{args:?}: {err}");
+    }
+    // Counts that would exhaust the machine before any work.
+    let template = dir.join("t.ron");
+    std::fs::write(&template, small(1, "Lattice")).unwrap();
+    let (code, err) = within(&[
+        "sweep",
+        s(&template),
+        "--set",
+        "stages[1].sweeps=10,20",
+        "--replicas",
+        "100000000",
+        "--workspace",
+        s(&dir.join("w")),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("at most 100000 jobs"), "{err}");
+    assert!(!dir.join("w").exists());
+    let (code, err) = within(&["run", s(&template), "--threads", "100000"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--threads"), "{err}");
+    // A byte-order mark before the scene is no syntax error.
+    let text = small(1, "Lattice").replace("unused.mcap", s(&dir.join("bom.mcap")));
+    assert!(Scene::parse(&format!("\u{feff}{text}")).is_ok());
+}

@@ -22,6 +22,11 @@ pub(super) fn log_to_analyze(
             "hardbody: {}: {d}; analysing the /stats before it",
             path.display()
         ));
+    } else if contents.truncated {
+        esay(&format!(
+            "hardbody: {}: the log ends before its footer (a killed run, or one still running): analysing the /stats it holds",
+            path.display()
+        ));
     }
     Ok(contents)
 }
@@ -52,6 +57,8 @@ pub(super) fn analyze(
     if json {
         print_json(&serde_json::json!({
             "log": path.display().to_string(),
+            "truncated": contents.truncated,
+            "damage": contents.damage.as_ref().map(|d| d.to_string()),
             "stages": stages,
         }));
     } else {
@@ -419,6 +426,12 @@ pub(super) fn analyze_packing(
         Err(e) => return bad_input(e),
     };
     let frames = contents.states.len();
+    if let Some(d) = &contents.damage {
+        esay(&format!(
+            "hardbody: {}: {d}; nothing after it is read: its {frames} intact frames are those before it",
+            path.display()
+        ));
+    }
     let index = frame.unwrap_or(frames.saturating_sub(1));
     let Some(report) = PackingReport::of_log_frame(&contents, index, gap) else {
         return bad_input(format!(
@@ -459,6 +472,8 @@ pub(super) fn analyze_packing(
     if json {
         let mut value = serde_json::to_value(&report).expect("a report serialises");
         value["frame"] = index.into();
+        value["truncated"] = contents.truncated.into();
+        value["damage"] = contents.damage.as_ref().map(|d| d.to_string()).into();
         print_json(&value);
         return ExitCode::SUCCESS;
     }

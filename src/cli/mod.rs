@@ -19,6 +19,9 @@ use sweep::*;
 
 /// Exit code for bad input (flags, shapes, scenes, logs).
 const EXIT_BAD_INPUT: u8 = 2;
+/// The most worker threads `--threads` may ask (a thread costs its stack
+/// before it does any work).
+const MAX_THREADS: usize = 1024;
 
 /// Exit code for a computation that failed.
 const EXIT_FAILED: u8 = 1;
@@ -234,8 +237,8 @@ pub fn main() -> ExitCode {
             threads,
         } => {
             if let Some(n) = threads {
-                if n == 0 {
-                    return bad_input("--threads must be at least 1");
+                if !(1..=MAX_THREADS).contains(&n) {
+                    return bad_input(format!("--threads must lie in [1, {MAX_THREADS}], got {n}"));
                 }
                 // Before any parallel work: the pool is made once.
                 let _ = rayon::ThreadPoolBuilder::new()

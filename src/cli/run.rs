@@ -20,6 +20,8 @@ pub(super) const DEFAULT_SCENE: &str = include_str!("../../data/scenes/default.r
 /// Reads and validates a scene file; the error names the file, the line
 /// and the field.
 pub(super) fn load_scene(path: &std::path::Path) -> Result<(Scene, String), String> {
+    hardbody::log::file::check_input(path)
+        .map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
     let scene = Scene::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;

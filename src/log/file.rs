@@ -78,6 +78,20 @@ pub fn check_output(path: &Path, partial: bool, inputs: &[&Path]) -> Result<(), 
     Ok(())
 }
 
+/// Whether `path` may be read as an input (a log or a scene): a regular
+/// file, or a link to one. A FIFO would block the read and a device such
+/// as /dev/zero never end it; the refusal says which.
+pub fn check_input(path: &Path) -> Result<(), String> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => Err(if m.is_dir() {
+            "is a directory, not a file".into()
+        } else {
+            "is not a regular file (a device, FIFO or socket); hardbody reads logs and scenes only from regular files".into()
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// Whether `path` is a symbolic link (to anything, or dangling).
 pub fn is_link(path: &Path) -> bool {
     std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())

@@ -361,6 +361,22 @@ impl StateRecord {
         if !self.box_lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
             return Err(format!("box edges {:?}", self.box_lengths));
         }
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|p| !p.iter().all(|x| x.is_finite()))
+        {
+            return Err(format!("particle {i}: position {:?}", self.positions[i]));
+        }
+        // Written as unit quaternions, to rounding: a zero or stretched one
+        // is damage, not a pose.
+        let unit = |q: &[f64; 4]| (q.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-9;
+        if let Some(i) = self.orientations.iter().position(|q| !unit(q)) {
+            return Err(format!(
+                "particle {i}: orientation {:?} is not a unit quaternion",
+                self.orientations[i]
+            ));
+        }
         Ok(())
     }
 

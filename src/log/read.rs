@@ -89,6 +89,11 @@ pub fn read_log(path: &Path, all_states: bool) -> Result<LogContents, LogError> 
 
 /// Reads `path`, keeping what `options` asks for.
 pub fn read_log_with(path: &Path, options: ReadOptions) -> Result<LogContents, LogError> {
+    // A FIFO would block the read, a device (/dev/zero) fill the memory.
+    super::file::check_input(path).map_err(|e| LogError::Content {
+        path: path.to_path_buf(),
+        message: e,
+    })?;
     let buf = std::fs::read(path).map_err(|source| LogError::Io {
         path: path.to_path_buf(),
         source,

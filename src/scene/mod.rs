@@ -390,6 +390,8 @@ impl Scene {
 
     /// Parses and validates a scene.
     pub fn parse(text: &str) -> Result<Scene, SceneError> {
+        // A byte-order mark some editors write is no part of the scene.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let options = ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let scene: Scene = options.from_str(text).map_err(|e| SceneError::Syntax {

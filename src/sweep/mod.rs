@@ -295,6 +295,9 @@ pub struct Job {
     pub scene: Scene,
 }
 
+/// The most jobs one sweep may make (each a folder of the workspace).
+pub const MAX_JOBS: u64 = 100_000;
+
 /// The jobs of a sweep: the product of the swept values, each with
 /// `replicas` seeds (the template's seed, then the next ones), unless
 /// the seed itself is swept.
@@ -307,6 +310,21 @@ pub fn jobs(template: &Scene, swept: &[Swept], replicas: u64) -> Result<Vec<Job>
         return Err(SweepError::Replicas(
             "--replicas with --set seed=...: the seeds given are the replicas".into(),
         ));
+    }
+    // Counted before anything is made: every job is a folder.
+    let count = swept
+        .iter()
+        .try_fold(replicas, |n, s| n.checked_mul(s.values.len() as u64))
+        .filter(|&n| n <= MAX_JOBS);
+    if count.is_none() {
+        return Err(SweepError::Replicas(format!(
+            "{} state points times {replicas} replicas: at most {MAX_JOBS} jobs in one sweep",
+            swept
+                .iter()
+                .map(|s| s.values.len().to_string())
+                .collect::<Vec<_>>()
+                .join(" x ")
+        )));
     }
     let base = serde_json::to_value(template).expect("a scene serialises");
     let mut combinations: Vec<Vec<&Value>> = vec![Vec::new()];
