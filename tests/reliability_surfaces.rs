@@ -561,3 +561,31 @@ fn item_14_15_21_inputs_that_block_and_counts_without_end_are_refused() {
     let text = small(1, "Lattice").replace("unused.mcap", s(&dir.join("bom.mcap")));
     assert!(Scene::parse(&format!("\u{feff}{text}")).is_ok());
 }
+
+#[test]
+fn item_18_a_pressure_past_the_jam_advises_what_can_be_run() {
+    let dir = scratch("pressure-jam");
+    let scene = write(
+        &dir.join("p.ron"),
+        r#"Scene(
+    seed: 2,
+    box: (5.0, 5.0, 5.0),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 64)],
+    stages: [Compress(pressure: 1000.0)],
+    log: Log(path: "unused.mcap"),
+)"#,
+    );
+    let (code, err) = cli(&["run", s(&scene), "--out", s(&dir.join("p.mcap"))]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("before betaP reached 1000"), "{err}");
+    assert!(
+        !err.contains("target"),
+        "a target the user never gave: {err}"
+    );
+    // What it advises is a scene that runs.
+    let advised = std::fs::read_to_string(&scene).unwrap().replace(
+        "Compress(pressure: 1000.0)",
+        "Compress(packing_fraction: 0.74, until_jammed: true)",
+    );
+    assert!(Scene::parse(&advised).is_ok());
+}

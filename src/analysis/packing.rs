@@ -209,12 +209,31 @@ fn constraints_of(points: &[V3], tolerance: f64) -> usize {
     if width <= tolerance { 2 } else { 3 }
 }
 
-/// The contact network of `bodies` (shapes `shapes`) in `box_`: bodies
-/// touch where their signed distance is below `gap_tolerance` times the
-/// smaller of their smallest half-extents.
+/// The contact network of `bodies` (shapes `shapes`, all turning) in
+/// `box_`: bodies touch where their signed distance is below
+/// `gap_tolerance` times the smaller of their smallest half-extents.
 pub fn contact_network(
     box_: &PeriodicBox,
     shapes: &[Shape],
+    bodies: &[PackedBody],
+    gap_tolerance: f64,
+) -> ContactNetwork {
+    contact_network_turning(
+        box_,
+        shapes,
+        &vec![true; shapes.len()],
+        bodies,
+        gap_tolerance,
+    )
+}
+
+/// [`contact_network`] where the bodies of shape k turn only if
+/// `turns[k]`: those that do not have 3 degrees of freedom, whatever
+/// their shape.
+pub fn contact_network_turning(
+    box_: &PeriodicBox,
+    shapes: &[Shape],
+    turns: &[bool],
     bodies: &[PackedBody],
     gap_tolerance: f64,
 ) -> ContactNetwork {
@@ -270,7 +289,13 @@ pub fn contact_network(
     }
     let freedom: Vec<usize> = bodies
         .iter()
-        .map(|b| degrees_of_freedom(&shapes[b.shape]))
+        .map(|b| {
+            if turns[b.shape] {
+                degrees_of_freedom(&shapes[b.shape])
+            } else {
+                3
+            }
+        })
         .collect();
     let rattler = rattlers(n, &contacts, &normals);
     let backbone: Vec<usize> = (0..n).filter(|&i| !rattler[i]).collect();
@@ -545,6 +570,20 @@ mod tests {
         );
         assert_eq!(network.isostatic_contact_number, 12.0);
         assert!((network.packing_fraction - 1.0).abs() < 1e-12);
+    }
+
+    /// Bodies that do not turn have three degrees of freedom, whatever
+    /// their shape.
+    #[test]
+    fn frozen_bodies_count_three_degrees_of_freedom() {
+        let box_ = PeriodicBox::new(V3::repeat(4.0)).unwrap();
+        let cube = Shape::Cuboid(Cuboid::new(0.5, 0.5, 0.5).unwrap());
+        let bodies = simple_cubic_4();
+        let turning = contact_network_turning(&box_, &[cube], &[true], &bodies, 1e-6);
+        let frozen = contact_network_turning(&box_, &[cube], &[false], &bodies, 1e-6);
+        assert_eq!(turning.contacts, frozen.contacts);
+        assert_eq!(frozen.isostatic_contact_number, 6.0);
+        assert_eq!(turning.isostatic_contact_number, 12.0);
     }
 
     #[test]

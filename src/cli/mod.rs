@@ -52,9 +52,10 @@ enum Command {
         seed: Option<u64>,
         /// Continue the run logged in LOG (stopped, or cut off by a crash)
         /// from its last frame: the rest of its stage and the stages after it,
-        /// bit for bit as if never interrupted. With SCENE, run that scene's
-        /// stages from that frame instead. The log goes to --out, else to LOG
-        /// (without a .partial suffix).
+        /// bit for bit as if never interrupted; the log goes to --out, else
+        /// to LOG (without a .partial suffix). With SCENE, run that scene's
+        /// stages from that frame instead, logged to --out, else to the
+        /// scene's log.path (never over LOG).
         #[arg(long, value_name = "LOG")]
         resume: Option<PathBuf>,
         /// With --out: if OUT.partial holds a frame (a killed or stopped

@@ -10,7 +10,7 @@ use super::StateRecord;
 use super::read::LogContents;
 use crate::analysis::contact_gap::{GapChoice, choose_gap, given_gap, relative_gaps};
 use crate::analysis::order::{cubatic_order, molecular_axis, nematic_director};
-use crate::analysis::packing::{ContactNetwork, PackedBody, contact_network};
+use crate::analysis::packing::{ContactNetwork, PackedBody, contact_network_turning};
 use crate::analysis::structure::{
     Rdf, Steinhardt, neighbours, radial_distribution, steinhardt, structure_factor,
 };
@@ -129,7 +129,8 @@ impl PackingReport {
             Some(gap) => given_gap(gap, &gaps, bodies.len(), reduced_pressure),
             None => choose_gap(&gaps, bodies.len(), reduced_pressure),
         };
-        let network = contact_network(&box_, &shapes, &bodies, choice.gap);
+        let turns: Vec<bool> = state.species.iter().map(|s| s.rotation).collect();
+        let network = contact_network_turning(&box_, &shapes, &turns, &bodies, choice.gap);
         let centres: Vec<Vector3<f64>> = bodies.iter().map(|b| b.position).collect();
         let diameter = shapes
             .iter()

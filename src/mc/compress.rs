@@ -158,6 +158,18 @@ pub enum CompressError {
         /// Sweeps done.
         sweeps: u64,
     },
+    /// Jammed before the pressure asked was measured.
+    #[error(
+        "jammed at packing fraction {reached:.4} after {sweeps} sweeps before betaP reached {pressure}: a pressure this high is that of a jammed packing or near it; for one, use Compress(packing_fraction: 0.74, until_jammed: true) or Jam()"
+    )]
+    JammedBelowPressure {
+        /// Packing fraction reached.
+        reached: f64,
+        /// The βP asked.
+        pressure: f64,
+        /// Sweeps done.
+        sweeps: u64,
+    },
     /// The target needs a box edge shorter than twice the interaction
     /// range (the minimum image would not be unique): too few particles
     /// for that packing fraction.
@@ -619,10 +631,19 @@ impl Compressor {
         if self.opts.until_jammed {
             return Ok(Some(self.report(system, true)));
         }
-        Err(CompressError::Jammed {
-            reached: system.packing_fraction(),
-            target: self.target(),
-            sweeps: self.state.sweeps,
+        let reached = system.packing_fraction();
+        let sweeps = self.state.sweeps;
+        Err(match self.opts.pressure {
+            Some(pressure) => CompressError::JammedBelowPressure {
+                reached,
+                pressure,
+                sweeps,
+            },
+            None => CompressError::Jammed {
+                reached,
+                target: self.target(),
+                sweeps,
+            },
         })
     }
 
