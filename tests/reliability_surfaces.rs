@@ -489,22 +489,11 @@ fn item_10_a_damaged_or_cut_log_says_what_is_analysed() {
 fn item_14_15_21_inputs_that_block_and_counts_without_end_are_refused() {
     use std::time::{Duration, Instant};
     let dir = scratch("fifo-inputs");
-    let fifo = dir.join("pipe.mcap");
-    assert!(
-        Command::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap()
-            .success()
-    );
-    let scene_fifo = dir.join("pipe.ron");
-    assert!(
-        Command::new("mkfifo")
-            .arg(&scene_fifo)
-            .status()
-            .unwrap()
-            .success()
-    );
+    let (fifo, scene_fifo) = (dir.join("pipe.mcap"), dir.join("pipe.ron"));
+    for path in [&fifo, &scene_fifo] {
+        let made = Command::new("mkfifo").arg(path).status().unwrap();
+        assert!(made.success());
+    }
     let within = |args: &[&str]| {
         let mut child = Command::new(EXE)
             .args(args)

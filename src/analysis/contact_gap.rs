@@ -14,9 +14,9 @@
 
 use serde::Serialize;
 
-use super::packing::PackedBody;
-use crate::geometry::{DistanceOptions, Relative, Shape, distance};
-use crate::space::{PeriodicBox, pairs_within};
+use super::packing::{PackedBody, near_pairs};
+use crate::geometry::Shape;
+use crate::space::PeriodicBox;
 
 /// The largest gap considered, relative to the smaller body's smallest
 /// half-extent.
@@ -91,36 +91,13 @@ pub struct GapChoice {
 /// [`MAX_GAP`], relative to the smaller body's smallest half-extent, in
 /// increasing order (overlaps and round-off at 10⁻¹⁶).
 pub fn relative_gaps(box_: &PeriodicBox, shapes: &[Shape], bodies: &[PackedBody]) -> Vec<f64> {
-    let options = DistanceOptions::default();
-    let largest = shapes
-        .iter()
-        .map(Shape::bounding_radius)
-        .fold(0.0, f64::max);
-    let thickest = shapes
-        .iter()
-        .map(Shape::min_half_extent)
-        .fold(0.0, f64::max);
-    let centres: Vec<_> = bodies.iter().map(|b| b.position).collect();
     let mut gaps = Vec::new();
-    pairs_within(
-        box_,
-        &centres,
-        2.0 * largest + MAX_GAP * thickest,
-        |i, j, d| {
-            let (a, b) = (&bodies[i], &bodies[j]);
-            let (shape_a, shape_b) = (&shapes[a.shape], &shapes[b.shape]);
-            let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
-            let reach = shape_a.bounding_radius() + shape_b.bounding_radius() + MAX_GAP * scale;
-            if d.norm_squared() > reach * reach {
-                return;
-            }
-            let rel = Relative::new(&d, &a.orientation, &b.orientation);
-            let gap = distance(shape_a, shape_b, &rel, &options, None).distance / scale;
-            if gap < MAX_GAP {
-                gaps.push(gap.max(SMALLEST_GAP));
-            }
-        },
-    );
+    near_pairs(box_, shapes, bodies, MAX_GAP, |_, _, scale, _, contact| {
+        let gap = contact.distance / scale;
+        if gap < MAX_GAP {
+            gaps.push(gap.max(SMALLEST_GAP));
+        }
+    });
     gaps.sort_unstable_by(f64::total_cmp);
     gaps
 }

@@ -30,7 +30,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use crate::geometry::pair::contact_patch;
-use crate::geometry::{DistanceOptions, Relative, Shape, distance};
+use crate::geometry::{Contact, DistanceOptions, Relative, Shape, distance};
 use crate::space::{PeriodicBox, pairs_within};
 
 type V3 = Vector3<f64>;
@@ -209,6 +209,46 @@ fn constraints_of(points: &[V3], tolerance: f64) -> usize {
     if width <= tolerance { 2 } else { 3 }
 }
 
+/// Calls `f(i, j, scale, relative pose, contact)` for every pair of
+/// `bodies` (shapes `shapes`) in `box_` whose bounding spheres come
+/// within `max_gap` times `scale`, the smaller of the two bodies'
+/// smallest half-extents; the contact is their exact signed distance.
+pub fn near_pairs(
+    box_: &PeriodicBox,
+    shapes: &[Shape],
+    bodies: &[PackedBody],
+    max_gap: f64,
+    mut f: impl FnMut(usize, usize, f64, &Relative, &Contact),
+) {
+    let options = DistanceOptions::default();
+    let largest = shapes
+        .iter()
+        .map(Shape::bounding_radius)
+        .fold(0.0, f64::max);
+    let thickest = shapes
+        .iter()
+        .map(Shape::min_half_extent)
+        .fold(0.0, f64::max);
+    let centres: Vec<_> = bodies.iter().map(|b| b.position).collect();
+    pairs_within(
+        box_,
+        &centres,
+        2.0 * largest + max_gap * thickest,
+        |i, j, d| {
+            let (a, b) = (&bodies[i], &bodies[j]);
+            let (shape_a, shape_b) = (&shapes[a.shape], &shapes[b.shape]);
+            let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
+            let reach = shape_a.bounding_radius() + shape_b.bounding_radius() + max_gap * scale;
+            if d.norm_squared() > reach * reach {
+                return;
+            }
+            let rel = Relative::new(&d, &a.orientation, &b.orientation);
+            let contact = distance(shape_a, shape_b, &rel, &options, None);
+            f(i, j, scale, &rel, &contact);
+        },
+    );
+}
+
 /// The contact network of `bodies` (shapes `shapes`, all turning) in
 /// `box_`: bodies touch where their signed distance is below
 /// `gap_tolerance` times the smaller of their smallest half-extents.
@@ -238,42 +278,29 @@ pub fn contact_network_turning(
     gap_tolerance: f64,
 ) -> ContactNetwork {
     let n = bodies.len();
-    let options = DistanceOptions::default();
     let mut contacts = Vec::new();
     let mut overlaps = 0;
-    // Pairs whose bounding spheres come within the largest tolerance.
-    let largest = shapes
-        .iter()
-        .map(Shape::bounding_radius)
-        .fold(0.0, f64::max);
-    let widest_gap = gap_tolerance
-        * shapes
-            .iter()
-            .map(Shape::min_half_extent)
-            .fold(0.0, f64::max);
-    let centres: Vec<_> = bodies.iter().map(|b| b.position).collect();
-    pairs_within(box_, &centres, 2.0 * largest + widest_gap, |i, j, d| {
-        let (a, b) = (&bodies[i], &bodies[j]);
-        let (shape_a, shape_b) = (&shapes[a.shape], &shapes[b.shape]);
-        let scale = shape_a.min_half_extent().min(shape_b.min_half_extent());
-        let tolerance = gap_tolerance * scale;
-        let reach = shape_a.bounding_radius() + shape_b.bounding_radius() + tolerance;
-        if d.norm_squared() > reach * reach {
-            return;
-        }
-        let rel = Relative::new(&d, &a.orientation, &b.orientation);
-        let contact = distance(shape_a, shape_b, &rel, &options, None);
-        if contact.distance < -tolerance {
-            overlaps += 1;
-        }
-        if contact.distance < tolerance {
-            let patch = contact_patch(shape_a, shape_b, &rel, &contact.normal, tolerance);
-            // From A's body frame to the lab's.
-            let normal = a.orientation * contact.normal;
-            let normal = [normal.x, normal.y, normal.z];
-            contacts.push((i, j, constraints_of(patch.points(), tolerance), normal));
-        }
-    });
+    near_pairs(
+        box_,
+        shapes,
+        bodies,
+        gap_tolerance,
+        |i, j, scale, rel, contact| {
+            let tolerance = gap_tolerance * scale;
+            if contact.distance < -tolerance {
+                overlaps += 1;
+            }
+            if contact.distance < tolerance {
+                let (a, b) = (&bodies[i], &bodies[j]);
+                let (shape_a, shape_b) = (&shapes[a.shape], &shapes[b.shape]);
+                let patch = contact_patch(shape_a, shape_b, rel, &contact.normal, tolerance);
+                // From A's body frame to the lab's.
+                let normal = a.orientation * contact.normal;
+                let normal = [normal.x, normal.y, normal.z];
+                contacts.push((i, j, constraints_of(patch.points(), tolerance), normal));
+            }
+        },
+    );
     // In index order, whatever order the cells gave them in.
     contacts.sort_unstable_by_key(|c| (c.0, c.1));
     let constraints: Vec<usize> = contacts.iter().map(|c| c.2).collect();
