@@ -578,3 +578,22 @@ fn item_18_a_pressure_past_the_jam_advises_what_can_be_run() {
     );
     assert!(Scene::parse(&advised).is_ok());
 }
+
+#[test]
+fn item_17_a_jam_that_would_outgrow_its_box_is_refused() {
+    let tiny = |stage: &str| {
+        format!(
+            r#"Scene(
+    box: (2.5, 2.5, 2.5),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 8)],
+    stages: [{stage}],
+)"#
+        )
+    };
+    for stage in ["Jam(packing_fraction: 0.6)", "Jam()"] {
+        let err = Scene::parse(&tiny(stage)).unwrap_err().to_string();
+        assert!(err.contains("minimum image"), "{stage}: {err}");
+    }
+    // A packing fraction the box holds is accepted.
+    assert!(Scene::parse(&tiny("Jam(packing_fraction: 0.3)")).is_ok());
+}

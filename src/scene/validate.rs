@@ -196,6 +196,24 @@ impl Scene {
                     if let Some(target) = packing_fraction {
                         packing_target(&f("packing_fraction"), *target, densest, known_phi, true)?;
                     }
+                    // The bodies grown to the target (or, jamming, at most
+                    // to the densest packing) must still allow the minimum
+                    // image in the box.
+                    let grown_to = packing_fraction.unwrap_or(densest);
+                    let scale = (phi0 / grown_to).cbrt();
+                    if shortest * scale < 2.0 * diameter {
+                        return bad(
+                            &f(if packing_fraction.is_some() {
+                                "packing_fraction"
+                            } else {
+                                "pressure"
+                            }),
+                            format!(
+                                "grown to packing fraction {grown_to:.4} the bodies' largest bounding diameter would be {:.4}, more than half the shortest box edge {shortest:.4} (minimum image): use more particles",
+                                diameter / scale
+                            ),
+                        );
+                    }
                     known_phi = None;
                 }
                 Stage::Compress {
