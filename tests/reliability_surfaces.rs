@@ -597,3 +597,38 @@ fn item_17_a_jam_that_would_outgrow_its_box_is_refused() {
     // A packing fraction the box holds is accepted.
     assert!(Scene::parse(&tiny("Jam(packing_fraction: 0.3)")).is_ok());
 }
+
+#[test]
+fn item_24_collect_leaves_out_folders_that_are_not_jobs() {
+    let dir = scratch("foreign-folders");
+    std::fs::write(dir.join("t.ron"), small(1, "Lattice")).unwrap();
+    let w = dir.join("w");
+    let (code, err) = cli(&[
+        "sweep",
+        s(&dir.join("t.ron")),
+        "--set",
+        "seed=1,2",
+        "--workspace",
+        s(&w),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    // A folder with a state point that is not JSON, and one of notes.
+    let stray = w.join("workspace/stray");
+    std::fs::create_dir_all(&stray).unwrap();
+    std::fs::write(stray.join("signac_statepoint.json"), "{not json").unwrap();
+    std::fs::write(stray.join("scene.ron"), small(1, "Lattice")).unwrap();
+    let notes = w.join("workspace/notes");
+    std::fs::create_dir_all(&notes).unwrap();
+    std::fs::write(notes.join("todo.txt"), "mine").unwrap();
+    let out = Command::new(EXE)
+        .args(["sweep", "collect", s(&w), "--json"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("stray") && err.contains("notes"), "{err}");
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert_eq!(rows[0]["not_started"], 2, "{rows:?}");
+}

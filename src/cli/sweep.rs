@@ -69,6 +69,12 @@ pub(super) fn sweep_collect(
         Ok(r) => r,
         Err(e) => return bad_input(e),
     };
+    for (folder, why) in hardbody::sweep::collect::foreign_folders(dir).unwrap_or_default() {
+        esay(&format!(
+            "hardbody: warning: {}: not a job of this sweep ({why}); left out",
+            folder.display()
+        ));
+    }
     if let Some(plot_dir) = plot
         && let Err(e) = eos_plot(plot_dir, &rows)
     {

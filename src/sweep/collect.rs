@@ -74,19 +74,53 @@ pub struct StatePointRow {
     pub carnahan_starling: Option<f64>,
 }
 
-/// Reads every job of the sweep at `dir`.
+/// Reads every job of the sweep at `dir`; folders of the workspace that
+/// are not jobs of a sweep ([`foreign_folders`]) are left out.
 pub fn read_jobs(dir: &Path) -> Result<Vec<JobResult>, SweepError> {
+    let (jobs, _) = workspace_folders(dir)?;
+    Ok(jobs
+        .into_iter()
+        .filter_map(|folder| read_job(&folder).ok())
+        .collect())
+}
+
+/// The folders of the workspace at `dir` that are not jobs of a sweep
+/// (no scene, or a state point that does not read), with why: `collect`
+/// leaves them out.
+pub fn foreign_folders(dir: &Path) -> Result<Vec<(PathBuf, String)>, SweepError> {
+    let (jobs, mut foreign) = workspace_folders(dir)?;
+    for folder in jobs {
+        if let Err(e) = read_job(&folder) {
+            foreign.push((folder, e.to_string()));
+        }
+    }
+    foreign.sort();
+    Ok(foreign)
+}
+
+/// The workspace's folders that hold a job's scene and state point, and
+/// the others with why they are not jobs.
+type Folders = (Vec<PathBuf>, Vec<(PathBuf, String)>);
+
+fn workspace_folders(dir: &Path) -> Result<Folders, SweepError> {
     let workspace = dir.join("workspace");
     let entries = std::fs::read_dir(&workspace).map_err(|e| SweepError::Workspace {
         path: workspace.clone(),
         message: format!("{e} (is this a sweep's folder?)"),
     })?;
-    let mut folders: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.join(STATEPOINT).exists())
-        .collect();
-    folders.sort();
-    folders.iter().map(|folder| read_job(folder)).collect()
+    let (mut jobs, mut foreign) = (Vec::new(), Vec::new());
+    for path in entries.filter_map(|e| e.ok().map(|e| e.path())) {
+        if !path.is_dir() {
+            continue;
+        }
+        if path.join(STATEPOINT).is_file() && path.join(super::JOB_SCENE).is_file() {
+            jobs.push(path);
+        } else {
+            foreign.push((path, "no job scene and state point".into()));
+        }
+    }
+    jobs.sort();
+    Ok((jobs, foreign))
 }
 
 fn read_job(folder: &Path) -> Result<JobResult, SweepError> {
