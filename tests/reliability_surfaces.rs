@@ -632,3 +632,27 @@ fn item_24_collect_leaves_out_folders_that_are_not_jobs() {
     assert_eq!(rows.len(), 1, "{rows:?}");
     assert_eq!(rows[0]["not_started"], 2, "{rows:?}");
 }
+
+#[test]
+fn item_16_a_damaged_job_log_recovers_on_the_next_submission() {
+    let dir = scratch("damaged-job");
+    let a = write(&dir.join("a.ron"), &small(1, "Lattice"));
+    let whole = dir.join("whole.mcap");
+    run_to(&small(1, "Lattice"), &whole);
+    let out = dir.join("job.mcap");
+    let mut bytes = std::fs::read(&whole).unwrap();
+    let at = bytes.len() * 3 / 5;
+    bytes[at] ^= 0x40;
+    std::fs::write(&out, &bytes).unwrap();
+    assert!(read_log(&out, false).unwrap().damage.is_some());
+    // The analyze action of a sweep does not count it done.
+    let (code, err) = cli(&["analyze", s(&out)]);
+    assert_eq!(code, 2, "{err}");
+    let (code, err) = cli(&["run", s(&a), "--out", s(&out), "--continue"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("damaged") && err.contains(".damaged"), "{err}");
+    let kept = dir.join("job.mcap.damaged");
+    assert!(std::fs::read(&kept).unwrap() == bytes);
+    assert!(same_last_state(&out, &whole));
+    assert!(read_log(&out, false).unwrap().damage.is_none());
+}

@@ -133,6 +133,11 @@ pub(super) fn analyze(
             never.join(", ")
         ));
     }
+    // What precedes the damage is printed; the exit says it was not all
+    // (a sweep's analyze action must not count the job done).
+    if contents.damage.is_some() {
+        return ExitCode::from(EXIT_BAD_INPUT);
+    }
     ExitCode::SUCCESS
 }
 

@@ -260,6 +260,33 @@ pub(super) fn continue_run(
         if let Err(e) = log_of_scene(&out, &scene, &scene_name) {
             return bad_input(e);
         }
+        let damage = match hardbody::log::read::read_log(&out, false) {
+            Ok(c) => c.damage.map(|d| d.to_string()),
+            Err(e) => Some(e.to_string()),
+        };
+        if let Some(damage) = damage {
+            // Kept as it is beside, and continued from its last intact
+            // frame: the job recovers and nothing is lost.
+            let mut kept = out.clone().into_os_string();
+            kept.push(".damaged");
+            let kept = PathBuf::from(kept);
+            if kept.exists() {
+                return bad_input(format!(
+                    "{}: damaged ({damage}), and {} is there already: move one of them away",
+                    out.display(),
+                    kept.display()
+                ));
+            }
+            if let Err(e) = std::fs::rename(&out, &kept) {
+                return bad_input(format!("{}: {e}", out.display()));
+            }
+            esay(&format!(
+                "hardbody: {}: damaged ({damage}); kept as {}, continued from its last intact frame",
+                out.display(),
+                kept.display()
+            ));
+            return resume_log(&kept, Some(out.clone()), None);
+        }
         say(&format!("{}: complete; nothing to do", out.display()));
         if partial.exists() {
             esay(&format!(
