@@ -658,3 +658,25 @@ fn item_16_a_damaged_job_log_recovers_on_the_next_submission() {
     assert!(same_last_state(&out, &whole));
     assert!(read_log(&out, false).unwrap().damage.is_none());
 }
+
+#[test]
+fn item_23_a_grown_state_goes_on_only_with_the_species_it_was_grown_from() {
+    let dir = scratch("grown-resume");
+    let grown = dir.join("grown.mcap");
+    run_to(&two_masses(1.0), &grown);
+    let resumed = |radius: &str| {
+        let text = two_masses(1.0)
+            .replace(
+                "stages: [Compress(packing_fraction: 0.3), Jam(growth_rate: 1e-2, pressure: 1e8)]",
+                &format!(
+                    "start: Resume({:?}), stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)]",
+                    s(&grown)
+                ),
+            )
+            .replace("radius: 0.5", &format!("radius: {radius}"));
+        hardbody::run::check_start(&Scene::parse(&text).unwrap())
+    };
+    assert!(resumed("0.5").is_ok());
+    let err = resumed("0.3").unwrap_err().to_string();
+    assert!(err.contains("grown from the species"), "{err}");
+}

@@ -80,11 +80,29 @@ pub(super) fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError>
     // Whether the frame holds grown bodies is decided by the scene that
     // wrote it, whose stages are not this scene's (a log whose scene cannot
     // be read has only its jam stages' frames taken as grown).
-    let logged_first_jam = contents
+    let logged = contents
         .metadata
         .get("scene_resolved")
-        .and_then(|text| Scene::parse(text).ok())
-        .and_then(|scene| scene.first_jam());
+        .and_then(|text| Scene::parse(text).ok());
+    let logged_first_jam = logged.as_ref().and_then(Scene::first_jam);
+    // Grown bodies are this scene's only if they were grown from its
+    // species: any species would otherwise fit them by some factor.
+    let grown = record.stage == "jam" || logged_first_jam.is_some_and(|j| j <= record.stage_index);
+    if grown && let Some(logged) = &logged {
+        let theirs: Vec<String> = (logged.species.iter())
+            .map(|s| format!("{} {}", s.name, s.shape))
+            .collect();
+        let ours: Vec<String> = (plan.mc_species().iter())
+            .map(|s| format!("{} {}", s.name, s.shape))
+            .collect();
+        if theirs != ours {
+            return Err(RunError::Resume(format!(
+                "{path}: its bodies were grown from the species ({}), this scene's are ({}): a grown state goes on only with the species it was grown from",
+                theirs.join(", "),
+                ours.join(", ")
+            )));
+        }
+    }
     system_from_logged(&record, logged_first_jam, plan)
         .map_err(|e| RunError::Resume(format!("{path}: {e}")))
 }
