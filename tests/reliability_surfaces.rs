@@ -680,3 +680,16 @@ fn item_23_a_grown_state_goes_on_only_with_the_species_it_was_grown_from() {
     let err = resumed("0.3").unwrap_err().to_string();
     assert!(err.contains("grown from the species"), "{err}");
 }
+
+#[test]
+fn item_21_log_paths_the_file_system_refuses_are_refused_by_check() {
+    for path in [
+        "a\\u{0}b.mcap".to_string(),
+        "x".repeat(5000),
+        format!("{}.mcap", "y".repeat(250)),
+    ] {
+        let text = small(1, "Lattice").replace("unused.mcap", &path);
+        let err = Scene::parse(&text).unwrap_err().to_string();
+        assert!(err.contains("log.path"), "{err}");
+    }
+}

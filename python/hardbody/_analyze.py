@@ -54,7 +54,7 @@ def analyze(
     if isinstance(logs, (RunLog, str, os.PathLike)):
         logs = [logs]
     report = json.loads(_core.analyze_logs([_path(log) for log in logs]))
-    for damage in report.pop("damage"):
+    for damage in report.pop("damages"):
         warnings.warn(f"{damage}; analysing the /stats before it", RuntimeWarning, stacklevel=2)
     never = [s for s in report["stages"] if s["stage"] != "compress" and not s["equilibrated"]]
     if never:

@@ -272,7 +272,13 @@ pub fn analyze_logs(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<String> {
         }
         [(name, c)] => {
             let stats: Vec<Stats> = c.stats.iter().map(|(_, s)| s.clone()).collect();
-            serde_json::json!({"log": name, "stages": stage_averages(&stats), "damage": damage})
+            serde_json::json!({
+                "log": name,
+                "truncated": c.truncated,
+                "damage": c.damage.as_ref().map(|d| d.to_string()),
+                "stages": stage_averages(&stats),
+                "damages": damage,
+            })
         }
         many => {
             let logs: Vec<_> = many.iter().map(|(name, c)| (name.clone(), c)).collect();
@@ -281,7 +287,7 @@ pub fn analyze_logs(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<String> {
                 "logs": logs.iter().map(|(name, _)| name).collect::<Vec<_>>(),
                 "stages": replicas.combined,
                 "replicas": replicas.runs,
-                "damage": damage,
+                "damages": damage,
             })
         }
     };

@@ -99,7 +99,7 @@ def test_refusals_name_the_field_as_the_command_line_does():
     assert e.value.field == "stages[0].fluid_rate"
     jam = hb.Scene(
         box=(8, 8, 8),
-        species=[hb.Species("a", hb.Sphere(0.5), 10)],
+        species=[hb.Species("a", hb.Sphere(0.5), 200)],
         stages=[hb.Jam(growth_rate=0.01, fluid_rate=0.05)],
     )
     assert "fluid_rate: Some(0.05)" in jam.to_ron() or "fluid_rate: 0.05" in jam.to_ron()

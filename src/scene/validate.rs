@@ -379,6 +379,21 @@ impl Scene {
                 ),
             );
         }
+        // What the file systems refuse, refused here with the reason: a
+        // NUL ends a C path, and names are at most 255 bytes (paths 4096).
+        if self.log.path.contains('\0') {
+            return bad("log.path", "contains a NUL character".into());
+        }
+        let longest = self.log.path.split('/').map(str::len).max().unwrap_or(0);
+        if self.log.path.len() > 4096 || longest + ".partial.resuming".len() > 255 {
+            return bad(
+                "log.path",
+                format!(
+                    "a path of {} bytes with a name of {longest}: at most 4096 and, with the .partial.resuming the writer adds, 255",
+                    self.log.path.len()
+                ),
+            );
+        }
         if self.log.stats_every == 0 {
             return bad("log.stats_every", "must be at least 1 sweep".into());
         }
