@@ -46,6 +46,22 @@ fn small(seed: u64, start: &str) -> String {
     )
 }
 
+/// A sweep of `small` over seeds 1 and 2, made in `dir/w`.
+fn two_seed_sweep(dir: &Path) -> PathBuf {
+    std::fs::write(dir.join("t.ron"), small(1, "Lattice")).unwrap();
+    let w = dir.join("w");
+    let (code, err) = cli(&[
+        "sweep",
+        s(&dir.join("t.ron")),
+        "--set",
+        "seed=1,2",
+        "--workspace",
+        s(&w),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    w
+}
+
 fn run_to(text: &str, path: &Path) {
     let scene = Scene::parse(text).unwrap();
     run_scene(&scene, text, path, &mut Silent, &AtomicBool::new(false)).unwrap();
@@ -315,17 +331,7 @@ fn item_07_one_run_is_never_averaged_as_two_replicas() {
     let (code, err) = cli(&["analyze", s(&a), s(&b)]);
     assert_eq!(code, 0, "{err}");
     // A sweep job holding another job's log is not averaged.
-    std::fs::write(dir.join("t.ron"), small(1, "Lattice")).unwrap();
-    let w = dir.join("w");
-    let (code, err) = cli(&[
-        "sweep",
-        s(&dir.join("t.ron")),
-        "--set",
-        "seed=1,2",
-        "--workspace",
-        s(&w),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    let w = two_seed_sweep(&dir);
     let mut jobs: Vec<PathBuf> = std::fs::read_dir(w.join("workspace"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -603,17 +609,7 @@ fn item_17_a_jam_that_would_outgrow_its_box_is_refused() {
 #[test]
 fn item_24_collect_leaves_out_folders_that_are_not_jobs() {
     let dir = scratch("foreign-folders");
-    std::fs::write(dir.join("t.ron"), small(1, "Lattice")).unwrap();
-    let w = dir.join("w");
-    let (code, err) = cli(&[
-        "sweep",
-        s(&dir.join("t.ron")),
-        "--set",
-        "seed=1,2",
-        "--workspace",
-        s(&w),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    let w = two_seed_sweep(&dir);
     // A folder with a state point that is not JSON, and one of notes.
     let stray = w.join("workspace/stray");
     std::fs::create_dir_all(&stray).unwrap();
