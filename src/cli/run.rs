@@ -257,14 +257,14 @@ pub(super) fn continue_run(
         .unwrap_or_else(|| "the default scene".into());
     let partial = hardbody::log::partial_path(&out);
     if out.exists() {
-        if let Err(e) = log_of_scene(&out, &scene, &scene_name) {
+        let contents = match hardbody::log::read::read_log(&out, false) {
+            Ok(c) => c,
+            Err(e) => return bad_input(e),
+        };
+        if let Err(e) = log_of_scene(&out, &contents, &scene, &scene_name) {
             return bad_input(e);
         }
-        let damage = match hardbody::log::read::read_log(&out, false) {
-            Ok(c) => c.damage.map(|d| d.to_string()),
-            Err(e) => Some(e.to_string()),
-        };
-        if let Some(damage) = damage {
+        if let Some(damage) = contents.damage.map(|d| d.to_string()) {
             // Kept as it is beside, and continued from its last intact
             // frame: the job recovers and nothing is lost.
             let mut kept = out.clone().into_os_string();
@@ -297,12 +297,23 @@ pub(super) fn continue_run(
         }
         return ExitCode::SUCCESS;
     }
-    let resumable = partial.exists()
-        && hardbody::log::read::read_log(&partial, false)
-            .is_ok_and(|c| c.last_state.is_some_and(|(_, s)| s.resume.is_some()));
-    if resumable && let Err(e) = log_of_scene(&partial, &scene, &scene_name) {
-        return bad_input(e);
-    }
+    let resumable = if partial.exists() {
+        let contents = hardbody::log::read::read_log(&partial, false)
+            .ok()
+            .filter(|c| {
+                c.last_state
+                    .as_ref()
+                    .is_some_and(|(_, s)| s.resume.is_some())
+            });
+        if let Some(contents) = &contents
+            && let Err(e) = log_of_scene(&partial, contents, &scene, &scene_name)
+        {
+            return bad_input(e);
+        }
+        contents.is_some()
+    } else {
+        false
+    };
     let code = if resumable {
         resume_log(&partial, Some(out.clone()), None)
     } else {
@@ -326,10 +337,15 @@ pub(super) fn continue_run(
     code
 }
 
-/// Whether the log at `log` is a run of `scene` (seed included), as its
-/// metadata records it; the refusal says what differs.
-fn log_of_scene(log: &std::path::Path, scene: &Scene, name: &str) -> Result<(), String> {
-    let contents = hardbody::log::read::read_log(log, false).map_err(|e| e.to_string())?;
+/// Whether the log at `log`, read as `contents`, is a run of `scene`
+/// (seed included), as its metadata records it; the refusal says what
+/// differs.
+fn log_of_scene(
+    log: &std::path::Path,
+    contents: &hardbody::log::read::LogContents,
+    scene: &Scene,
+    name: &str,
+) -> Result<(), String> {
     let logged = contents
         .metadata
         .get("scene_resolved")

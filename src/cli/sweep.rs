@@ -65,11 +65,11 @@ pub(super) fn sweep_collect(
     json: bool,
     plot: Option<&Path>,
 ) -> ExitCode {
-    let rows = match collect(dir, stage) {
-        Ok(r) => r,
+    let (rows, strays) = match collect(dir, stage) {
+        Ok(c) => (c.rows, c.strays),
         Err(e) => return bad_input(e),
     };
-    for (folder, why) in hardbody::sweep::collect::foreign_folders(dir).unwrap_or_default() {
+    for (folder, why) in strays {
         esay(&format!(
             "hardbody: warning: {}: not a job of this sweep ({why}); left out",
             folder.display()

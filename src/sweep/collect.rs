@@ -74,28 +74,28 @@ pub struct StatePointRow {
     pub carnahan_starling: Option<f64>,
 }
 
-/// Reads every job of the sweep at `dir`; folders of the workspace that
-/// are not jobs of a sweep ([`foreign_folders`]) are left out.
-pub fn read_jobs(dir: &Path) -> Result<Vec<JobResult>, SweepError> {
-    let (jobs, _) = workspace_folders(dir)?;
-    Ok(jobs
-        .into_iter()
-        .filter_map(|folder| read_job(&folder).ok())
-        .collect())
+/// The folders of a sweep's workspace: its jobs, read, and the folders
+/// that are not jobs of a sweep (no scene and state point, or a state
+/// point that does not read), each with why.
+pub struct Workspace {
+    /// The jobs.
+    pub jobs: Vec<JobResult>,
+    /// The folders left out, and why.
+    pub strays: Vec<(PathBuf, String)>,
 }
 
-/// The folders of the workspace at `dir` that are not jobs of a sweep
-/// (no scene, or a state point that does not read), with why: `collect`
-/// leaves them out.
-pub fn foreign_folders(dir: &Path) -> Result<Vec<(PathBuf, String)>, SweepError> {
-    let (jobs, mut foreign) = workspace_folders(dir)?;
-    for folder in jobs {
-        if let Err(e) = read_job(&folder) {
-            foreign.push((folder, e.to_string()));
+/// Reads every job of the sweep at `dir`.
+pub fn read_jobs(dir: &Path) -> Result<Workspace, SweepError> {
+    let (folders, mut strays) = workspace_folders(dir)?;
+    let mut jobs = Vec::with_capacity(folders.len());
+    for folder in folders {
+        match read_job(&folder) {
+            Ok(job) => jobs.push(job),
+            Err(e) => strays.push((folder, e.to_string())),
         }
     }
-    foreign.sort();
-    Ok(foreign)
+    strays.sort();
+    Ok(Workspace { jobs, strays })
 }
 
 /// The workspace's folders that hold a job's scene and state point, and
@@ -225,8 +225,9 @@ pub fn measured_stage(scene: &Scene) -> usize {
 
 /// One row per state point (in the order of their first job), with the
 /// averages of stage `stage` (default: the last that is not a
-/// compression) over the finished replicas.
-pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Vec<StatePointRow>, SweepError> {
+/// compression) over the finished replicas; and the folders of the
+/// workspace left out as no jobs ([`Workspace::strays`]).
+pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Collected, SweepError> {
     let record = sweep_record(dir)?;
     let template = Scene::parse(&record.template).map_err(|e| SweepError::Workspace {
         path: dir.join(SWEEP_FILE),
@@ -242,7 +243,7 @@ pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Vec<StatePointRow>, S
             ),
         });
     }
-    let jobs = read_jobs(dir)?;
+    let Workspace { jobs, strays } = read_jobs(dir)?;
     // State points in the order of their first job, keyed by their JSON.
     let mut order: Vec<(String, Map<String, Value>)> = Vec::new();
     let mut groups: BTreeMap<String, Vec<&JobResult>> = BTreeMap::new();
@@ -293,7 +294,15 @@ pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Vec<StatePointRow>, S
         });
     }
     rows.sort_by(|a, b| compare_parameters(&a.parameters, &b.parameters));
-    Ok(rows)
+    Ok(Collected { rows, strays })
+}
+
+/// What [`collect`] finds.
+pub struct Collected {
+    /// One row per state point.
+    pub rows: Vec<StatePointRow>,
+    /// The folders left out as no jobs, and why.
+    pub strays: Vec<(PathBuf, String)>,
 }
 
 /// State points in order of their values, field by field (numbers by
