@@ -14,7 +14,7 @@
 
 use serde::Serialize;
 
-use super::packing::{PackedBody, near_pairs};
+use super::packing::{ContactNetwork, PackedBody, contact_network_turning, near_pairs};
 use crate::geometry::Shape;
 use crate::space::PeriodicBox;
 
@@ -165,6 +165,27 @@ pub fn choose_gap(gaps: &[f64], bodies: usize, reduced_pressure: Option<f64>) ->
         curve,
         warning,
     }
+}
+
+/// The contact network of `bodies` (shapes `shapes`, those of shape k
+/// turning if `turns[k]`) in `box_`, read at `gap` if given, else at the
+/// gap the packing shows ([`choose_gap`], guided by `reduced_pressure`);
+/// with the choice of the gap.
+pub fn read_contact_network(
+    box_: &PeriodicBox,
+    shapes: &[Shape],
+    turns: &[bool],
+    bodies: &[PackedBody],
+    gap: Option<f64>,
+    reduced_pressure: Option<f64>,
+) -> (GapChoice, ContactNetwork) {
+    let gaps = relative_gaps(box_, shapes, bodies);
+    let choice = match gap {
+        Some(gap) => given_gap(gap, &gaps, bodies.len(), reduced_pressure),
+        None => choose_gap(&gaps, bodies.len(), reduced_pressure),
+    };
+    let network = contact_network_turning(box_, shapes, turns, bodies, choice.gap);
+    (choice, network)
 }
 
 /// The choice of a gap the user gave.

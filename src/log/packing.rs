@@ -8,9 +8,9 @@ use serde::Serialize;
 
 use super::StateRecord;
 use super::read::LogContents;
-use crate::analysis::contact_gap::{GapChoice, choose_gap, given_gap, relative_gaps};
+use crate::analysis::contact_gap::{GapChoice, read_contact_network};
 use crate::analysis::order::{cubatic_order, molecular_axis, nematic_director};
-use crate::analysis::packing::{ContactNetwork, PackedBody, contact_network_turning};
+use crate::analysis::packing::{ContactNetwork, PackedBody};
 use crate::analysis::structure::{
     Rdf, Steinhardt, neighbours, radial_distribution, steinhardt, structure_factor,
 };
@@ -101,7 +101,7 @@ impl PackingReport {
     /// The report of `state`, in a box closed by walls on `walls`, with
     /// bodies in contact where their gap is under `gap` of the smaller
     /// one's smallest half-extent, or, without `gap`, under the gap on
-    /// the plateau of the contact count ([`choose_gap`]; `reduced_pressure`,
+    /// the plateau of the contact count ([`read_contact_network`]; `reduced_pressure`,
     /// the frame's βPV/N where known, guides it).
     pub fn of_frame(
         state: &StateRecord,
@@ -124,13 +124,9 @@ impl PackingReport {
                 shape: k as usize,
             })
             .collect();
-        let gaps = relative_gaps(&box_, &shapes, &bodies);
-        let choice = match gap {
-            Some(gap) => given_gap(gap, &gaps, bodies.len(), reduced_pressure),
-            None => choose_gap(&gaps, bodies.len(), reduced_pressure),
-        };
         let turns: Vec<bool> = state.species.iter().map(|s| s.rotation).collect();
-        let network = contact_network_turning(&box_, &shapes, &turns, &bodies, choice.gap);
+        let (choice, network) =
+            read_contact_network(&box_, &shapes, &turns, &bodies, gap, reduced_pressure);
         let centres: Vec<Vector3<f64>> = bodies.iter().map(|b| b.position).collect();
         let diameter = shapes
             .iter()

@@ -309,13 +309,16 @@ impl System {
         crate::analysis::contact_gap::GapChoice,
         crate::analysis::packing::ContactNetwork,
     ) {
-        use crate::analysis::contact_gap::{choose_gap, relative_gaps};
         let (shapes, bodies) = self.packed();
-        let gaps = relative_gaps(&self.box_, &shapes, &bodies);
-        let choice = choose_gap(&gaps, bodies.len(), reduced_pressure);
-        let network =
-            crate::analysis::packing::contact_network(&self.box_, &shapes, &bodies, choice.gap);
-        (choice, network)
+        let turns: Vec<bool> = self.species.iter().map(|s| s.rotation).collect();
+        crate::analysis::contact_gap::read_contact_network(
+            &self.box_,
+            &shapes,
+            &turns,
+            &bodies,
+            None,
+            reduced_pressure,
+        )
     }
 
     /// The shapes and the bodies as the packing analysis takes them.
