@@ -4,6 +4,7 @@
 //! Layers, bottom to top (each imports only those below it;
 //! `tests/architecture.rs` checks it):
 //!
+//! 0. [`number`]: how numbers print in messages;
 //! 1. [`geometry`]: shapes, overlap tests, signed distances, bounds;
 //! 2. [`space`]: the periodic box, cells and neighbour lists;
 //! 3. [`analysis`]: observables of a configuration, statistics of series;
@@ -26,6 +27,7 @@ pub mod edmd;
 pub mod geometry;
 pub mod log;
 pub mod mc;
+pub mod number;
 pub mod run;
 pub mod scene;
 pub mod space;

@@ -689,3 +689,75 @@ fn item_21_log_paths_the_file_system_refuses_are_refused_by_check() {
         assert!(err.contains("log.path"), "{err}");
     }
 }
+
+/// The longest run of decimal digits in `text`.
+fn longest_digit_run(text: &str) -> usize {
+    text.split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0)
+}
+
+#[test]
+fn item_26_numbers_print_short_and_never_round_to_zero() {
+    let dir = scratch("numbers");
+    let scene = |edge: &str, stages: &str| {
+        format!(
+            r#"Scene(
+    seed: 1,
+    box: ({edge}, {edge}, {edge}),
+    species: [Species(name: "s", shape: Sphere(radius: 1e-30), count: 8)],
+    stages: [{stages}],
+    log: Log(path: "{}", stats_every: 10, frames_every: 20),
+)"#,
+            dir.join("tiny.mcap").display()
+        )
+    };
+    let checked = write(
+        &dir.join("checked.ron"),
+        &scene(
+            "10.0",
+            "Compress(pressure: 1e100), MonteCarlo(ensemble: Npt(pressure: 1e99), sweeps: 10)",
+        ),
+    );
+    let (code, out) = cli(&["check", s(&checked)]);
+    assert_eq!(code, 0, "{out}");
+    assert!(longest_digit_run(&out) <= 17, "{out}");
+    assert!(
+        out.contains("betaP = 1e100") && out.contains("betaP = 1e99"),
+        "{out}"
+    );
+    assert!(
+        !out.contains("0.0000"),
+        "a length or fraction rounded to zero: {out}"
+    );
+
+    let run = write(
+        &dir.join("run.ron"),
+        &scene("10.0", "MonteCarlo(ensemble: Nvt, sweeps: 20)"),
+    );
+    let (code, out) = cli(&["run", s(&run)]);
+    assert_eq!(code, 0, "{out}");
+    assert!(longest_digit_run(&out) <= 17, "{out}");
+    assert!(out.contains("packing fraction 3.3510e-92"), "{out}");
+    for args in [vec!["analyze"], vec!["analyze", "--packing"]] {
+        let tiny = dir.join("tiny.mcap");
+        let (code, out) = cli(&[args.as_slice(), &[s(&tiny)]].concat());
+        assert!(code == 0 || code == 1, "{args:?}: {out}");
+        assert!(longest_digit_run(&out) <= 17, "{args:?}: {out}");
+        assert!(!out.contains("0.0000 (constant)"), "{args:?}: {out}");
+    }
+
+    // A box whose volume has no floating-point value is refused, named.
+    let huge = write(
+        &dir.join("huge.ron"),
+        &scene("1e300", "MonteCarlo(ensemble: Nvt, sweeps: 20)"),
+    );
+    let (code, out) = cli(&["check", s(&huge)]);
+    assert_eq!(code, 2, "{out}");
+    assert!(
+        out.contains("box: edges must lie in [1e-100, 1e100], got (1e300, 1e300, 1e300)"),
+        "{out}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

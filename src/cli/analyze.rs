@@ -1,6 +1,7 @@
 //! The commands that read logs: `analyze`, `inspect`, `export`; and
 //! `virial`.
 
+use hardbody::number::Num;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -100,9 +101,9 @@ pub(super) fn analyze(
             for (name, o) in &stage.observables {
                 let e = &o.estimate;
                 let value = if o.constant {
-                    format!("{} (constant)", e.mean)
+                    format!("{} (constant)", Num(e.mean))
                 } else {
-                    format!("{:.6} +- {:.6}", e.mean, e.error)
+                    format!("{:.6} +- {:.6}", Num(e.mean), Num(e.error))
                 };
                 say(&format!(
                     "  {:<22} {:>26} {:>16} {:>8.2} {:>8.1}{}",
@@ -208,8 +209,8 @@ pub(super) fn analyze_replicas(
                 say(&format!(
                     "  {:<22} {:>26} {:>12.6}",
                     name,
-                    format!("{:.6} +- {:.6}", a.mean, a.error),
-                    a.spread
+                    format!("{:.6} +- {:.6}", Num(a.mean), Num(a.error)),
+                    Num(a.spread)
                 ));
             }
         }
@@ -261,7 +262,11 @@ pub(super) fn plot_stage(
                 points,
             },
             Series {
-                name: format!("mean {:.5} +- {:.5}", o.estimate.mean, o.estimate.error),
+                name: format!(
+                    "mean {:.5} +- {:.5}",
+                    Num(o.estimate.mean),
+                    Num(o.estimate.error)
+                ),
                 points: vec![(from, o.estimate.mean), (end, o.estimate.mean)],
             },
             Series {
@@ -312,7 +317,7 @@ pub(super) fn inspect(path: &std::path::Path) -> ExitCode {
     for (_, s) in &contents.stats {
         let progress = match (s.sweep, s.time) {
             (Some(sweep), _) => format!("sweep {sweep}"),
-            (_, Some(t)) => format!("t = {t}"),
+            (_, Some(t)) => format!("t = {}", Num(t)),
             _ => String::new(),
         };
         match stages.last_mut() {
@@ -368,7 +373,8 @@ pub(super) fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> E
         say(&format!("shapes:          {sa} / {sb}"));
         say(&format!(
             "excluded volume: {:.6} ± {:.6}",
-            e.excluded_volume, e.excluded_volume_error
+            Num(e.excluded_volume),
+            Num(e.excluded_volume_error)
         ));
         say(&format!(
             "B2:              {:.6} ± {:.6}",
@@ -484,7 +490,7 @@ pub(super) fn analyze_packing(
     }
     let at = match (state.sweep, state.time) {
         (Some(s), _) => format!("sweep {s}"),
-        (_, Some(t)) => format!("t = {t}"),
+        (_, Some(t)) => format!("t = {}", Num(t)),
         _ => "its start".into(),
     };
     say(&format!(
@@ -492,7 +498,7 @@ pub(super) fn analyze_packing(
         path.display(),
         state.stage_index,
         network.bodies,
-        network.packing_fraction
+        Num(network.packing_fraction)
     ));
     let gap = choice.gap;
     say(&match (choice.source, choice.flattest) {
@@ -564,6 +570,7 @@ pub(super) fn analyze_packing(
             (f64::NAN, 0.0),
             |best, (&r, &g)| if g > best.1 { (r, g) } else { best },
         );
+    let (peak, r_max, cutoff) = (Num(peak), Num(r_max), Num(*cutoff));
     say(&format!(
         "g(r): highest at r = {peak:.3} (g = {height:.2}), 100 bins to r = {r_max:.3} (--json for the curve)"
     ));
@@ -573,6 +580,7 @@ pub(super) fn analyze_packing(
             .fold((f64::NAN, f64::NEG_INFINITY), |best, (&k, &s)| {
                 if s > best.1 { (k, s) } else { best }
             });
+    let k_peak = Num(k_peak);
     say(&format!(
         "S(k): highest at k = {k_peak:.3} (S = {s_peak:.2}), from g(r)"
     ));

@@ -16,6 +16,7 @@
 //! Between calls the state is valid whenever [`Compressor::is_valid`]
 //! holds; an error or a jam leaves the last valid state in place.
 
+use crate::number::Num;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -144,11 +145,11 @@ pub enum CompressError {
         start: f64,
     },
     /// Move sizes that cannot move anything.
-    #[error("translation move size must be > 0, got {0}")]
+    #[error("translation move size must be > 0, got {}", Num(*.0))]
     ZeroMoveSize(f64),
     /// Jammed short of the target.
     #[error(
-        "jammed at packing fraction {reached:.4} after {sweeps} sweeps (target {target}); `until_jammed: true` ends the stage there"
+        "jammed at packing fraction {:.4} after {sweeps} sweeps (target {}); `until_jammed: true` ends the stage there", Num(*.reached), Num(*.target)
     )]
     Jammed {
         /// Packing fraction reached.
@@ -160,7 +161,9 @@ pub enum CompressError {
     },
     /// Jammed before the pressure asked was measured.
     #[error(
-        "jammed at packing fraction {reached:.4} after {sweeps} sweeps before betaP reached {pressure}: a pressure this high is that of a jammed packing or near it; for one, use Compress(packing_fraction: 0.74, until_jammed: true) or Jam()"
+        "jammed at packing fraction {:.4} after {sweeps} sweeps before betaP reached {}: a pressure this high is that of a jammed packing or near it; for one, use Compress(packing_fraction: 0.74, until_jammed: true) or Jam()",
+        Num(*.reached),
+        Num(*.pressure)
     )]
     JammedBelowPressure {
         /// Packing fraction reached.
@@ -174,7 +177,11 @@ pub enum CompressError {
     /// range (the minimum image would not be unique): too few particles
     /// for that packing fraction.
     #[error(
-        "at packing fraction {target} the box edge would be {edge:.4}, below twice the interaction range {range:.4}: use more particles (reached {reached:.4})"
+        "at packing fraction {} the box edge would be {:.4}, below twice the interaction range {:.4}: use more particles (reached {:.4})",
+        Num(*.target),
+        Num(*.edge),
+        Num(*.range),
+        Num(*.reached)
     )]
     BoxLimit {
         /// Packing fraction reached.
@@ -187,7 +194,11 @@ pub enum CompressError {
         range: f64,
     },
     /// Ran out of sweeps.
-    #[error("reached packing fraction {reached:.4} of {target} in the allowed {sweeps} sweeps")]
+    #[error(
+        "reached packing fraction {:.4} of {} in the allowed {sweeps} sweeps",
+        Num(*.reached),
+        Num(*.target)
+    )]
     OutOfSweeps {
         /// Packing fraction reached.
         reached: f64,

@@ -1,6 +1,7 @@
 //! The compression stage, and the approach to an NPT stage's pressure
 //! that starts an NPT stage from a fresh state.
 
+use crate::number::Num;
 use rand_pcg::Pcg64;
 
 use crate::geometry::pair::{OverlapStrains, take_overlap_strains};
@@ -130,7 +131,7 @@ impl StageRun for CompressStage<'_> {
     fn progress(&self) -> (u64, String) {
         (
             self.compressor.state().sweeps,
-            format!("phi {:.4}", self.system.packing_fraction()),
+            format!("phi {:.4}", Num(self.system.packing_fraction())),
         )
     }
 
@@ -167,7 +168,7 @@ impl StageRun for CompressStage<'_> {
         let line = match self.report {
             None => format!(
                 "interrupted at packing fraction {:.4} after {s} sweeps",
-                self.system.packing_fraction()
+                Num(self.system.packing_fraction())
             ),
             Some(report) if report.jammed => {
                 let pressure = report
@@ -176,12 +177,14 @@ impl StageRun for CompressStage<'_> {
                     .unwrap_or_default();
                 format!(
                     "jammed at packing fraction {:.4} after {} sweeps{pressure}",
-                    report.packing_fraction, report.sweeps
+                    Num(report.packing_fraction),
+                    report.sweeps
                 )
             }
             Some(report) => format!(
                 "reached packing fraction {:.4} in {} sweeps",
-                report.packing_fraction, report.sweeps
+                Num(report.packing_fraction),
+                report.sweeps
             ),
         };
         (Phase::Mc(self.system), line)
@@ -222,11 +225,11 @@ impl Runner {
         };
         let sweeps = compressor.state().sweeps;
         self.sizes = compressor.state().sizes;
-        let end = system.packing_fraction();
+        let (pressure, start, end) = (Num(pressure), Num(start), Num(system.packing_fraction()));
         Some(match report {
             Some(r) => format!(
                 "approached betaP {pressure} from packing fraction {start:.4} to {end:.4} (measured betaP {:.4}) in {sweeps} sweeps, then ",
-                r.pressure.unwrap_or(f64::NAN)
+                Num(r.pressure.unwrap_or(f64::NAN))
             ),
             None => format!(
                 "approach to betaP {pressure} stopped at packing fraction {end:.4} after {sweeps} sweeps, then "

@@ -1,6 +1,7 @@
 //! The dynamics stage: the hand-off from a state or a previous dynamics,
 //! the event-driven run between stats and frames, and its frames.
 
+use crate::number::Num;
 use nalgebra::Vector3;
 use rand_pcg::Pcg64;
 
@@ -323,7 +324,7 @@ impl StageRun for DynamicsStage {
                 "{} collisions, betaP {}",
                 self.collisions,
                 self.pressure
-                    .map(|p| format!("{p:.3}"))
+                    .map(|p| format!("{:.3}", Num(p)))
                     .unwrap_or_else(|| "-".into())
             ),
         )
@@ -377,7 +378,7 @@ impl StageRun for DynamicsStage {
             self.dynamics.collisions() - self.progress_at.start_collisions,
             self.dynamics.time() - self.progress_at.start_time,
             self.last_pressure
-                .map(|p| format!(", last betaP {p:.4}"))
+                .map(|p| format!(", last betaP {:.4}", Num(p)))
                 .unwrap_or_default(),
             if stopped { ", interrupted" } else { "" }
         );

@@ -3,6 +3,7 @@
 //! and at the end. Each frame holds the grown species, the velocities and
 //! the run's progress: a resumed run goes on from it bit for bit.
 
+use crate::number::Num;
 use std::cell::Cell;
 
 use rand_pcg::Pcg64;
@@ -208,7 +209,10 @@ impl StageRun for JamStage {
             .map(|c| {
                 format!(
                     "phi {:.4}, betaPV/N {:.3e}, {} collisions, growth rate {:e}",
-                    c.packing_fraction, c.pressure, c.collisions, c.growth_rate
+                    Num(c.packing_fraction),
+                    c.pressure,
+                    c.collisions,
+                    c.growth_rate
                 )
             })
             .unwrap_or_default();
@@ -255,7 +259,7 @@ impl StageRun for JamStage {
             ));
         }
         let system = self.run.system();
-        let phi = system.packing_fraction();
+        let phi = Num(system.packing_fraction());
         let figures = self
             .last
             .map(|c| {

@@ -25,6 +25,7 @@ mod records;
 mod simulation;
 mod start;
 
+use crate::number::Num;
 use compress::CompressStage;
 use dynamics::DynamicsStage;
 use jam::JamStage;
@@ -342,23 +343,30 @@ fn describe(stage: &Stage) -> String {
         Stage::Compress {
             packing_fraction: Some(phi),
             ..
-        } => format!("compress to {phi}"),
+        } => format!("compress to {}", Num(*phi)),
         Stage::Compress { pressure, .. } => {
-            format!("compress to betaP = {}", pressure.unwrap_or(f64::NAN))
+            format!("compress to betaP = {}", Num(pressure.unwrap_or(f64::NAN)))
         }
         Stage::MonteCarlo {
             ensemble, sweeps, ..
         } => match ensemble {
             Ensemble::Nvt => format!("Monte Carlo NVT, {sweeps} sweeps"),
             Ensemble::Npt { pressure, .. } => {
-                format!("Monte Carlo NPT betaP = {pressure}, {sweeps} sweeps")
+                format!(
+                    "Monte Carlo NPT betaP = {}, {sweeps} sweeps",
+                    Num(*pressure)
+                )
             }
         },
         Stage::Dynamics {
             duration,
             temperature,
             ..
-        } => format!("dynamics, t = {duration} at kT = {temperature}"),
+        } => format!(
+            "dynamics, t = {} at kT = {}",
+            Num(*duration),
+            Num(*temperature)
+        ),
         Stage::Jam {
             pressure,
             packing_fraction,
@@ -366,7 +374,10 @@ fn describe(stage: &Stage) -> String {
         } => {
             let bound = pressure.unwrap_or(crate::edmd::jam::DEFAULT_JAM_PRESSURE);
             match packing_fraction {
-                Some(phi) => format!("jam to betaPV/N = {bound:e} or packing fraction {phi}"),
+                Some(phi) => format!(
+                    "jam to betaPV/N = {bound:e} or packing fraction {}",
+                    Num(*phi)
+                ),
                 None => format!("jam to betaPV/N = {bound:e}"),
             }
         }

@@ -1,6 +1,7 @@
 //! The Monte Carlo stage: NVT or NPT sweeps, serial or on slabs, with
 //! move sizes tuned while the stage settles and the SDF pressure in NVT.
 
+use crate::number::Num;
 use rand::RngCore;
 use rand_pcg::Pcg64;
 
@@ -247,7 +248,7 @@ impl StageRun for MonteCarloStage<'_> {
             self.sweep,
             format!(
                 "phi {:.4}, acceptance {:.2}",
-                self.system.packing_fraction(),
+                Num(self.system.packing_fraction()),
                 self.acceptance
             ),
         )
@@ -278,9 +279,9 @@ impl StageRun for MonteCarloStage<'_> {
             "{}{} sweeps, packing fraction {:.4}{}{}",
             self.approach.unwrap_or_default(),
             self.sweep,
-            self.system.packing_fraction(),
+            Num(self.system.packing_fraction()),
             self.pressure
-                .map(|p| format!(", last betaP {p:.4}"))
+                .map(|p| format!(", last betaP {:.4}", Num(p)))
                 .unwrap_or_default(),
             if stopped { ", interrupted" } else { "" }
         );

@@ -10,6 +10,7 @@ use super::{Ensemble, Neighbours, Scene, Stage, Start};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
 use crate::mc::tuning::TuningSpan;
+use crate::number::Num;
 use crate::state::start::lattice_plan;
 use crate::state::{NeighbourPlan, Species};
 
@@ -203,9 +204,12 @@ impl fmt::Display for Report<'_> {
         let (x, y, z) = scene.box_lengths;
         writeln!(
             f,
-            "scene: {} particles of {} species in a box {x} x {y} x {z} {} (packing fraction {:.4}), seed {}",
+            "scene: {} particles of {} species in a box {} x {} x {} {} (packing fraction {:.4}), seed {}",
             scene.particle_count(),
             scene.species.len(),
+            Num(x),
+            Num(y),
+            Num(z),
             match plan.walls {
                 [false, false, false] => "periodic in x, y, z".to_string(),
                 [true, true, true] => "closed by hard walls in x, y, z".to_string(),
@@ -222,7 +226,7 @@ impl fmt::Display for Report<'_> {
                     format!("periodic in {}, walled in {}", axes(false), axes(true))
                 }
             },
-            scene.particle_volume() / (x * y * z),
+            Num(scene.particle_volume() / (x * y * z)),
             scene.seed
         )?;
         writeln!(f, "species:")?;
@@ -230,7 +234,11 @@ impl fmt::Display for Report<'_> {
             writeln!(
                 f,
                 "  {} x{}: {} (mass {}); {}",
-                s.species.name, s.count, s.species.shape, s.mass, s.rotation_reason
+                s.species.name,
+                s.count,
+                s.species.shape,
+                Num(s.mass),
+                s.rotation_reason
             )?;
         }
         writeln!(f, "pair kernels (only the pairs present):")?;
@@ -281,15 +289,15 @@ impl fmt::Display for Report<'_> {
                 writeln!(
                     f,
                     "  Monte Carlo neighbours: cells of width {:.4} holding bounding boxes ({why}), oriented-box pre-filter",
-                    n.aabb_width
+                    Num(n.aabb_width)
                 )?;
-                if let Some(pad) = n.capsule_pad {
+                if let Some(pad) = n.capsule_pad.map(Num) {
                     writeln!(
                         f,
                         "  Monte Carlo neighbours: Verlet lists over bounding capsules padded by {pad:.4} while the box stays put and the moves are short (root-mean-square shift of a capsule's end under half the pad)"
                     )?;
                 }
-            } else if let Some(skin) = n.sphere_skin {
+            } else if let Some(skin) = n.sphere_skin.map(Num) {
                 writeln!(
                     f,
                     "  Monte Carlo neighbours: cells as wide as the interaction range; Verlet lists with a skin of {skin:.4} (spheres) while the box stays put and the moves are short (root-mean-square step under a quarter skin)"
@@ -331,7 +339,7 @@ impl fmt::Display for Report<'_> {
                 "accuracy.neighbours"
             };
             for (index, shell) in &plan.dynamics_shells {
-                let what = match shell {
+                let what = match shell.map(|s| s.map(Num)) {
                     Some(None) => "linked cells with cell-crossing events".to_string(),
                     Some(Some(shell)) if spheres => format!(
                         "lists of the bodies whose bounding spheres grown by {shell:.4} overlap, rebuilt when a centre has moved {shell:.4}"
@@ -407,12 +415,12 @@ impl fmt::Display for Report<'_> {
                 } => {
                     let target = match (packing_fraction, pressure) {
                         (Some(phi), _) if *until_jammed => {
-                            format!("packing fraction {phi}, or to the jam short of it")
+                            format!("packing fraction {}, or to the jam short of it", Num(*phi))
                         }
-                        (Some(phi), _) => format!("packing fraction {phi}"),
+                        (Some(phi), _) => format!("packing fraction {}", Num(*phi)),
                         (None, p) => format!(
                             "the packing fraction of betaP = {} (measured by the scale distribution, within 3 %)",
-                            p.unwrap_or(f64::NAN)
+                            Num(p.unwrap_or(f64::NAN))
                         ),
                     };
                     format!(
@@ -433,7 +441,8 @@ impl fmt::Display for Report<'_> {
                             pressure,
                             anisotropic,
                         } => format!(
-                            "NPT at betaP = {pressure}, {} box moves",
+                            "NPT at betaP = {}, {} box moves",
+                            Num(*pressure),
                             if *anisotropic {
                                 "per-axis"
                             } else {
@@ -460,7 +469,7 @@ impl fmt::Display for Report<'_> {
                 } => {
                     let rate = growth_rate.unwrap_or(crate::edmd::jam::DEFAULT_GROWTH_RATE);
                     let packing = packing_fraction
-                        .map(|phi| format!(" or the packing fraction reaches {phi}"))
+                        .map(|phi| format!(" or the packing fraction reaches {}", Num(phi)))
                         .unwrap_or_default();
                     let fluid = fluid_rate
                         .map(|f| {
@@ -481,7 +490,9 @@ impl fmt::Display for Report<'_> {
                     true_inertia,
                     ..
                 } => format!(
-                    "event-driven dynamics for t = {duration} at kT = {temperature}, {} tops",
+                    "event-driven dynamics for t = {} at kT = {}, {} tops",
+                    Num(*duration),
+                    Num(*temperature),
                     if *true_inertia {
                         "symmetric (true inertia)"
                     } else {

@@ -3,6 +3,7 @@
 //! walls given; each refusal names its field.
 
 use super::*;
+use crate::number::Num;
 
 impl Scene {
     /// Checks every field; on failure the field path and what is wrong.
@@ -34,10 +35,16 @@ impl Scene {
     pub(super) fn validate(&self) -> Result<(), (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
         let (x, y, z) = self.box_lengths;
-        if ![x, y, z].iter().all(|l| l.is_finite() && *l > 0.0) {
+        let (low, high) = VALUE_RANGE;
+        if ![x, y, z].iter().all(|l| *l >= low && *l <= high) {
             return bad(
                 "box",
-                format!("edges must be finite and > 0, got ({x}, {y}, {z})"),
+                format!(
+                    "edges must lie in [{low:e}, {high:e}], got ({}, {}, {})",
+                    Num(x),
+                    Num(y),
+                    Num(z)
+                ),
             );
         }
         for (i, a) in self.walls.iter().enumerate() {
@@ -93,7 +100,9 @@ impl Scene {
             return bad(
                 "box",
                 format!(
-                    "the shortest edge {shortest} must be at least twice the largest bounding diameter {diameter} (minimum image)"
+                    "the shortest edge {} must be at least twice the largest bounding diameter {} (minimum image)",
+                    Num(shortest),
+                    Num(diameter)
                 ),
             );
         }
@@ -209,8 +218,9 @@ impl Scene {
                                 "pressure"
                             }),
                             format!(
-                                "grown to packing fraction {grown_to:.4} the bodies' largest bounding diameter would be {:.4}, more than half the shortest box edge {shortest:.4} (minimum image): use more particles",
-                                diameter / scale
+                                "grown to packing fraction {grown_to:.4} the bodies' largest bounding diameter would be {:.4}, more than half the shortest box edge {:.4} (minimum image): use more particles",
+                                Num(diameter / scale),
+                                Num(shortest)
                             ),
                         );
                     }
@@ -238,7 +248,7 @@ impl Scene {
                             if !(*p >= low && *p <= high) {
                                 return bad(
                                     &f("pressure"),
-                                    format!("must lie in [{low:e}, {high:e}]; got {p}"),
+                                    format!("must lie in [{low:e}, {high:e}]; got {}", Num(*p)),
                                 );
                             }
                             if *until_jammed {
@@ -259,8 +269,9 @@ impl Scene {
                         return bad(
                             &f("packing_fraction"),
                             format!(
-                                "at {target} the shortest box edge would be {:.4}, below twice the largest bounding diameter {diameter:.4}: use more particles",
-                                shortest * scale
+                                "at {target} the shortest box edge would be {:.4}, below twice the largest bounding diameter {:.4}: use more particles",
+                                Num(shortest * scale),
+                                Num(diameter)
                             ),
                         );
                     }
@@ -305,7 +316,7 @@ impl Scene {
                     if !(duration.is_finite() && *duration > 0.0) {
                         return bad(
                             &f("duration"),
-                            format!("must be finite and > 0, got {duration}"),
+                            format!("must be finite and > 0, got {}", Num(*duration)),
                         );
                     }
                     let (low, high) = VALUE_RANGE;
@@ -321,14 +332,18 @@ impl Scene {
                     ] {
                         if let Some(v) = v {
                             if !(v.is_finite() && *v > 0.0) {
-                                return bad(&f(name), format!("must be finite and > 0, got {v}"));
+                                return bad(
+                                    &f(name),
+                                    format!("must be finite and > 0, got {}", Num(*v)),
+                                );
                             }
                             if duration / v > most {
                                 return bad(
                                     &f(name),
                                     format!(
-                                        "{v:e} would write {:.3e} messages over the duration {duration}: at most {most:e} per stage",
-                                        duration / v
+                                        "{v:e} would write {:.3e} messages over the duration {}: at most {most:e} per stage",
+                                        duration / v,
+                                        Num(*duration)
                                     ),
                                 );
                             }
@@ -404,7 +419,7 @@ impl Scene {
         if !(a.grazing_threshold > 0.0 && a.grazing_threshold < 1.0) {
             return bad(
                 "accuracy.grazing_threshold",
-                format!("must lie in (0, 1), got {}", a.grazing_threshold),
+                format!("must lie in (0, 1), got {}", Num(a.grazing_threshold)),
             );
         }
         if !(a.contact_tolerance > 0.0 && a.contact_tolerance < a.grazing_threshold) {
@@ -412,14 +427,15 @@ impl Scene {
                 "accuracy.contact_tolerance",
                 format!(
                     "must lie in (0, grazing_threshold = {}), got {}",
-                    a.grazing_threshold, a.contact_tolerance
+                    Num(a.grazing_threshold),
+                    Num(a.contact_tolerance)
                 ),
             );
         }
         if !(a.newton_tolerance > 0.0 && a.newton_tolerance < 1e-3) {
             return bad(
                 "accuracy.newton_tolerance",
-                format!("must lie in (0, 1e-3), got {}", a.newton_tolerance),
+                format!("must lie in (0, 1e-3), got {}", Num(a.newton_tolerance)),
             );
         }
         if let Neighbours::Lists { shell } = a.neighbours
@@ -427,7 +443,10 @@ impl Scene {
         {
             return bad(
                 "accuracy.neighbours",
-                format!("the neighbour shell must be a length > 0, got {shell}"),
+                format!(
+                    "the neighbour shell must be a length > 0, got {}",
+                    Num(shell)
+                ),
             );
         }
         Ok(())
@@ -448,15 +467,18 @@ fn packing_target(
     let bad = |message: String| Err((field.to_string(), message));
     if !(target.is_finite() && target > 0.0 && target < densest) {
         return bad(format!(
-            "must lie in (0, {densest:.4}), the densest packing of these shapes; got {target}"
+            "must lie in (0, {densest:.4}), the densest packing of these shapes; got {}",
+            Num(target)
         ));
     }
     match start {
         Some(phi) if grows && target <= phi => bad(format!(
-            "{target} is not above the packing fraction {phi:.4} the stage starts from: nothing to grow"
+            "{} is not above the packing fraction {phi:.4} the stage starts from: nothing to grow",
+            Num(target)
         )),
         Some(phi) if target < phi => bad(format!(
-            "{target} is below the packing fraction {phi:.4} the stage starts from: nothing to compress"
+            "{} is below the packing fraction {phi:.4} the stage starts from: nothing to compress",
+            Num(target)
         )),
         _ => Ok(()),
     }
