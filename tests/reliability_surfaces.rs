@@ -761,3 +761,100 @@ fn item_26_numbers_print_short_and_never_round_to_zero() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Runs each of `commands` (arguments of the `hardbody` executable, `M`
+/// standing for the mount point) in a mount namespace of its own on a
+/// tmpfs of `kib` KiB (read-only when `read_only`); per command its exit
+/// code and standard error, then the files left on the mount with their
+/// sizes. None where no mount namespace can be made (it needs root).
+fn on_small_disk(
+    dir: &Path,
+    kib: u32,
+    read_only: bool,
+    commands: &[&[&str]],
+) -> Option<(Vec<(i32, String)>, String)> {
+    let mount = dir.join(format!("disk{kib}{read_only}"));
+    std::fs::create_dir_all(&mount).unwrap();
+    let m = s(&mount);
+    let mut script = format!("mount -t tmpfs -o size={kib}k tmpfs {m} || exit 99; ");
+    if read_only {
+        script += &format!("mount -o remount,ro {m} || exit 99; ");
+    }
+    for (k, args) in commands.iter().enumerate() {
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| format!("'{}'", a.replace('M', m)))
+            .collect();
+        script += &format!(
+            "{EXE} {} >/dev/null 2>{m}/../err{k}; echo $? >{m}/../code{k}; ",
+            args.join(" ")
+        );
+    }
+    script += &format!("cd {m} && find . -mindepth 1 -printf '%p %s\\n'");
+    let out = Command::new("unshare")
+        .args(["-m", "sh", "-c", &script])
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let results = (0..commands.len())
+        .map(|k| {
+            let read = |name: &str| {
+                std::fs::read_to_string(dir.join(format!("{name}{k}"))).unwrap_or_default()
+            };
+            (read("code").trim().parse().unwrap(), read("err"))
+        })
+        .collect();
+    Some((results, String::from_utf8_lossy(&out.stdout).into_owned()))
+}
+
+#[test]
+fn item_20_a_full_or_read_only_disk_fails_named_and_leaves_nothing_empty() {
+    let dir = scratch("disk");
+    let log = dir.join("l.mcap");
+    run_to(&small(1, "Lattice"), &log);
+    let template = write(&dir.join("t.ron"), &small(1, "Lattice"));
+    let (log, template) = (s(&log), s(&template));
+    let commands: [&[&str]; 5] = [
+        &["analyze", log, "--plot", "M/plots"],
+        &["analyze", log, "--packing", "--plot", "M/packing"],
+        &["export", log, "--gsd", "M/x.gsd"],
+        &[
+            "sweep",
+            template,
+            "--set",
+            "seed=1,2,3,4,5,6,7,8",
+            "--workspace",
+            "M/w",
+        ],
+        &["run", template, "--out", "M/out.mcap"],
+    ];
+    let Some((full, files)) = on_small_disk(&dir, 8, false, &commands) else {
+        eprintln!("item_20: no mount namespace here (needs root); skipped");
+        return;
+    };
+    for ((code, err), args) in full.iter().zip(&commands) {
+        assert_eq!(*code, 1, "{args:?}: {err}");
+        assert!(err.contains("no space left on device"), "{args:?}: {err}");
+        assert!(!err.contains("I/O error"), "{args:?}: {err}");
+    }
+    for line in files.lines() {
+        let (path, size) = line.rsplit_once(' ').unwrap();
+        assert!(
+            size != "0" || !path.contains('.'),
+            "an empty file is left behind: {files}"
+        );
+        assert!(
+            !path.contains("x.gsd") && !path.starts_with("./w"),
+            "{files}"
+        );
+    }
+    let (read_only, files) = on_small_disk(&dir, 64, true, &commands).unwrap();
+    for ((code, err), args) in read_only.iter().zip(&commands) {
+        assert_eq!(*code, 1, "{args:?}: {err}");
+        assert!(err.contains("Read-only file system"), "{args:?}: {err}");
+    }
+    assert!(files.trim().is_empty(), "{files}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

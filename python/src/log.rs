@@ -21,6 +21,7 @@ fn log_error(path: &std::path::Path, e: RustLogError) -> PyErr {
             PyFileNotFoundError::new_err(format!("{}: no such file", path.display()))
         }
         RustLogError::Io { .. } => PyOSError::new_err(e.to_string()),
+        _ if e.is_storage_failure() => PyOSError::new_err(e.to_string()),
         _ => LogError::new_err(e.to_string()),
     }
 }

@@ -153,7 +153,7 @@ pub fn run(quick: bool) -> Result<Vec<CompressRow>, String> {
 }
 
 /// Writes `compress-scaling.svg`: seconds per particle against N.
-pub fn plot(rows: &[CompressRow], dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn plot(rows: &[CompressRow], dir: &Path) -> Result<Vec<PathBuf>, super::plot::PlotError> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut series: Vec<Series> = Vec::new();
     for r in rows.iter().filter(|r| r.table == "scaling") {

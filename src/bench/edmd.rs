@@ -297,7 +297,7 @@ type Axis = (&'static str, &'static str, fn(&ToleranceRow) -> f64, bool);
 pub fn plot(
     rows: &[ToleranceRow],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let default_newton = PredictorOptions::default().distance.newton.tolerance;
     let default_grazing = PredictorOptions::default().grazing_threshold;

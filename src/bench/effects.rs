@@ -278,7 +278,10 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, String> {
 }
 
 /// The suite's plot: on/off cost ratio per effect (1 = free).
-pub fn plot(rows: &[EffectRow], dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
+pub fn plot(
+    rows: &[EffectRow],
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     let bars: Vec<(String, f64)> = rows
         .iter()
         .map(|r| (format!("{}: {}", r.driver, r.effect), r.ratio))

@@ -185,7 +185,7 @@ fn timed(shape: Shape, side: usize, options: &JamOptions) -> Result<JamRow, Stri
 /// `--plot`: the jammed packing fraction and the backbone's contact
 /// number against the growth rate, a series per shape (slower growth:
 /// denser, and closer to isostatic).
-pub fn plot(rows: &[JamRow], dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn plot(rows: &[JamRow], dir: &Path) -> Result<Vec<PathBuf>, super::plot::PlotError> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let series = |value: &dyn Fn(&JamRow) -> f64| {
         let mut out: Vec<Series> = Vec::new();

@@ -442,7 +442,7 @@ pub fn plot(
     density: &[McRow],
     sizes: &[AcceptanceRow],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let name = |text: &str| text.split('(').next().unwrap_or(text).to_lowercase();
     let speed: Vec<Series> = SHAPES

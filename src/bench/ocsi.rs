@@ -373,7 +373,7 @@ pub fn run(
 pub fn plot(
     points: &[OcsiPoint],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let mut radii: Vec<f64> = Vec::new();
     for p in points {

@@ -6,6 +6,33 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
+use crate::log::file::OutputError;
+
+/// Why a plot was not written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The plot could not be drawn (with the file it was for).
+    #[error("{0}")]
+    Draw(String),
+    /// The file could not be written (a link or an input in the way, a
+    /// full or read-only file system).
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+impl PlotError {
+    /// Whether the file system, not the input, is at fault.
+    pub fn is_storage_failure(&self) -> bool {
+        matches!(self, PlotError::Output(e) if e.is_storage_failure())
+    }
+}
+
+impl From<String> for PlotError {
+    fn from(message: String) -> Self {
+        PlotError::Draw(message)
+    }
+}
+
 /// A named series of points.
 pub struct Series {
     /// Legend text.
@@ -96,7 +123,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// Writes `series` as an SVG line plot with points to `path`.
-pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), String> {
+pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), PlotError> {
     let mut svg = String::new();
     draw_lines(&mut svg, path, figure, series)?;
     write_svg(path, &svg)
@@ -104,8 +131,8 @@ pub fn line_plot(path: &Path, figure: &Figure, series: &[Series]) -> Result<(), 
 
 /// Writes `svg` to `path` through a temporary file renamed into place,
 /// never through a symbolic link.
-fn write_svg(path: &Path, svg: &str) -> Result<(), String> {
-    crate::log::file::write_replacing(path, svg.as_bytes()).map_err(|e| e.to_string())
+fn write_svg(path: &Path, svg: &str) -> Result<(), PlotError> {
+    Ok(crate::log::file::write_replacing(path, svg.as_bytes())?)
 }
 
 fn draw_lines(
@@ -184,7 +211,7 @@ pub fn bar_plot(
     x_label: &str,
     bars: &[(String, f64)],
     reference: f64,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let mut svg = String::new();
     draw_bars(&mut svg, path, title, x_label, bars, reference)?;
     write_svg(path, &svg)
@@ -264,7 +291,7 @@ pub fn eos_plot(
     path: &Path,
     points: &[ErrorPoint],
     reference: &[(f64, f64)],
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let mut svg = String::new();
     draw_eos(&mut svg, path, points, reference)?;
     write_svg(path, &svg)

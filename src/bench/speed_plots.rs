@@ -8,7 +8,7 @@ use super::edmd_speed::SpeedRow;
 pub fn plot_shell(
     rows: &[SpeedRow],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let mut keys: Vec<(String, f64)> = Vec::new();
     for r in rows {
@@ -78,7 +78,7 @@ pub fn plot_shell(
 pub fn plot_density(
     rows: &[SpeedRow],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let mut keys: Vec<(String, bool)> = Vec::new();
     for r in rows {
@@ -121,7 +121,7 @@ pub fn plot_density(
 pub fn plot_elongation(
     rows: &[SpeedRow],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let mut phis: Vec<f64> = Vec::new();
     for r in rows {
@@ -190,7 +190,7 @@ pub fn plot_elongation(
 pub fn plot_superellipsoid(
     rows: &[SpeedRow],
     dir: &std::path::Path,
-) -> Result<Vec<std::path::PathBuf>, String> {
+) -> Result<Vec<std::path::PathBuf>, super::plot::PlotError> {
     use super::plot::{Figure, Series, line_plot};
     let mut keys: Vec<(f64, bool)> = Vec::new();
     for r in rows {

@@ -1,14 +1,15 @@
 //! The commands that read logs: `analyze`, `inspect`, `export`; and
 //! `virial`.
 
-use hardbody::number::Num;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use hardbody::analysis::virial::excluded_volume;
+use hardbody::bench::plot::PlotError;
 use hardbody::geometry::Shape;
-use hardbody::log::file::check_output;
+use hardbody::log::file::{OutputError, check_output};
 use hardbody::log::read::read_log;
+use hardbody::number::Num;
 
 use super::*;
 
@@ -47,11 +48,11 @@ pub(super) fn analyze(
     let stages = stage_averages(&stats);
     if let Some(dir) = plot {
         if let Err(e) = std::fs::create_dir_all(dir) {
-            return bad_input(format!("--plot {}: {e}", dir.display()));
+            return not_written(OutputError::io(dir, &e));
         }
         for stage in &stages {
             if let Err(e) = plot_stage(dir, &stats, stage, &[path]) {
-                return bad_input(e);
+                return not_written(e);
             }
         }
     }
@@ -170,11 +171,11 @@ pub(super) fn analyze_replicas(
             let stats: Vec<_> = c.stats.iter().map(|(_, s)| s.clone()).collect();
             let dir = dir.join(format!("replica{}", k + 1));
             if let Err(e) = std::fs::create_dir_all(&dir) {
-                return bad_input(format!("--plot {}: {e}", dir.display()));
+                return not_written(OutputError::io(&dir, &e));
             }
             for stage in stages {
                 if let Err(e) = plot_stage(&dir, &stats, stage, &inputs) {
-                    return bad_input(e);
+                    return not_written(e);
                 }
             }
         }
@@ -233,7 +234,7 @@ pub(super) fn plot_stage(
     stats: &[hardbody::log::Stats],
     stage: &hardbody::log::averages::StageAverages,
     inputs: &[&std::path::Path],
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     use hardbody::bench::plot::{Figure, Series, line_plot};
     let dynamics = stage.stage == "dynamics";
     for (name, o) in &stage.observables {
@@ -283,7 +284,7 @@ pub(super) fn plot_stage(
             log_y: false,
         };
         let path = dir.join(format!("stage{}-{name}.svg", stage.stage_index));
-        check_output(&path, false, inputs).map_err(|e| e.to_string())?;
+        check_output(&path, false, inputs)?;
         line_plot(&path, &figure, &series)?;
     }
     Ok(())
@@ -413,7 +414,7 @@ pub(super) fn export(log: &std::path::Path, out: &std::path::Path) -> ExitCode {
                 ExitCode::SUCCESS
             }
         },
-        Err(e) => bad_input(e),
+        Err(e) => not_written(e),
     }
 }
 
@@ -478,7 +479,7 @@ pub(super) fn analyze_packing(
             path,
         )
     {
-        return bad_input(format!("--plot {}: {e}", dir.display()));
+        return not_written(e);
     }
     if json {
         let mut value = serde_json::to_value(&report).expect("a report serialises");
@@ -617,15 +618,15 @@ fn packing_plots(
     histogram: &[usize],
     curve: &[(f64, usize)],
     input: &std::path::Path,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     use hardbody::bench::plot::{Figure, Series, bar_plot, line_plot};
-    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, &e))?;
     let rdf_path = dir.join("rdf.svg");
     let sk_path = dir.join("structure-factor.svg");
     let histogram_path = dir.join("contact-numbers.svg");
     let curve_path = dir.join("contacts-against-gap.svg");
     for p in [&rdf_path, &sk_path, &histogram_path, &curve_path] {
-        check_output(p, false, &[input]).map_err(|e| e.to_string())?;
+        check_output(p, false, &[input])?;
     }
     let figure = |title, x_label, y_label| Figure {
         title,

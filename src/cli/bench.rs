@@ -11,7 +11,8 @@ use hardbody::bench::{compress, edmd, edmd_speed, effects, jam, mc, ocsi, scene,
 use super::{EXIT_FAILED, Suite, bad_input, esay, print_block, print_json, say};
 
 /// A suite's plots of its rows into a directory.
-type Plotter<'a, R> = &'a dyn Fn(&[R], &Path) -> Result<Vec<PathBuf>, String>;
+type Plotter<'a, R> =
+    &'a dyn Fn(&[R], &Path) -> Result<Vec<PathBuf>, hardbody::bench::plot::PlotError>;
 
 /// Runs `suite`: `--json` prints its rows, else its table; `--plot DIR`
 /// writes its plots (refused for the suites that have none).

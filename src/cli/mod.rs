@@ -315,6 +315,47 @@ fn bad_input(message: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(EXIT_BAD_INPUT)
 }
 
+/// An output a command could not write: a failure (exit 1) where the
+/// file system could not take it (full, over quota, read-only), bad input
+/// (exit 2) where the path was at fault.
+fn not_written(e: impl NotWritten) -> ExitCode {
+    if e.is_storage_failure() {
+        esay(&format!("hardbody: {e}"));
+        ExitCode::from(EXIT_FAILED)
+    } else {
+        bad_input(e)
+    }
+}
+
+/// An error that may be the file system's.
+trait NotWritten: std::fmt::Display {
+    fn is_storage_failure(&self) -> bool;
+}
+
+impl NotWritten for hardbody::log::file::OutputError {
+    fn is_storage_failure(&self) -> bool {
+        self.is_storage_failure()
+    }
+}
+
+impl NotWritten for hardbody::log::LogError {
+    fn is_storage_failure(&self) -> bool {
+        self.is_storage_failure()
+    }
+}
+
+impl NotWritten for hardbody::bench::plot::PlotError {
+    fn is_storage_failure(&self) -> bool {
+        self.is_storage_failure()
+    }
+}
+
+impl NotWritten for hardbody::sweep::SweepError {
+    fn is_storage_failure(&self) -> bool {
+        self.is_storage_failure()
+    }
+}
+
 /// Exit code of a run stopped by Ctrl-C (its log is complete up to there).
 const EXIT_INTERRUPTED: u8 = 130;
 

@@ -4,6 +4,8 @@
 use std::path::Path;
 use std::process::ExitCode;
 
+use hardbody::bench::plot::PlotError;
+use hardbody::log::file::OutputError;
 use hardbody::sweep::collect::{StatePointRow, collect};
 use hardbody::sweep::{jobs, parse_sets, write_workspace};
 
@@ -55,7 +57,7 @@ pub(super) fn sweep(template: &Path, sets: &[String], replicas: u64, dir: &Path)
             ));
             ExitCode::SUCCESS
         }
-        Err(e) => bad_input(e),
+        Err(e) => not_written(e),
     }
 }
 
@@ -78,7 +80,10 @@ pub(super) fn sweep_collect(
     if let Some(plot_dir) = plot
         && let Err(e) = eos_plot(plot_dir, &rows)
     {
-        return bad_input(format!("--plot {}: {e}", plot_dir.display()));
+        return match e {
+            PlotError::Draw(why) => bad_input(format!("--plot {}: {why}", plot_dir.display())),
+            e => not_written(e),
+        };
     }
     if json {
         print_json(&rows);
@@ -183,7 +188,7 @@ fn table(rows: &[StatePointRow]) -> String {
 /// The equation of state of a sweep that varies a pressure: the imposed
 /// βP against the measured packing fraction, with its error, and
 /// Carnahan–Starling where the system is hard spheres.
-fn eos_plot(dir: &Path, rows: &[StatePointRow]) -> Result<(), String> {
+fn eos_plot(dir: &Path, rows: &[StatePointRow]) -> Result<(), PlotError> {
     use hardbody::bench::plot::{ErrorPoint, eos_plot as draw};
     let pressure_key = rows
         .first()
@@ -193,7 +198,9 @@ fn eos_plot(dir: &Path, rows: &[StatePointRow]) -> Result<(), String> {
                 .find(|k| k.ends_with("pressure"))
                 .cloned()
         })
-        .ok_or("the sweep varies no pressure: no equation of state to draw")?;
+        .ok_or_else(|| {
+            PlotError::Draw("the sweep varies no pressure: no equation of state to draw".into())
+        })?;
     let points: Vec<ErrorPoint> = rows
         .iter()
         .filter_map(|r| {
@@ -207,7 +214,7 @@ fn eos_plot(dir: &Path, rows: &[StatePointRow]) -> Result<(), String> {
         })
         .collect();
     if points.is_empty() {
-        return Err("no finished job to draw".into());
+        return Err(PlotError::Draw("no finished job to draw".into()));
     }
     let reference: Vec<(f64, f64)> = rows
         .iter()
@@ -218,7 +225,7 @@ fn eos_plot(dir: &Path, rows: &[StatePointRow]) -> Result<(), String> {
             ))
         })
         .collect();
-    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, &e))?;
     let path = dir.join("equation-of-state.svg");
     draw(&path, &points, &reference)?;
     esay(&format!("plot written: {}", path.display()));

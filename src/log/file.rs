@@ -38,6 +38,28 @@ pub enum OutputError {
     /// The file could not be created or written (the reason given).
     #[error("{}: {}", .0.display(), .1)]
     Create(PathBuf, String),
+    /// The file system could not take the file: full, over quota or
+    /// read-only (the reason given).
+    #[error("{}: {}", .0.display(), .1)]
+    Storage(PathBuf, String),
+}
+
+impl OutputError {
+    /// The failure `e` of creating or writing `path`, a full or read-only
+    /// file system told from a refusal of the path.
+    pub fn io(path: &Path, e: &std::io::Error) -> Self {
+        let reason = super::io_reason(e);
+        if super::is_storage_failure(e.kind()) {
+            OutputError::Storage(path.to_path_buf(), reason)
+        } else {
+            OutputError::Create(path.to_path_buf(), reason)
+        }
+    }
+
+    /// Whether the file system, not the path, is at fault.
+    pub fn is_storage_failure(&self) -> bool {
+        matches!(self, OutputError::Storage(..))
+    }
 }
 
 /// Whether `path` may be written as a command's output (directly or
@@ -116,7 +138,7 @@ pub fn create_fresh(path: &Path) -> Result<File, OutputError> {
         .write(true)
         .create_new(true)
         .open(path)
-        .map_err(|e| OutputError::Create(path.to_path_buf(), super::io_reason(&e)))
+        .map_err(|e| OutputError::io(path, &e))
 }
 
 /// Writes `bytes` to `path` through `<path>.partial` (made by
@@ -129,7 +151,7 @@ pub fn write_replacing(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     let partial = partial_path(path);
     let fail = |e: std::io::Error| {
         let _ = std::fs::remove_file(&partial);
-        OutputError::Create(path.to_path_buf(), super::io_reason(&e))
+        OutputError::io(path, &e)
     };
     let mut file = create_fresh(&partial)?;
     file.write_all(bytes).map_err(fail)?;

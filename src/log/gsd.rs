@@ -147,14 +147,38 @@ fn pressure_at(stats: &[(u64, Stats)], log_time: u64, stage_index: usize) -> f64
 }
 
 /// Writes the frames of `contents` to `out` (via `<out>.partial`, renamed
-/// when complete); returns the number of frames written.
+/// when complete); returns the number of frames written. On failure no
+/// partial file is left behind.
 pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
+    let partial = super::partial_path(out);
+    let written = write_gsd(contents, out, &partial);
+    if written.is_err() && !super::file::is_link(&partial) {
+        let _ = std::fs::remove_file(&partial);
+    }
+    written
+}
+
+/// A GSD writer's error on `out`, in `context`: the I/O error at its root
+/// where there is one (so a full disk is named, and told from bad data).
+fn gsd_error(out: &Path, context: &str, e: &(dyn std::error::Error + 'static)) -> LogError {
+    match super::io_cause(e) {
+        Some(io) => LogError::Io {
+            path: out.to_path_buf(),
+            source: std::io::Error::new(io.kind(), io.to_string()),
+        },
+        None => LogError::Content {
+            path: out.to_path_buf(),
+            message: format!("{context}{e}"),
+        },
+    }
+}
+
+fn write_gsd(contents: &LogContents, out: &Path, partial: &Path) -> Result<usize, LogError> {
     let frames = &contents.states;
     let scene = contents
         .metadata
         .get("scene_resolved")
         .and_then(|text| Scene::parse(text).ok());
-    let partial = super::partial_path(out);
     let fail = |message: String| LogError::Content {
         path: out.to_path_buf(),
         message,
@@ -166,9 +190,9 @@ pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
     let application = format!("hardbody {}", env!("CARGO_PKG_VERSION"));
     // Made here first: a link planted at the partial path is refused, not
     // followed by the GSD writer.
-    drop(super::file::create_fresh(&partial).map_err(|e| fail(e.to_string()))?);
-    let mut gsd = GsdFile::create(&partial, &application, "hoomd", (1, 4))
-        .map_err(|e| fail(e.to_string()))?;
+    drop(super::file::create_fresh(partial)?);
+    let mut gsd = GsdFile::create(partial, &application, "hoomd", (1, 4))
+        .map_err(|e| gsd_error(out, "", &e))?;
     let names: Vec<[u8; NAME_BYTES]> = first
         .species
         .iter()
@@ -199,7 +223,8 @@ pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
         let own_shapes = (k > 0 && state.species != first.species)
             .then(|| type_shapes(state))
             .transpose()?;
-        let w = |e: hoomd_gsd::file_layer::WriteError| fail(format!("frame {k}: {e}"));
+        let context = format!("frame {k}: ");
+        let w = |e: hoomd_gsd::file_layer::WriteError| gsd_error(out, &context, &e);
         let [lx, ly, lz] = state.box_lengths.map(|l| l as f32);
         gsd.write_scalars("configuration/step", [*log_time])
             .map_err(w)?;
@@ -286,12 +311,11 @@ pub fn export(contents: &LogContents, out: &Path) -> Result<usize, LogError> {
             gsd.write_arrays("particles/type_shapes", own.iter().copied())
                 .map_err(w)?;
         }
-        gsd.end_frame()
-            .map_err(|e| fail(format!("frame {k}: {e}")))?;
+        gsd.end_frame().map_err(|e| gsd_error(out, &context, &e))?;
     }
-    gsd.sync_all().map_err(|e| fail(e.to_string()))?;
+    gsd.sync_all().map_err(|e| gsd_error(out, "", &e))?;
     drop(gsd);
-    std::fs::rename(&partial, out).map_err(|source| LogError::Io {
+    std::fs::rename(partial, out).map_err(|source| LogError::Io {
         path: out.to_path_buf(),
         source,
     })?;

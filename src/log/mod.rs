@@ -74,6 +74,10 @@ pub enum LogError {
         /// What is missing or wrong.
         message: String,
     },
+    /// An output file could not be made (a link or a device where it
+    /// would go, a full or read-only file system).
+    #[error(transparent)]
+    Output(#[from] file::OutputError),
     /// Another process is writing this log.
     #[error(
         "{}: another hardbody run is writing this log (it holds the file's lock); wait for it, or give this run another --out",
@@ -83,6 +87,29 @@ pub enum LogError {
         /// The file that is locked.
         path: PathBuf,
     },
+}
+
+/// Whether an I/O error of this kind is the file system's (full, over
+/// quota, read-only) rather than the path's: a run that meets one failed
+/// (exit 1), one refused a path was given bad input (exit 2).
+pub fn is_storage_failure(kind: std::io::ErrorKind) -> bool {
+    use std::io::ErrorKind::*;
+    matches!(
+        kind,
+        StorageFull | QuotaExceeded | ReadOnlyFilesystem | FileTooLarge
+    )
+}
+
+/// The I/O error at the root of `e`'s chain of causes, if any.
+pub fn io_cause<'a>(e: &'a (dyn std::error::Error + 'static)) -> Option<&'a std::io::Error> {
+    let mut cause = Some(e);
+    while let Some(e) = cause {
+        if let Some(io) = e.downcast_ref::<std::io::Error>() {
+            return Some(io);
+        }
+        cause = e.source();
+    }
+    None
 }
 
 /// An I/O error in words a user acts on: a full disk is named as such.
@@ -95,6 +122,16 @@ fn io_reason(e: &std::io::Error) -> String {
 }
 
 impl LogError {
+    /// Whether the file system could not take the log (full, over quota,
+    /// read-only), rather than the path or the file being at fault.
+    pub fn is_storage_failure(&self) -> bool {
+        match self {
+            LogError::Io { source, .. } => is_storage_failure(source.kind()),
+            LogError::Output(e) => e.is_storage_failure(),
+            _ => false,
+        }
+    }
+
     /// An MCAP writer's error on `path`, with the I/O cause kept where
     /// there is one.
     fn from_mcap(path: &Path, source: mcap::McapError) -> Self {
@@ -135,6 +172,7 @@ impl LogError {
                 message: message.clone(),
             },
             LogError::Busy { path } => LogError::Busy { path: path.clone() },
+            LogError::Output(e) => LogError::Output(e.clone()),
         }
     }
 }

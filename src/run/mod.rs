@@ -154,13 +154,13 @@ impl RunError {
     /// Whether the input (scene, start, output path) is at fault rather
     /// than the simulation.
     pub fn is_bad_input(&self) -> bool {
-        matches!(
-            self,
-            RunError::Start(_) | RunError::Resume(_) | RunError::Request(_) | RunError::Output(_)
-        ) || matches!(
-            self,
-            RunError::Log(LogError::Io { .. } | LogError::Busy { .. })
-        )
+        match self {
+            RunError::Start(_) | RunError::Resume(_) | RunError::Request(_) => true,
+            RunError::Output(e) => !e.is_storage_failure(),
+            RunError::Log(e @ LogError::Io { .. }) => !e.is_storage_failure(),
+            RunError::Log(LogError::Busy { .. }) => true,
+            _ => false,
+        }
     }
 }
 

@@ -52,6 +52,17 @@ pub enum SweepError {
         /// What went wrong.
         message: String,
     },
+    /// A file or folder of the workspace could not be made (a full or
+    /// read-only file system among the reasons).
+    #[error(transparent)]
+    Output(#[from] crate::log::file::OutputError),
+}
+
+impl SweepError {
+    /// Whether the file system, not the input, is at fault.
+    pub fn is_storage_failure(&self) -> bool {
+        matches!(self, SweepError::Output(e) if e.is_storage_failure())
+    }
 }
 
 /// One segment of a field path: `stages[1]` is `stages` then index 1.
@@ -454,17 +465,31 @@ pub struct Written {
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> SweepError + '_ {
-    move |e| SweepError::Workspace {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
+    move |e| SweepError::Output(crate::log::file::OutputError::io(path, &e))
 }
 
 /// Writes the sweep at `dir`: the signac project marker, `sweep.json`,
 /// `workflow.toml` (kept if there: it may have been edited) and a folder
 /// per job (kept if there: it may hold a run). A `dir` holding another
-/// sweep (another template or other keys) is refused.
+/// sweep (another template or other keys) is refused. A workspace this
+/// call began (no folder, or an empty one) that cannot be finished is
+/// removed again, so that the next call starts it afresh.
 pub fn write_workspace(
+    dir: &Path,
+    template_text: &str,
+    swept: &[Swept],
+    jobs: &[Job],
+    exe: &Path,
+) -> Result<Written, SweepError> {
+    let new = !dir.exists() || std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none());
+    let written = write_into(dir, template_text, swept, jobs, exe);
+    if new && written.is_err() {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+    written
+}
+
+fn write_into(
     dir: &Path,
     template_text: &str,
     swept: &[Swept],
@@ -534,13 +559,7 @@ pub fn write_workspace(
 
 /// Writes `text` to `path` through a temporary file renamed into place.
 fn write_new(path: &Path, text: &str) -> Result<(), SweepError> {
-    crate::log::file::write_replacing(path, text.as_bytes()).map_err(|e| SweepError::Workspace {
-        path: path.to_path_buf(),
-        message: match e {
-            crate::log::file::OutputError::Create(_, reason) => reason,
-            other => other.to_string(),
-        },
-    })
+    crate::log::file::write_replacing(path, text.as_bytes()).map_err(SweepError::from)
 }
 
 #[cfg(test)]
