@@ -858,3 +858,42 @@ fn item_20_a_full_or_read_only_disk_fails_named_and_leaves_nothing_empty() {
     assert!(files.trim().is_empty(), "{files}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn item_13_many_species_are_refused_clearly_before_any_table_is_built() {
+    let dir = scratch("species");
+    let scene = |n: usize| {
+        let species: Vec<String> = (0..n)
+            .map(|i| {
+                format!(
+                    r#"Species(name: "s{i}", shape: Sphere(radius: {}), count: 1)"#,
+                    0.3 + 0.2 * i as f64 / n as f64
+                )
+            })
+            .collect();
+        write(
+            &dir.join(format!("{n}.ron")),
+            &format!(
+                r#"Scene(seed: 1, box: (40.0, 40.0, 40.0), species: [{}],
+    stages: [MonteCarlo(ensemble: Nvt, sweeps: 10), Dynamics(duration: 0.1)],
+    log: Log(path: "many.mcap", stats_every: 10, frames_every: 10))"#,
+                species.join(", ")
+            ),
+        )
+    };
+    // At the bound the plan is made (a one-species-per-particle
+    // polydisperse system of 1024 bodies)...
+    let (code, out) = cli(&["check", s(&scene(1024))]);
+    assert_eq!(code, 0, "{}", &out[..out.len().min(2000)]);
+    // ... above it the scene is refused, naming the field and the bound,
+    // whatever the count (6000 species aborted on allocation).
+    for n in [1025, 6000] {
+        let (code, out) = cli(&["check", s(&scene(n))]);
+        assert_eq!(code, 2, "{n}: {out}");
+        assert!(
+            out.contains(&format!("species: {n} species: at most 1024")),
+            "{n}: {out}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -47,6 +47,12 @@ pub const DEFAULT_COMPRESS_SWEEPS: u64 = 1_000_000;
 /// the log and its frames, so 10 GB at this bound.
 pub const MAX_PARTICLES: usize = 10_000_000;
 
+/// The most species a scene may hold: the plan and both drivers keep
+/// tables per pair of species, which grow as its square (1024 species
+/// take about 100 MB and a fraction of a second to set up; 6000 took
+/// 2 GB before a run could start).
+pub const MAX_SPECIES: usize = 1024;
+
 /// The range of masses, temperatures (kT) and pressures (βP) a scene may give: within it,
 /// sums over every particle such as N kT, and speeds sqrt(kT/m), stay far
 /// inside double precision.

@@ -55,6 +55,15 @@ impl Scene {
         if self.species.is_empty() {
             return bad("species", "at least one species is needed".into());
         }
+        if self.species.len() > MAX_SPECIES {
+            return bad(
+                "species",
+                format!(
+                    "{} species: at most {MAX_SPECIES} (the tables kept per pair of species grow as its square); for a polydisperse system, group the sizes into at most {MAX_SPECIES} species",
+                    self.species.len()
+                ),
+            );
+        }
         for (i, s) in self.species.iter().enumerate() {
             let f = |name: &str| format!("species[{i}].{name}");
             if s.name.trim().is_empty() {
@@ -83,9 +92,6 @@ impl Scene {
                     format!("must lie in [{low:e}, {high:e}], got {:e}", s.mass),
                 );
             }
-        }
-        if self.species.len() > u16::MAX as usize {
-            return bad("species", format!("at most {} species", u16::MAX));
         }
         let n = self.particle_count();
         if n < 2 {
