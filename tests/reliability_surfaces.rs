@@ -897,3 +897,37 @@ fn item_13_many_species_are_refused_clearly_before_any_table_is_built() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn item_06_a_pressure_target_with_walls_is_refused_not_misread() {
+    let scene =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/bad/walls_pressure_target.ron");
+    let dir = scratch("walls");
+    let out = dir.join("w.mcap");
+    for args in [
+        vec!["check", s(&scene)],
+        vec!["run", s(&scene), "--out", s(&out)],
+    ] {
+        let (code, err) = cli(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(
+            err.contains("stages[0].pressure: a pressure target is measured by the scale distribution, which has no wall term"),
+            "{args:?}: {err}"
+        );
+        assert!(
+            err.contains("Npt(pressure"),
+            "the advice names what holds a pressure: {err}"
+        );
+    }
+    assert!(!out.exists() && !hardbody::log::partial_path(&out).exists());
+    // Without the walls the same target is accepted.
+    let periodic = write(
+        &dir.join("periodic.ron"),
+        &std::fs::read_to_string(&scene)
+            .unwrap()
+            .replace("walls: [Z],", ""),
+    );
+    let (code, err) = cli(&["check", s(&periodic)]);
+    assert_eq!(code, 0, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -257,6 +257,12 @@ impl Scene {
                                     format!("must lie in [{low:e}, {high:e}]; got {}", Num(*p)),
                                 );
                             }
+                            if !self.walls.is_empty() {
+                                return bad(
+                                    &f("pressure"),
+                                    "a pressure target is measured by the scale distribution, which has no wall term (with walls it reads low: 3 where the force on the walls says 3.7); compress to a packing_fraction, then MonteCarlo(ensemble: Npt(pressure: ...)) holds a pressure".into(),
+                                );
+                            }
                             if *until_jammed {
                                 return bad(
                                     &f("until_jammed"),
