@@ -931,3 +931,53 @@ fn item_06_a_pressure_target_with_walls_is_refused_not_misread() {
     assert_eq!(code, 0, "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn item_09_10_the_pressure_of_a_jammed_packing_is_its_own_and_a_jam_is_not_averaged() {
+    let dir = scratch("jammed-sdf");
+    let log = dir.join("j.mcap");
+    let scene = format!(
+        r#"Scene(
+    seed: 2,
+    box: (5.2, 5.2, 5.2),
+    species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+    stages: [
+        Compress(packing_fraction: 0.5),
+        Jam(growth_rate: 1e-3),
+        MonteCarlo(ensemble: Nvt, sweeps: 60),
+    ],
+    log: Log(path: "{}", stats_every: 20, frames_every: 60),
+)"#,
+        log.display()
+    );
+    let text = write(&dir.join("j.ron"), &scene);
+    let (code, out) = cli(&["run", s(&text)]);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("stage 1 (jam): jammed at"), "{out}");
+    // The jam ends where its collisions put betaPV/N past 10^12; the scale
+    // distribution of the packing it hands over must say as much (a fit on
+    // a fixed window of 0.02 read 62).
+    let contents = read_log(&log, false).unwrap();
+    let (_, last) = contents.stats.last().unwrap();
+    assert_eq!(last.stage, "monte_carlo");
+    let volume: f64 = last.box_lengths.iter().product();
+    let reduced = last.pressure.unwrap() * volume / 64.0;
+    assert!(
+        (2e11..5e12).contains(&reduced),
+        "betaPV/N from the scale distribution {reduced:e}"
+    );
+    // A jam grows its bodies: no equilibrium averages, no "equilibrated".
+    let (code, out) = cli(&["analyze", s(&log)]);
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.contains("growth to a jam (not an equilibrium stage: no averages)"),
+        "{out}"
+    );
+    let (_, json) = cli(&["analyze", s(&log), "--json"]);
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let jam = &report["stages"][1];
+    assert_eq!(jam["stage"], "jam");
+    assert_eq!(jam["equilibrated"], false);
+    assert!(jam["observables"].as_object().unwrap().is_empty(), "{jam}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

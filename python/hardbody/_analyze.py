@@ -56,7 +56,11 @@ def analyze(
     report = json.loads(_core.analyze_logs([_path(log) for log in logs]))
     for damage in report.pop("damages"):
         warnings.warn(f"{damage}; analysing the /stats before it", RuntimeWarning, stacklevel=2)
-    never = [s for s in report["stages"] if s["stage"] != "compress" and not s["equilibrated"]]
+    never = [
+        s
+        for s in report["stages"]
+        if s["stage"] not in ("compress", "jam") and not s["equilibrated"]
+    ]
     if never:
         warnings.warn(
             "stage(s) "

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use hardbody::analysis::virial::excluded_volume;
 use hardbody::bench::plot::PlotError;
 use hardbody::geometry::Shape;
+use hardbody::log::averages::is_equilibrium_stage;
 use hardbody::log::file::{OutputError, check_output};
 use hardbody::log::read::read_log;
 use hardbody::number::Num;
@@ -66,13 +67,21 @@ pub(super) fn analyze(
     } else {
         say(&format!("{}:", path.display()));
         for stage in &stages {
-            let unit = if stage.stage == "dynamics" {
+            let unit = if matches!(stage.stage.as_str(), "dynamics" | "jam") {
                 "t"
             } else {
                 "sweep"
             };
+            let [from, to] = stage.span.map(Num);
+            let span = if unit == "t" {
+                format!("{from:.4}-{to:.4}")
+            } else {
+                format!("{from}-{to}")
+            };
             let verdict = if stage.stage == "compress" {
                 "compression (not an equilibrium stage: no averages)".to_string()
+            } else if stage.stage == "jam" {
+                "growth to a jam (not an equilibrium stage: no averages)".to_string()
             } else if stage.equilibrated {
                 "equilibrated".to_string()
             } else {
@@ -82,8 +91,8 @@ pub(super) fn analyze(
                 )
             };
             say(&format!(
-                "stage {} ({}), {} stats messages, {unit} {}-{}: {verdict}",
-                stage.stage_index, stage.stage, stage.samples, stage.span[0], stage.span[1]
+                "stage {} ({}), {} stats messages, {unit} {span}: {verdict}",
+                stage.stage_index, stage.stage, stage.samples,
             ));
             if let Some(strains) = stage.solver.and_then(|w| w.strains_in_words()) {
                 say(&format!("  solver strains: {strains}"));
@@ -110,7 +119,7 @@ pub(super) fn analyze(
                     "  {:<22} {:>26} {:>16} {:>8.2} {:>8.1}{}",
                     name,
                     value,
-                    o.equilibrated_from,
+                    Num(o.equilibrated_from),
                     e.statistical_inefficiency,
                     e.effective_samples,
                     if !e.equilibrated {
@@ -126,7 +135,7 @@ pub(super) fn analyze(
     }
     let never: Vec<String> = stages
         .iter()
-        .filter(|s| s.stage != "compress" && !s.equilibrated)
+        .filter(|s| is_equilibrium_stage(&s.stage) && !s.equilibrated)
         .map(|s| s.stage_index.to_string())
         .collect();
     if !never.is_empty() {
@@ -189,7 +198,7 @@ pub(super) fn analyze_replicas(
     } else {
         say(&format!("{} replicas:", paths.len()));
         for stage in &combined {
-            if stage.stage == "compress" {
+            if !is_equilibrium_stage(&stage.stage) {
                 continue;
             }
             say(&format!(
@@ -218,7 +227,7 @@ pub(super) fn analyze_replicas(
     }
     if combined
         .iter()
-        .any(|s| s.stage != "compress" && !s.equilibrated)
+        .any(|s| is_equilibrium_stage(&s.stage) && !s.equilibrated)
     {
         esay(
             "hardbody: warning: a stage never equilibrated in some replica: its averages are not equilibrium values",

@@ -86,12 +86,19 @@ fn progress(s: &Stats) -> f64 {
     s.sweep.map(|w| w as f64).or(s.time).unwrap_or(f64::NAN)
 }
 
+/// Whether a stage of this kind samples an equilibrium ensemble: a
+/// compression drives the density and a jam grows the bodies, so neither
+/// has averages.
+pub fn is_equilibrium_stage(kind: &str) -> bool {
+    !matches!(kind, "compress" | "jam")
+}
+
 fn one_stage(run: &[&Stats]) -> StageAverages {
     let first = run[0];
     let span = [progress(first), progress(run[run.len() - 1])];
     let mut observables_of = BTreeMap::new();
     let mut not_equilibrated = Vec::new();
-    if first.stage != "compress" {
+    if is_equilibrium_stage(&first.stage) {
         for (k, (name, _)) in observables(first).iter().enumerate() {
             // The samples where the stage measures it (all or none).
             let (at, x): (Vec<f64>, Vec<f64>) = run
@@ -138,7 +145,7 @@ fn one_stage(run: &[&Stats]) -> StageAverages {
         stage: first.stage.clone(),
         samples: run.len(),
         span,
-        equilibrated: first.stage != "compress" && not_equilibrated.is_empty(),
+        equilibrated: is_equilibrium_stage(&first.stage) && not_equilibrated.is_empty(),
         observables: observables_of,
         not_equilibrated,
         solver: run[run.len() - 1].solver,

@@ -240,19 +240,13 @@ pub struct CompressReport {
     pub pressure: Option<f64>,
 }
 
-/// βP/ρ of one configuration, from its scale distribution, in a window
-/// narrowed (from 0.02, tenfold at a time) until the shrinks spread over it.
+/// βP/ρ of one configuration, from its scale distribution (whose fit
+/// window follows the distribution's decay down to a jam's).
 fn compressibility(system: &System) -> Option<f64> {
     let density = system.len() as f64 / system.periodic_box().volume();
-    let mut x_max = 0.02;
-    loop {
-        let mut sdf = Sdf::new(x_max, 200);
-        sdf.add(system);
-        if sdf.front_share() < 0.5 || x_max < 1e-8 {
-            return sdf.pressure().map(|p| p / density);
-        }
-        x_max /= 10.0;
-    }
+    let mut sdf = Sdf::new(0.02, 200);
+    sdf.add(system);
+    sdf.pressure().map(|p| p / density)
 }
 
 /// Compresses `system` to `opts.target`; on success the packing fraction is
