@@ -54,6 +54,7 @@ class Simulation:
     stage_index: Optional[int]
     paused: bool
     closed: bool
+    running: bool
     def __init__(
         self,
         text: str,

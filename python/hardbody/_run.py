@@ -4,8 +4,11 @@ the last frame."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 import warnings
 from typing import Callable, Optional, Union
 
@@ -78,6 +81,30 @@ def _interrupted(e: KeyboardInterrupt):
         )
 
 
+def _sigterm_as_interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum} (SIGTERM)")
+
+
+@contextlib.contextmanager
+def _sigterm_stops_the_run():
+    """While a run goes on, SIGTERM (what a scheduler sends a job it
+    preempts) stops it as Ctrl-C does, cleanly with its log complete up to
+    the last frame, as on the command line; Python's default would kill
+    the process mid-write. A handler the program set itself is left alone,
+    and so is every thread but the main one (only it receives signals)."""
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    ):
+        yield
+        return
+    signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def run(
     scene: Union[Scene, str, os.PathLike],
     out: Optional[Union[str, os.PathLike]] = None,
@@ -88,20 +115,22 @@ def run(
     file) and returns the log, opened. `out` replaces the scene's log
     path, `seed` its seed. The GIL is released while it runs; Ctrl-C ends
     the run at the next sweep or output event with a final frame, then
-    raises KeyboardInterrupt (its `log` attribute is the log's path).
+    raises KeyboardInterrupt (its `log` attribute is the log's path);
+    SIGTERM does the same (unless the program handles it itself).
     Raises `SceneError` for a scene that cannot run, `RunError` for a run
     that failed."""
     if not isinstance(scene, Scene):
         scene = Scene.load(scene)
     inputs = [scene._path] if scene._path is not None else []
     try:
-        summary = _core.run_scene(
-            scene.to_ron(),
-            out=None if out is None else os.fspath(out),
-            seed=seed,
-            inputs=inputs,
-            progress=_progress(progress),
-        )
+        with _sigterm_stops_the_run():
+            summary = _core.run_scene(
+                scene.to_ron(),
+                out=None if out is None else os.fspath(out),
+                seed=seed,
+                inputs=inputs,
+                progress=_progress(progress),
+            )
     except KeyboardInterrupt as e:
         _interrupted(e)
         raise
@@ -118,9 +147,12 @@ def resume(
     `out`, default the log's path without `.partial`) is the same bit for
     bit as the uninterrupted run's."""
     try:
-        summary = _core.resume_log(
-            os.fspath(log), out=None if out is None else os.fspath(out), progress=_progress(progress)
-        )
+        with _sigterm_stops_the_run():
+            summary = _core.resume_log(
+                os.fspath(log),
+                out=None if out is None else os.fspath(out),
+                progress=_progress(progress),
+            )
     except KeyboardInterrupt as e:
         _interrupted(e)
         raise

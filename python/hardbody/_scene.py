@@ -6,6 +6,7 @@ refusals raise `SceneError` naming the field."""
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass, field, fields
 from typing import Any, List, Optional, Sequence, Tuple, Union
@@ -365,6 +366,8 @@ class Scene:
         if self.accuracy is not None:
             accuracy = {k: v for k, v in _encode(self.accuracy).items() if v is not None}
             body["accuracy"] = accuracy
+        for field, value in _non_finite(body, ""):
+            raise SceneError(f"{field}: must be a finite number, got {value}")
         try:
             return json.dumps(body, allow_nan=False)
         except (TypeError, ValueError) as e:
@@ -445,3 +448,18 @@ class Scene:
     def particle_count(self) -> int:
         """Number of particles."""
         return sum(s.count for s in self.species)
+
+
+def _non_finite(value: Any, path: str):
+    """(field, value) of every NaN or infinity in the JSON body `value`,
+    the field named as the scene file names it (`species[0].shape.radius`:
+    an enum's variant is left out of the path)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        yield path, value
+    elif isinstance(value, dict):
+        variant = len(value) == 1 and next(iter(value)) in _VARIANTS
+        for key, inner in value.items():
+            yield from _non_finite(inner, path if variant else f"{path}.{key}".lstrip("."))
+    elif isinstance(value, (list, tuple)):
+        for k, inner in enumerate(value):
+            yield from _non_finite(inner, f"{path}[{k}]")

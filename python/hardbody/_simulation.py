@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from ._log import Frame, RunLog
-from ._run import ProgressArg, _finish, _interrupted, _progress
+from ._run import ProgressArg, _finish, _interrupted, _progress, _sigterm_stops_the_run
 from ._scene import Scene
 
 
@@ -59,7 +59,8 @@ class Simulation:
 
     def _step(self, call, progress: ProgressArg) -> dict:
         try:
-            return call(_progress(progress))
+            with _sigterm_stops_the_run():
+                return call(_progress(progress))
         except KeyboardInterrupt:
             print("hardbody: interrupted; the simulation paused at its last frame", file=__import__("sys").stderr)
             raise
@@ -92,12 +93,13 @@ class Simulation:
 
     @property
     def box(self) -> np.ndarray:
-        return self.frame.box
+        return _read_only(self.frame.box)
 
     @property
     def positions(self) -> np.ndarray:
-        """Centres, (N, 3); setting them checks for overlaps."""
-        return self.frame.positions
+        """Centres, (N, 3), read-only (a copy: set the whole array, which
+        is checked for overlaps)."""
+        return _read_only(self.frame.positions)
 
     @positions.setter
     def positions(self, value) -> None:
@@ -105,9 +107,9 @@ class Simulation:
 
     @property
     def orientations(self) -> np.ndarray:
-        """Unit quaternions [w, x, y, z], (N, 4); setting them checks for
-        overlaps."""
-        return self.frame.orientations
+        """Unit quaternions [w, x, y, z], (N, 4), read-only (a copy: set
+        the whole array, which is checked for overlaps)."""
+        return _read_only(self.frame.orientations)
 
     @orientations.setter
     def orientations(self, value) -> None:
@@ -120,12 +122,13 @@ class Simulation:
 
     @property
     def velocities(self) -> Optional[np.ndarray]:
-        """Velocities (N, 3) in dynamics, else None."""
-        return self.frame.velocities
+        """Velocities (N, 3) in dynamics, else None (read-only)."""
+        velocities = self.frame.velocities
+        return None if velocities is None else _read_only(velocities)
 
     @property
     def species_of(self) -> np.ndarray:
-        return self.frame.species_of
+        return _read_only(self.frame.species_of)
 
     def close(self) -> RunLog:
         """Completes the log (renamed from `<out>.partial`) and returns it,
@@ -142,8 +145,20 @@ class Simulation:
             self.close()
 
     def __repr__(self):
+        if self._core.closed:
+            log = f", log {self.log.path}" if self.log is not None else ""
+            return f"<Simulation closed{log}>"
+        if self._core.running:
+            return "<Simulation running a step>"
         where = "finished" if self.stage_index is None else f"at stage {self.stage_index}"
         return f"<Simulation {where}{' (paused)' if self.paused else ''}>"
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """`array` marked read-only: writing into a copy of the state would
+    change nothing, so numpy refuses it instead of saying nothing."""
+    array.flags.writeable = False
+    return array
 
 
 def _rows(value, k: int) -> np.ndarray:

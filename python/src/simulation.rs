@@ -6,7 +6,7 @@ use std::sync::{Mutex, MutexGuard};
 
 use hardbody::run::{Advance, Simulation as RustSimulation, Step};
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -16,19 +16,58 @@ use crate::run::{prepare, run_error, summary_dict, supervise};
 /// A scene run step by step, writing its log as it goes.
 #[pyclass(module = "hardbody._core")]
 pub struct Simulation {
-    /// None while a step runs, and once finished.
-    inner: Mutex<Option<RustSimulation>>,
+    inner: Mutex<Slot>,
+}
+
+/// Where the simulation is: here between steps, away in the thread of a
+/// step under way, or finished.
+enum Slot {
+    Ready(Box<RustSimulation>),
+    Running,
+    Closed,
 }
 
 fn closed() -> PyErr {
     PyValueError::new_err("the simulation is closed (its log was finished)")
 }
 
+fn running() -> PyErr {
+    PyRuntimeError::new_err(
+        "the simulation is running a step (called from another thread?): call again once the step has returned",
+    )
+}
+
 impl Simulation {
-    fn lock(&self) -> MutexGuard<'_, Option<RustSimulation>> {
+    fn lock(&self) -> MutexGuard<'_, Slot> {
         // A step that panicked leaves no simulation behind, not a broken
         // one: the poison carries nothing.
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// `read` of the simulation between steps.
+    fn with<R>(&self, read: impl FnOnce(&mut RustSimulation) -> PyResult<R>) -> PyResult<R> {
+        match &mut *self.lock() {
+            Slot::Ready(sim) => read(sim),
+            Slot::Running => Err(running()),
+            Slot::Closed => Err(closed()),
+        }
+    }
+
+    /// The simulation, taken away (for a step, `away` being `Running`,
+    /// or to finish it, `Closed`).
+    fn take(&self, away: Slot) -> PyResult<RustSimulation> {
+        let mut slot = self.lock();
+        match std::mem::replace(&mut *slot, away) {
+            Slot::Ready(sim) => Ok(*sim),
+            other => {
+                let error = match other {
+                    Slot::Running => running(),
+                    _ => closed(),
+                };
+                *slot = other;
+                Err(error)
+            }
+        }
     }
 
     /// Runs `work` on the simulation with the GIL released; the
@@ -43,13 +82,20 @@ impl Simulation {
             + Send
             + 'static,
     {
-        let mut sim = self.lock().take().ok_or_else(closed)?;
+        let mut sim = self.take(Slot::Running)?;
         let outcome = supervise(py, progress, move |progress, stop| {
             let result = work(&mut sim, progress, stop);
             (sim, result)
         });
-        let ((sim, result), raised) = outcome?;
-        *self.lock() = Some(sim);
+        let ((sim, result), raised) = match outcome {
+            Ok(o) => o,
+            Err(e) => {
+                // The step's thread panicked: nothing is left to go on with.
+                *self.lock() = Slot::Closed;
+                return Err(e);
+            }
+        };
+        *self.lock() = Slot::Ready(Box::new(sim));
         match (result, raised) {
             (_, Some(e)) => Err(e),
             (Ok(step), None) => Ok(step),
@@ -84,20 +130,20 @@ impl Simulation {
             .detach(|| RustSimulation::new(&scene, &text, &out))
             .map_err(|e| run_error(py, e))?;
         Ok(Self {
-            inner: Mutex::new(Some(sim)),
+            inner: Mutex::new(Slot::Ready(Box::new(sim))),
         })
     }
 
     /// The stage the next step runs; None once every stage has run.
     #[getter]
     fn stage_index(&self) -> PyResult<Option<usize>> {
-        Ok(self.lock().as_ref().ok_or_else(closed)?.stage_index())
+        self.with(|sim| Ok(sim.stage_index()))
     }
 
     /// Whether that stage has begun and paused.
     #[getter]
     fn paused(&self) -> PyResult<bool> {
-        Ok(self.lock().as_ref().ok_or_else(closed)?.paused())
+        self.with(|sim| Ok(sim.paused()))
     }
 
     /// Runs the rest of the stage under way (or the next one).
@@ -136,12 +182,12 @@ impl Simulation {
 
     /// The state where the run stands, as a frame.
     fn state(&self, py: Python<'_>) -> PyResult<Frame> {
-        let guard = self.lock();
-        let sim = guard.as_ref().ok_or_else(closed)?;
-        let record = sim.state().map_err(|e| run_error(py, e))?;
-        Ok(Frame {
-            log_time: sim.log_time(),
-            record,
+        self.with(|sim| {
+            let record = sim.state().map_err(|e| run_error(py, e))?;
+            Ok(Frame {
+                log_time: sim.log_time(),
+                record,
+            })
         })
     }
 
@@ -166,15 +212,13 @@ impl Simulation {
         let q = rows(&orientations, 4, "orientations")?;
         let p: Vec<[f64; 3]> = p.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
         let q: Vec<[f64; 4]> = q.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
-        let mut guard = self.lock();
-        let sim = guard.as_mut().ok_or_else(closed)?;
-        sim.set_configuration(&p, &q).map_err(|e| run_error(py, e))
+        self.with(|sim| sim.set_configuration(&p, &q).map_err(|e| run_error(py, e)))
     }
 
     /// Ends the run: the log is completed and renamed to its path;
     /// returns the run's summary.
     fn finish<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let sim = self.lock().take().ok_or_else(closed)?;
+        let sim = self.take(Slot::Closed)?;
         let summary = py.detach(|| sim.finish()).map_err(|e| run_error(py, e))?;
         summary_dict(py, summary)
     }
@@ -182,6 +226,12 @@ impl Simulation {
     /// Whether the log was finished.
     #[getter]
     fn closed(&self) -> bool {
-        self.lock().is_none()
+        matches!(*self.lock(), Slot::Closed)
+    }
+
+    /// Whether a step is under way (in another thread).
+    #[getter]
+    fn running(&self) -> bool {
+        matches!(*self.lock(), Slot::Running)
     }
 }

@@ -50,7 +50,7 @@ def test_every_shape_and_stage_kind_is_spelled_as_in_ron():
         ],
         start=hb.Layered("x"),
         stages=[
-            hb.Compress(pressure=1.0, max_sweeps=5000),
+            hb.Compress(packing_fraction=0.1, max_sweeps=5000),
             hb.MonteCarlo(hb.Npt(pressure=1.0, anisotropic=True), sweeps=10, tune_sweeps=5),
             hb.Dynamics(duration=1.0, temperature=2.0, frames_every=0.5, msd=True, c2=True),
         ],
@@ -103,7 +103,7 @@ def test_refusals_name_the_field_as_the_command_line_does():
         stages=[hb.Jam(growth_rate=0.01, fluid_rate=0.05)],
     )
     assert "fluid_rate: Some(0.05)" in jam.to_ron() or "fluid_rate: 0.05" in jam.to_ron()
-    with pytest.raises(hb.SceneError, match="not finite|value a scene cannot"):
+    with pytest.raises(hb.SceneError, match="must be a finite number"):
         hb.Scene(box=(8, 8, float("nan")), species=[hb.Species("a", hb.Sphere(0.5), 1)], stages=[])
     with pytest.raises(hb.SceneError):
         hb.Scene(box=(8, 8, 8), species=[hb.Species("a", hb.Sphere(0.5), 1)], stages=[], start="grid")

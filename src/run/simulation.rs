@@ -414,13 +414,18 @@ impl Simulation {
             }
             unit.push(q.map(|x| x / norm));
         }
-        if let Some((i, p)) = positions
-            .iter()
-            .enumerate()
-            .find(|(_, p)| !p.iter().all(|x| x.is_finite()))
-        {
+        // Wrapped into the box from farther than this many edges, a
+        // position keeps fewer than about 10 of its 16 digits: a value such
+        // as 1e300 would come back as 0, not as anything the user gave.
+        const WRAPPED_FROM_AT_MOST: f64 = 1e6;
+        let edges = record.box_lengths;
+        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| {
+            !p.iter()
+                .zip(&edges)
+                .all(|(x, l)| x.is_finite() && x.abs() <= WRAPPED_FROM_AT_MOST * l)
+        }) {
             return Err(RunError::Request(format!(
-                "position {i}: {p:?} is not finite"
+                "position {i}: {p:?} is not finite or lies more than {WRAPPED_FROM_AT_MOST:e} box edges away (positions are wrapped into the box; give them in it)"
             )));
         }
         record.positions = positions.to_vec();
