@@ -981,3 +981,41 @@ fn item_09_10_the_pressure_of_a_jammed_packing_is_its_own_and_a_jam_is_not_avera
     assert!(jam["observables"].as_object().unwrap().is_empty(), "{jam}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn no_stage_runs_without_a_bound_on_its_work() {
+    // Dynamics from a jammed packing: 10^12 collisions per body and unit
+    // time, so t = 1 would never end. It fails at once, saying why, with
+    // the log up to there kept.
+    let dir = scratch("budget");
+    let log = dir.join("d.mcap");
+    let scene = write(
+        &dir.join("d.ron"),
+        &format!(
+            r#"Scene(
+    seed: 2,
+    box: (5.2, 5.2, 5.2),
+    species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+    stages: [Compress(packing_fraction: 0.5), Jam(growth_rate: 1e-3), Dynamics(duration: 1.0)],
+    log: Log(path: "{}", stats_every: 20, frames_every: 60),
+)"#,
+            log.display()
+        ),
+    );
+    let (code, out) = cli(&["run", s(&scene)]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("stage 2 (dynamics): ")
+            && out.contains("collisions per body and unit time")
+            && out.contains("more than the 1e9 a dynamics stage may run"),
+        "{out}"
+    );
+    let partial = hardbody::log::partial_path(&log);
+    let kept = read_log(&partial, false).unwrap();
+    assert_eq!(
+        kept.last_state.unwrap().1.stage_index,
+        2,
+        "the jammed packing is kept"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

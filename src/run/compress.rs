@@ -1,13 +1,13 @@
 //! The compression stage, and the approach to an NPT stage's pressure
 //! that starts an NPT stage from a fresh state.
 
-use crate::number::Num;
 use rand_pcg::Pcg64;
 
 use crate::geometry::pair::{OverlapStrains, take_overlap_strains};
 use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::compress::{CompressOptions, CompressReport, Compressor};
 use crate::mc::moves::Counts;
+use crate::number::Num;
 use crate::state::System;
 
 use super::cadence::{Mark, StageRun};

@@ -1,7 +1,6 @@
 //! The dynamics stage: the hand-off from a state or a previous dynamics,
 //! the event-driven run between stats and frames, and its frames.
 
-use crate::number::Num;
 use nalgebra::Vector3;
 use rand_pcg::Pcg64;
 
@@ -9,7 +8,8 @@ use crate::edmd::dynamics::{Dynamics, DynamicsOptions};
 use crate::edmd::predict::PredictorOptions;
 use crate::log::{DynamicsProgress, LogWriter, NS_PER_TIME_UNIT, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::Counts;
-use crate::scene::Stage;
+use crate::number::Num;
+use crate::scene::{DYNAMICS_COLLISIONS_PER_BODY, Stage};
 use crate::state::System;
 
 use super::cadence::{Mark, StageRun};
@@ -264,6 +264,37 @@ impl DynamicsStage {
     }
 }
 
+/// Collisions per body between two looks at the collision budget.
+const BUDGET_LOOK_EVERY: u64 = 1000;
+
+impl DynamicsStage {
+    /// Runs to `t_end`, looking at the collision rate every
+    /// [`BUDGET_LOOK_EVERY`] collisions per body: a stage that would run
+    /// past [`DYNAMICS_COLLISIONS_PER_BODY`] fails then.
+    fn run_within_budget(&mut self, t_end: f64) -> Result<(), StageError> {
+        let bodies = self.dynamics.len() as f64;
+        let chunk = (self.dynamics.len() as u64).saturating_mul(BUDGET_LOOK_EVERY);
+        loop {
+            let before = self.dynamics.collisions();
+            self.dynamics.run_collisions_until(chunk, t_end)?;
+            if self.dynamics.collisions() - before < chunk {
+                return Ok(());
+            }
+            let done = (self.dynamics.collisions() - self.progress_at.start_collisions) as f64;
+            let elapsed = self.dynamics.time() - self.progress_at.start_time;
+            let rate = done / bodies / elapsed;
+            let projected = rate * self.duration;
+            if projected.is_nan() || projected > DYNAMICS_COLLISIONS_PER_BODY as f64 {
+                return Err(StageError::CollisionBudget {
+                    rate,
+                    duration: self.duration,
+                    projected,
+                });
+            }
+        }
+    }
+}
+
 impl StageRun for DynamicsStage {
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let next_stats = (self.k_stats as f64 * self.stats_dt).min(self.duration);
@@ -275,8 +306,7 @@ impl StageRun for DynamicsStage {
                 next = next.min(until);
             }
         }
-        self.dynamics
-            .run_until(self.progress_at.start_time + next)?;
+        self.run_within_budget(self.progress_at.start_time + next)?;
         self.next = next;
         self.time = runner.clock + (next * NS_PER_TIME_UNIT).round() as u64;
         self.frame_hit = next_frame <= next;

@@ -3,7 +3,6 @@
 //! and at the end. Each frame holds the grown species, the velocities and
 //! the run's progress: a resumed run goes on from it bit for bit.
 
-use crate::number::Num;
 use std::cell::Cell;
 
 use rand_pcg::Pcg64;
@@ -13,6 +12,7 @@ use crate::edmd::jam::{
 };
 use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::Counts;
+use crate::number::Num;
 use crate::scene::{JAM_COLLISIONS_PER_BODY, Stage};
 
 use super::cadence::{Mark, StageRun};

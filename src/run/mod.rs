@@ -25,7 +25,6 @@ mod records;
 mod simulation;
 mod start;
 
-use crate::number::Num;
 use compress::CompressStage;
 use dynamics::DynamicsStage;
 use jam::JamStage;
@@ -49,6 +48,7 @@ use crate::log::{FailureRecord, LogError, LogWriter, ResumeInfo, StateRecord, pa
 use crate::mc::compress::{CompressError, CompressOptions};
 use crate::mc::moves::MoveSizes;
 use crate::mc::tuning::DriftWatch;
+use crate::number::Num;
 use crate::scene::plan::Plan;
 use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
 use crate::state::StateError;
@@ -144,6 +144,23 @@ pub enum StageError {
     /// A jam frame without the velocities its growth goes on with.
     #[error("a jam frame without velocities")]
     NoJamVelocities,
+    /// A dynamics stage whose collision rate would take it past
+    /// [`DYNAMICS_COLLISIONS_PER_BODY`](crate::scene::DYNAMICS_COLLISIONS_PER_BODY).
+    #[error(
+        "{:.3} collisions per body and unit time (a packing at or near its jam?): t = {} would take {:.1e} collisions per body, more than the {:.0e} a dynamics stage may run; shorten the duration, or start from a looser packing",
+        Num(*.rate),
+        Num(*.duration),
+        .projected,
+        crate::scene::DYNAMICS_COLLISIONS_PER_BODY as f64
+    )]
+    CollisionBudget {
+        /// Collisions per body and unit time so far.
+        rate: f64,
+        /// The stage's duration.
+        duration: f64,
+        /// Collisions per body the duration would take.
+        projected: f64,
+    },
     /// A compression stage without a target (the scene's checks refuse
     /// it).
     #[error("a compression without a target")]

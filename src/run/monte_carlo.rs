@@ -1,7 +1,6 @@
 //! The Monte Carlo stage: NVT or NPT sweeps, serial or on slabs, with
 //! move sizes tuned while the stage settles and the SDF pressure in NVT.
 
-use crate::number::Num;
 use rand::RngCore;
 use rand_pcg::Pcg64;
 
@@ -11,6 +10,7 @@ use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::Sdf;
 use crate::mc::tuning::{Tuner, TuningSpan};
+use crate::number::Num;
 use crate::scene::Ensemble;
 use crate::state::System;
 

@@ -79,6 +79,11 @@ pub const MIN_JAM_PRESSURE: f64 = 1e3;
 /// not jammed, and says so. Jams at the slowest rates measured took
 /// under 2×10⁵ per sphere and 10⁵ per superball.
 pub const JAM_COLLISIONS_PER_BODY: u64 = 10_000_000;
+/// The collisions per body a `Dynamics` stage may run at most: about
+/// 10⁶ s of one core for a thousand bodies. A stage whose collision rate
+/// would take it past this (a packing near its jam collides 10¹² times
+/// per body and unit time) fails early, saying so, rather than never end.
+pub const DYNAMICS_COLLISIONS_PER_BODY: u64 = 1_000_000_000;
 
 fn default_seed() -> u64 {
     1
