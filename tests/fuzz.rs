@@ -3,8 +3,12 @@
 //! `PROPTEST_CASES=100000 cargo test --release --test fuzz`.
 //!
 //! Properties: no panic, abort or hang; a scene is either refused with a
-//! line and field or valid within the documented bounds; a mutated log is
-//! either reported damaged or cut off, or read exactly as written.
+//! line and field or valid within the documented bounds (its `Resume`
+//! start checked against its log); a mutated log is either reported
+//! damaged or cut off, or read exactly as written; a list of logs is
+//! averaged as replicas only where they are distinct runs of one scene; a
+//! sweep's workspace with foreign folders is collected with each folder
+//! counted once, as a job or as a stray.
 
 mod common;
 
@@ -15,7 +19,10 @@ use std::sync::atomic::AtomicBool;
 use hardbody::log::read::{LogContents, ReadOptions, read_log_bytes};
 use hardbody::run::{Silent, run_scene};
 use hardbody::scene::plan::Plan;
-use hardbody::scene::{MAX_PARTICLES, Scene, SceneError};
+use hardbody::scene::{
+    MAX_PARTICLES, MAX_SPECIES, MIN_GROWTH_RATE, MIN_JAM_PRESSURE, Scene, SceneError, Stage, Start,
+    VALUE_RANGE,
+};
 use proptest::prelude::*;
 
 /// `PROPTEST_CASES` if set, else `default`.
@@ -26,14 +33,49 @@ fn cases(default: u32) -> u32 {
         .unwrap_or(default)
 }
 
+/// The shipped scenes, and scenes of the surfaces added with them: a jam
+/// of bodies of different masses with every parameter given, and a
+/// `Resume` start from a real log.
 fn shipped_scenes() -> &'static Vec<String> {
     static SCENES: OnceLock<Vec<String>> = OnceLock::new();
     SCENES.get_or_init(|| {
         let files = common::scene_files("data/scenes");
-        files
+        let mut scenes: Vec<String> = files
             .iter()
             .map(|p| std::fs::read_to_string(p).unwrap())
-            .collect()
+            .collect();
+        scenes.push(
+            r#"Scene(
+    seed: 3,
+    box: (9.0, 9.0, 9.0),
+    species: [
+        Species(name: "light", shape: Sphere(radius: 0.5), count: 40, mass: 1.0),
+        Species(name: "heavy", shape: Ellipsoid(a: 0.6, b: 0.5, c: 0.4), count: 20, mass: 1000.0),
+    ],
+    stages: [
+        Compress(packing_fraction: 0.3),
+        Jam(growth_rate: 0.01, fluid_rate: 0.05, pressure: 1e6, packing_fraction: 0.6),
+        Dynamics(duration: 0.5),
+    ],
+    log: Log(path: "jam.mcap", stats_every: 10, frames_every: 20),
+)"#
+            .into(),
+        );
+        scenes.push(format!(
+            r#"Scene(
+    seed: 4,
+    box: (8.0, 8.0, 8.0),
+    start: Resume("{}"),
+    species: [
+        Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 24),
+        Species(name: "cube", shape: Cuboid(a: 0.4, b: 0.4, c: 0.4), count: 8),
+    ],
+    stages: [MonteCarlo(ensemble: Nvt, sweeps: 20)],
+    log: Log(path: "resumed.mcap", stats_every: 10, frames_every: 10),
+)"#,
+            reference_log_path(2).display()
+        ));
+        scenes
     })
 }
 
@@ -136,8 +178,28 @@ proptest! {
             Ok(scene) => {
                 // Accepted: within the documented bounds, and planned.
                 prop_assert!(scene.particle_count() <= MAX_PARTICLES);
+                prop_assert!(scene.species.len() <= MAX_SPECIES);
                 prop_assert!(!scene.log.path.ends_with('/'));
+                let (low, high) = VALUE_RANGE;
+                let (x, y, z) = scene.box_lengths;
+                prop_assert!([x, y, z].iter().all(|l| (low..=high).contains(l)));
+                prop_assert!(scene.species.iter().all(|s| (low..=high).contains(&s.mass)));
+                for stage in &scene.stages {
+                    if let Stage::Jam { growth_rate, fluid_rate, pressure, .. } = stage {
+                        for rate in [growth_rate, fluid_rate].into_iter().flatten() {
+                            prop_assert!((MIN_GROWTH_RATE..=0.1).contains(rate), "rate {rate}");
+                        }
+                        if let Some(p) = pressure {
+                            prop_assert!((MIN_JAM_PRESSURE..=1e14).contains(p), "bound {p}");
+                        }
+                    }
+                }
                 let _ = Plan::of(&scene);
+                // A Resume start is read and checked against the scene
+                // (refused or accepted, never a panic).
+                if let Start::Resume(_) = scene.start {
+                    let _ = hardbody::run::check_start(&scene);
+                }
             }
             Err(SceneError::Syntax { line, .. }) => prop_assert!(line >= 1),
             Err(SceneError::Invalid { field, message, .. }) => {
@@ -147,13 +209,11 @@ proptest! {
     }
 }
 
-/// A complete log of a small run (every kind of stage), and what it reads
-/// as.
-fn reference_log() -> &'static (Vec<u8>, LogContents) {
-    static LOG: OnceLock<(Vec<u8>, LogContents)> = OnceLock::new();
-    LOG.get_or_init(|| {
-        let text = r#"Scene(
-            seed: 2,
+/// The scene of the reference logs, with `seed`.
+fn reference_scene(seed: u64) -> String {
+    format!(
+        r#"Scene(
+            seed: {seed},
             box: (8.0, 8.0, 8.0),
             species: [
                 Species(name: "rod", shape: Ellipsoid(a: 0.8, b: 0.4, c: 0.4), count: 24),
@@ -165,13 +225,30 @@ fn reference_log() -> &'static (Vec<u8>, LogContents) {
                 Dynamics(duration: 0.5, stats_every: 0.1, frames_every: 0.1),
             ],
             log: Log(path: "unused.mcap", stats_every: 10, frames_every: 30),
-        )"#;
+        )"#
+    )
+}
+
+/// The log of the reference scene with `seed` (2 or 3), run once.
+fn reference_log_path(seed: u64) -> &'static Path {
+    static LOGS: [OnceLock<std::path::PathBuf>; 2] = [OnceLock::new(), OnceLock::new()];
+    LOGS[(seed - 2) as usize].get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("hardbody-fuzz-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("reference.mcap");
-        let scene = Scene::parse(text).unwrap();
-        run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
-        let bytes = std::fs::read(&path).unwrap();
+        let path = dir.join(format!("reference{seed}.mcap"));
+        let text = reference_scene(seed);
+        let scene = Scene::parse(&text).unwrap();
+        run_scene(&scene, &text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+        path
+    })
+}
+
+/// A complete log of a small run (every kind of stage), and what it reads
+/// as.
+fn reference_log() -> &'static (Vec<u8>, LogContents) {
+    static LOG: OnceLock<(Vec<u8>, LogContents)> = OnceLock::new();
+    LOG.get_or_init(|| {
+        let bytes = std::fs::read(reference_log_path(2)).unwrap();
         let contents = read(&bytes).unwrap();
         assert!(contents.damage.is_none() && !contents.truncated);
         (bytes, contents)
@@ -271,5 +348,134 @@ proptest! {
             prop_assert_eq!(&contents.stats, &reference.stats);
             prop_assert_eq!(&contents.metadata, &reference.metadata);
         }
+    }
+}
+
+/// A log a replica list may hold: the seed-2 run, a byte copy of it, a
+/// cut of it, a corrupted copy, or the seed-3 run; with the run it is of.
+fn replica_pool() -> &'static Vec<(&'static str, Option<u64>, LogContents)> {
+    static POOL: OnceLock<Vec<(&'static str, Option<u64>, LogContents)>> = OnceLock::new();
+    POOL.get_or_init(|| {
+        let (bytes, contents) = reference_log();
+        let mut cut = bytes.clone();
+        cut.truncate(bytes.len() * 2 / 3);
+        let mut flipped = bytes.clone();
+        let middle = bytes.len() / 2;
+        flipped[middle] ^= 0x10;
+        let other = read(&std::fs::read(reference_log_path(3)).unwrap()).unwrap();
+        let mut pool = vec![
+            ("seed 2", Some(2), contents.clone()),
+            ("its copy", Some(2), contents.clone()),
+            ("seed 3", Some(3), other),
+        ];
+        for (name, damaged) in [("its cut", cut), ("its flipped copy", flipped)] {
+            if let Ok(c) = read(&damaged) {
+                pool.push((name, Some(2), c));
+            }
+        }
+        pool
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(200), ..ProptestConfig::default() })]
+
+    #[test]
+    fn replicas_are_distinct_runs_or_refused(picks in prop::collection::vec(0..5usize, 1..5)) {
+        let pool = replica_pool();
+        let chosen: Vec<_> = picks.iter().map(|&k| &pool[k % pool.len()]).collect();
+        let logs: Vec<(String, &LogContents)> = chosen
+            .iter()
+            .enumerate()
+            .map(|(k, (name, _, c))| (format!("{k}: {name}"), c))
+            .collect();
+        let result = hardbody::log::averages::replica_averages(&logs);
+        let runs: Vec<u64> = chosen.iter().filter_map(|(_, run, _)| *run).collect();
+        let mut distinct = runs.clone();
+        distinct.sort();
+        distinct.dedup();
+        if distinct.len() < runs.len() {
+            prop_assert!(result.is_err(), "one run averaged as two replicas: {picks:?}");
+        }
+    }
+}
+
+/// A folder put into a sweep's workspace that is not one of its jobs.
+#[derive(Debug, Clone, Copy)]
+enum Foreign {
+    Empty,
+    File,
+    BadStatePoint,
+    StatePointOnly,
+    BadScene,
+    CopyOfAJob,
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(48), ..ProptestConfig::default() })]
+
+    #[test]
+    fn collect_counts_every_folder_once(
+        added in prop::collection::vec(
+            prop::sample::select(vec![
+                Foreign::Empty,
+                Foreign::File,
+                Foreign::BadStatePoint,
+                Foreign::StatePointOnly,
+                Foreign::BadScene,
+                Foreign::CopyOfAJob,
+            ]),
+            0..5,
+        ),
+        case in any::<u64>(),
+    ) {
+        use hardbody::sweep::{collect::collect, jobs, parse_sets, write_workspace};
+        let dir = std::env::temp_dir().join(format!("hardbody-fuzz-sweep-{}-{case}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let text = reference_scene(2);
+        let template = Scene::parse(&text).unwrap();
+        let swept = parse_sets(&template, &["stages[1].ensemble.pressure=1,2".into()]).unwrap();
+        let real = jobs(&template, &swept, 2).unwrap();
+        write_workspace(&dir, &text, &swept, &real, Path::new("hardbody")).unwrap();
+        let workspace = dir.join("workspace");
+        let a_job = std::fs::read_dir(&workspace).unwrap().next().unwrap().unwrap().path();
+        let mut folders = 0;
+        for (k, kind) in added.iter().enumerate() {
+            let path = workspace.join(format!("foreign{k}"));
+            let put = |name: &str, bytes: &[u8]| std::fs::write(path.join(name), bytes).unwrap();
+            if let Foreign::File = kind {
+                std::fs::write(&path, b"not a folder").unwrap();
+                continue;
+            }
+            std::fs::create_dir_all(&path).unwrap();
+            folders += 1;
+            let statepoint = std::fs::read(a_job.join("signac_statepoint.json")).unwrap();
+            let scene = std::fs::read(a_job.join("scene.ron")).unwrap();
+            match kind {
+                Foreign::Empty | Foreign::File => {}
+                Foreign::BadStatePoint => {
+                    put("signac_statepoint.json", b"{not json");
+                    put("scene.ron", &scene);
+                }
+                Foreign::StatePointOnly => put("signac_statepoint.json", &statepoint),
+                Foreign::BadScene => {
+                    put("signac_statepoint.json", &statepoint);
+                    put("scene.ron", b"Scene(");
+                }
+                Foreign::CopyOfAJob => {
+                    put("signac_statepoint.json", &statepoint);
+                    put("scene.ron", &scene);
+                }
+            }
+        }
+        let collected = collect(&dir, None).unwrap();
+        let counted: usize = collected
+            .rows
+            .iter()
+            .map(|r| r.finished + r.foreign + r.partial + r.failed + r.not_started)
+            .sum();
+        prop_assert!(counted >= real.len(), "a job went uncounted: {added:?}");
+        prop_assert_eq!(counted + collected.strays.len(), real.len() + folders, "{:?}", added);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
