@@ -1019,3 +1019,38 @@ fn no_stage_runs_without_a_bound_on_its_work() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn item_25_a_resume_with_a_scene_writes_where_the_readme_says_never_over_its_log() {
+    let dir = scratch("resume-scene");
+    let log = dir.join("l.mcap");
+    run_to(&small(1, "Lattice"), &log);
+    let before = std::fs::read(&log).unwrap();
+    let other = dir.join("o.mcap");
+    let scene = write(
+        &dir.join("next.ron"),
+        &small(1, "Lattice").replace("unused.mcap", s(&other)),
+    );
+    // Without --out: at the scene's log.path.
+    let (code, out) = cli(&["run", "--resume", s(&log), s(&scene)]);
+    assert_eq!(code, 0, "{out}");
+    assert!(read_log(&other, false).unwrap().last_state.is_some());
+    assert_eq!(
+        std::fs::read(&log).unwrap(),
+        before,
+        "the log resumed from changed"
+    );
+    // A scene whose log.path is the log resumed from is refused.
+    let onto = write(
+        &dir.join("onto.ron"),
+        &small(1, "Lattice").replace("unused.mcap", s(&log)),
+    );
+    let (code, out) = cli(&["run", "--resume", s(&log), s(&onto)]);
+    assert_eq!(code, 2, "{out}");
+    assert_eq!(
+        std::fs::read(&log).unwrap(),
+        before,
+        "the log resumed from changed"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
