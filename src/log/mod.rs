@@ -16,6 +16,7 @@
 //! log readable up to its last frame.
 
 pub mod averages;
+mod error;
 pub mod file;
 pub mod gsd;
 pub mod packing;
@@ -40,142 +41,15 @@ use crate::mc::moves::{Counts, MoveSizes};
 use crate::space::PeriodicBox;
 use crate::state::{Particle, Species};
 
+use error::io_reason;
+pub use error::{LogError, io_cause, is_storage_failure};
+
 /// Nanoseconds of log time per Monte Carlo sweep.
 pub const NS_PER_SWEEP: u64 = 1_000_000;
 /// Nanoseconds of log time per unit of simulated time.
 pub const NS_PER_TIME_UNIT: f64 = 1e9;
 /// The frame id of every `/scene` entity.
 pub const FRAME_ID: &str = "hardbody";
-
-/// What can go wrong writing or reading a log.
-#[derive(Debug, thiserror::Error)]
-pub enum LogError {
-    /// The file system refused.
-    #[error("{}: {}", path.display(), io_reason(source))]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
-    /// The MCAP layer refused.
-    #[error("{}: {source}", path.display())]
-    Mcap {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: mcap::McapError,
-    },
-    /// The file is not a hardbody log, or lacks what was asked for.
-    #[error("{}: {message}", path.display())]
-    Content {
-        /// The file.
-        path: PathBuf,
-        /// What is missing or wrong.
-        message: String,
-    },
-    /// An output file could not be made (a link or a device where it
-    /// would go, a full or read-only file system).
-    #[error(transparent)]
-    Output(#[from] file::OutputError),
-    /// Another process is writing this log.
-    #[error(
-        "{}: another hardbody run is writing this log (it holds the file's lock); wait for it, or give this run another --out",
-        path.display()
-    )]
-    Busy {
-        /// The file that is locked.
-        path: PathBuf,
-    },
-}
-
-/// Whether an I/O error of this kind is the file system's (full, over
-/// quota, read-only) rather than the path's: a run that meets one failed
-/// (exit 1), one refused a path was given bad input (exit 2).
-pub fn is_storage_failure(kind: std::io::ErrorKind) -> bool {
-    use std::io::ErrorKind::*;
-    matches!(
-        kind,
-        StorageFull | QuotaExceeded | ReadOnlyFilesystem | FileTooLarge
-    )
-}
-
-/// The I/O error at the root of `e`'s chain of causes, if any.
-pub fn io_cause<'a>(e: &'a (dyn std::error::Error + 'static)) -> Option<&'a std::io::Error> {
-    let mut cause = Some(e);
-    while let Some(e) = cause {
-        if let Some(io) = e.downcast_ref::<std::io::Error>() {
-            return Some(io);
-        }
-        cause = e.source();
-    }
-    None
-}
-
-/// An I/O error in words a user acts on: a full disk is named as such.
-fn io_reason(e: &std::io::Error) -> String {
-    match e.kind() {
-        std::io::ErrorKind::StorageFull => "no space left on device".into(),
-        std::io::ErrorKind::QuotaExceeded => "disk quota exceeded".into(),
-        _ => e.to_string(),
-    }
-}
-
-impl LogError {
-    /// Whether the file system could not take the log (full, over quota,
-    /// read-only), rather than the path or the file being at fault.
-    pub fn is_storage_failure(&self) -> bool {
-        match self {
-            LogError::Io { source, .. } => is_storage_failure(source.kind()),
-            LogError::Output(e) => e.is_storage_failure(),
-            _ => false,
-        }
-    }
-
-    /// An MCAP writer's error on `path`, with the I/O cause kept where
-    /// there is one.
-    fn from_mcap(path: &Path, source: mcap::McapError) -> Self {
-        match source {
-            mcap::McapError::Io(source) => LogError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
-            source => LogError::Mcap {
-                path: path.to_path_buf(),
-                source,
-            },
-        }
-    }
-
-    /// Whether the file system ran out of room (or of quota).
-    pub fn is_disk_full(&self) -> bool {
-        matches!(self, LogError::Io { source, .. } if matches!(
-            source.kind(),
-            std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
-        ))
-    }
-
-    /// The same error again (a writer that failed once reports its first
-    /// error to every later call).
-    fn again(&self) -> Self {
-        match self {
-            LogError::Io { path, source } => LogError::Io {
-                path: path.clone(),
-                source: std::io::Error::new(source.kind(), io_reason(source)),
-            },
-            LogError::Mcap { path, source } => LogError::Content {
-                path: path.clone(),
-                message: source.to_string(),
-            },
-            LogError::Content { path, message } => LogError::Content {
-                path: path.clone(),
-                message: message.clone(),
-            },
-            LogError::Busy { path } => LogError::Busy { path: path.clone() },
-            LogError::Output(e) => LogError::Output(e.clone()),
-        }
-    }
-}
 
 /// One `/stats` message. Fields that a stage does not measure are null.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
