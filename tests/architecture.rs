@@ -319,3 +319,47 @@ fn no_source_file_is_over_about_800_lines() {
         .collect();
     assert!(long.is_empty(), "split these by job: {long:?}");
 }
+
+/// Every source file is named in the ARCHITECTURE.md of its folder, or
+/// of the nearest folder above it that has one (files directly in `src/`
+/// are the layers `lib.rs` lists and the floors above check).
+#[test]
+fn every_source_file_is_named_in_its_folders_note() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&src, &mut files);
+    let mut unnamed = Vec::new();
+    for path in &files {
+        let mut dir = path.parent().unwrap();
+        if dir == src {
+            continue;
+        }
+        let note = loop {
+            let note = dir.join("ARCHITECTURE.md");
+            if note.exists() {
+                break note;
+            }
+            dir = dir.parent().unwrap();
+            assert!(dir.starts_with(&src), "{} has no note", path.display());
+        };
+        let name = path.file_name().unwrap().to_string_lossy();
+        let text = std::fs::read_to_string(&note).unwrap();
+        if !text.contains(&format!("`{name}`")) && !text.contains(&format!("({name})")) {
+            unnamed.push(format!("{} (in {})", path.display(), note.display()));
+        }
+    }
+    assert!(
+        unnamed.is_empty(),
+        "files their notes do not name: {unnamed:#?}"
+    );
+}
