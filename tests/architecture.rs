@@ -8,19 +8,8 @@ use std::path::{Path, PathBuf};
 /// Module path of every library file under `src/` (the binary's files are
 /// another crate and left out), with the file's text before its tests.
 fn library_files() -> BTreeMap<Vec<String>, (PathBuf, String)> {
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-        for entry in std::fs::read_dir(dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                walk(&path, out);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                out.push(path);
-            }
-        }
-    }
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut paths = Vec::new();
-    walk(&src, &mut paths);
+    let paths = rust_files(&src);
     let mut files = BTreeMap::new();
     for path in paths {
         let relative = path.strip_prefix(&src).unwrap();
@@ -41,6 +30,23 @@ fn library_files() -> BTreeMap<Vec<String>, (PathBuf, String)> {
         files.insert(module, (path, without_tests(&text)));
     }
     files
+}
+
+/// Every `.rs` file under `dir`.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    let mut paths = Vec::new();
+    walk(dir, &mut paths);
+    paths
 }
 
 /// The text before a trailing `#[cfg(test)] mod tests`.
@@ -326,20 +332,8 @@ fn no_source_file_is_over_about_800_lines() {
 #[test]
 fn every_source_file_is_named_in_its_folders_note() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-        for entry in std::fs::read_dir(dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                walk(&path, out);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                out.push(path);
-            }
-        }
-    }
-    let mut files = Vec::new();
-    walk(&src, &mut files);
     let mut unnamed = Vec::new();
-    for path in &files {
+    for path in &rust_files(&src) {
         let mut dir = path.parent().unwrap();
         if dir == src {
             continue;

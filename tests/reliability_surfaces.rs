@@ -932,25 +932,27 @@ fn item_06_a_pressure_target_with_walls_is_refused_not_misread() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn item_09_10_the_pressure_of_a_jammed_packing_is_its_own_and_a_jam_is_not_averaged() {
-    let dir = scratch("jammed-sdf");
+/// A scene in `dir` that jams 64 spheres (to betaPV/N = 10^12 in about 3
+/// s), then runs `last`; the scene file and its log's path.
+fn jammed_spheres_then(dir: &Path, last: &str) -> (PathBuf, PathBuf) {
     let log = dir.join("j.mcap");
     let scene = format!(
         r#"Scene(
     seed: 2,
     box: (5.2, 5.2, 5.2),
     species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
-    stages: [
-        Compress(packing_fraction: 0.5),
-        Jam(growth_rate: 1e-3),
-        MonteCarlo(ensemble: Nvt, sweeps: 60),
-    ],
+    stages: [Compress(packing_fraction: 0.5), Jam(growth_rate: 1e-3), {last}],
     log: Log(path: "{}", stats_every: 20, frames_every: 60),
 )"#,
         log.display()
     );
-    let text = write(&dir.join("j.ron"), &scene);
+    (write(&dir.join("j.ron"), &scene), log)
+}
+
+#[test]
+fn item_09_10_the_pressure_of_a_jammed_packing_is_its_own_and_a_jam_is_not_averaged() {
+    let dir = scratch("jammed-sdf");
+    let (text, log) = jammed_spheres_then(&dir, "MonteCarlo(ensemble: Nvt, sweeps: 60)");
     let (code, out) = cli(&["run", s(&text)]);
     assert_eq!(code, 0, "{out}");
     assert!(out.contains("stage 1 (jam): jammed at"), "{out}");
@@ -988,20 +990,7 @@ fn no_stage_runs_without_a_bound_on_its_work() {
     // time, so t = 1 would never end. It fails at once, saying why, with
     // the log up to there kept.
     let dir = scratch("budget");
-    let log = dir.join("d.mcap");
-    let scene = write(
-        &dir.join("d.ron"),
-        &format!(
-            r#"Scene(
-    seed: 2,
-    box: (5.2, 5.2, 5.2),
-    species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
-    stages: [Compress(packing_fraction: 0.5), Jam(growth_rate: 1e-3), Dynamics(duration: 1.0)],
-    log: Log(path: "{}", stats_every: 20, frames_every: 60),
-)"#,
-            log.display()
-        ),
-    );
+    let (scene, log) = jammed_spheres_then(&dir, "Dynamics(duration: 1.0)");
     let (code, out) = cli(&["run", s(&scene)]);
     assert_eq!(code, 1, "{out}");
     assert!(

@@ -18,8 +18,10 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use super::BenchError;
 use super::plot::{Figure, Series, line_plot};
 use crate::geometry::Shape;
+use crate::log::file::OutputError;
 use crate::mc::compress::{CompressOptions, compress};
 use crate::mc::moves::{Ensemble, MoveSizes, sweep};
 use crate::state::{Species, System};
@@ -48,7 +50,7 @@ pub struct CompressRow {
 /// n³ bodies of `shapes` (assigned in turn) on the dilute lattice, melted
 /// by 20 sweeps: the start of every compression here and of the
 /// comparison with hoomd-mc.
-pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, String> {
+pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, BenchError> {
     let species: Vec<Species> = shapes
         .iter()
         .map(|shape| Species {
@@ -60,8 +62,7 @@ pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, Str
     let kinds = species.len();
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut system =
-        crate::state::start::dilute_lattice(n, species, |i| (i % kinds) as u16, &mut rng)
-            .map_err(|e| e.to_string())?;
+        crate::state::start::dilute_lattice(n, species, |i| (i % kinds) as u16, &mut rng)?;
     let melt = MoveSizes {
         translate: 0.5,
         rotate: 0.5,
@@ -75,7 +76,7 @@ pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, Str
 
 /// Compresses `start` (a copy) to `target` and times it: the row of
 /// `table`, its end state checked to be overlap-free.
-pub fn timed(table: &'static str, start: &System, target: f64) -> Result<CompressRow, String> {
+pub fn timed(table: &'static str, start: &System, target: f64) -> Result<CompressRow, BenchError> {
     let mut system = start.clone();
     let mut rng = Pcg64::seed_from_u64(17);
     let sizes = MoveSizes {
@@ -89,7 +90,7 @@ pub fn timed(table: &'static str, start: &System, target: f64) -> Result<Compres
     let name = names.join(" + ");
     let clock = Instant::now();
     let report = compress(&mut system, sizes, &CompressOptions::to(target), &mut rng)
-        .map_err(|e| format!("{name}: {e}"))?;
+        .map_err(|e| BenchError::from(e).of(&name))?;
     let seconds = clock.elapsed().as_secs_f64();
     let overlap = if system.len() < 5000 {
         system.first_overlap_all_pairs()
@@ -97,9 +98,10 @@ pub fn timed(table: &'static str, start: &System, target: f64) -> Result<Compres
         system.first_overlap()
     };
     if let Some((i, j)) = overlap {
-        return Err(format!(
-            "{name}: bodies {i} and {j} overlap after compression"
-        ));
+        return Err(BenchError::Wrong {
+            system: name,
+            what: format!("bodies {i} and {j} overlap after compression"),
+        });
     }
     Ok(CompressRow {
         table,
@@ -118,7 +120,7 @@ fn shape(spelling: &str) -> Shape {
 }
 
 /// Runs the three tables; `quick` uses smaller systems and N only to 8000.
-pub fn run(quick: bool) -> Result<Vec<CompressRow>, String> {
+pub fn run(quick: bool) -> Result<Vec<CompressRow>, BenchError> {
     let mut rows = Vec::new();
     let sphere = shape("Sphere(radius: 0.5)");
     let cube = shape("Cuboid(a: 0.5, b: 0.5, c: 0.5)");
@@ -154,7 +156,7 @@ pub fn run(quick: bool) -> Result<Vec<CompressRow>, String> {
 
 /// Writes `compress-scaling.svg`: seconds per particle against N.
 pub fn plot(rows: &[CompressRow], dir: &Path) -> Result<Vec<PathBuf>, super::plot::PlotError> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, &e))?;
     let mut series: Vec<Series> = Vec::new();
     for r in rows.iter().filter(|r| r.table == "scaling") {
         let point = (r.n as f64, r.seconds_per_particle * 1e6);

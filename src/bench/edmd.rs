@@ -19,6 +19,7 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use super::BenchError;
 use crate::edmd::{Dynamics, DynamicsOptions, PredictorOptions};
 use crate::geometry::Shape;
 use crate::mc::compress::{CompressOptions, compress};
@@ -68,25 +69,21 @@ fn start(
     phi: f64,
     sweeps: u64,
     seed: u64,
-) -> Result<(Shape, System), String> {
-    let shape: Shape = format!("Ellipsoid(a: {}, b: 0.5, c: 0.5)", 0.5 * aspect)
-        .parse()
-        .map_err(|e| format!("{e}"))?;
+) -> Result<(Shape, System), BenchError> {
+    let shape: Shape = format!("Ellipsoid(a: {}, b: 0.5, c: 0.5)", 0.5 * aspect).parse()?;
     let species = vec![Species {
         name: "ellipsoid".into(),
         shape,
         rotation: true,
     }];
     let mut rng = Pcg64::seed_from_u64(seed);
-    let mut system = crate::state::start::dilute_lattice(n_side, species, |_| 0, &mut rng)
-        .map_err(|e| e.to_string())?;
+    let mut system = crate::state::start::dilute_lattice(n_side, species, |_| 0, &mut rng)?;
     let mut sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
     };
-    let report = compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)
-        .map_err(|e| e.to_string())?;
+    let report = compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)?;
     sizes = report.sizes;
     let tuner = Tuner {
         target: 0.3,
@@ -173,7 +170,7 @@ fn run(system: &System, predictor: PredictorOptions, collisions: u64) -> Outcome
 
 /// Runs the suite; `quick` for CI smoke (φ = 0.35, 1000 collisions, a
 /// shorter equilibration, three settings of each knob).
-pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
+pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, BenchError> {
     let (phi, collisions, n_side) = if quick {
         (0.35, 1_000, 6)
     } else {
@@ -203,7 +200,10 @@ pub fn tolerance(quick: bool) -> Result<Vec<ToleranceRow>, String> {
         };
         let reference = run(&system, options(ref_grazing, ref_newton), collisions);
         if let Some(m) = &reference.missed {
-            return Err(format!("the reference run (aspect {aspect}) failed: {m}"));
+            return Err(BenchError::Wrong {
+                system: format!("aspect {aspect}"),
+                what: format!("the reference run failed: {m}"),
+            });
         }
         let default_newton = PredictorOptions::default().distance.newton.tolerance;
         let default_grazing = PredictorOptions::default().grazing_threshold;

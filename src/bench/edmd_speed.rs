@@ -15,6 +15,7 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use super::BenchError;
 use crate::edmd::{Dynamics, DynamicsOptions};
 use crate::geometry::Shape;
 use crate::mc::compress::{CompressOptions, compress};
@@ -148,26 +149,28 @@ fn setups(quick: bool) -> Vec<Setup> {
 }
 
 /// The start of a system: `n` bodies at packing fraction `phi`.
-fn start(setup: &Setup, seed: u64) -> Result<System, String> {
-    let shape: Shape = setup.shape.parse().map_err(|e| format!("{e}"))?;
+fn start(setup: &Setup, seed: u64) -> Result<System, BenchError> {
+    let shape: Shape = setup.shape.parse()?;
     let species = vec![Species {
         name: setup.system.clone(),
         shape,
         rotation: !shape.is_sphere(),
     }];
     let mut rng = Pcg64::seed_from_u64(seed);
-    let at = |phi: f64| -> Result<PeriodicBox, String> {
+    let at = |phi: f64| -> Result<PeriodicBox, BenchError> {
         let side = (setup.n as f64 * shape.volume() / phi).cbrt();
-        PeriodicBox::new(Vector3::repeat(side)).map_err(|e| e.to_string())
+        Ok(PeriodicBox::new(Vector3::repeat(side))?)
     };
     match setup.start {
-        Start::Lattice => {
-            crate::state::start::lattice(at(setup.phi)?, species, &[setup.n], &mut rng)
-                .map_err(|e| e.to_string())
-        }
+        Start::Lattice => Ok(crate::state::start::lattice(
+            at(setup.phi)?,
+            species,
+            &[setup.n],
+            &mut rng,
+        )?),
         Start::Compressed => {
-            let mut system = crate::state::start::lattice(at(0.05)?, species, &[setup.n], &mut rng)
-                .map_err(|e| e.to_string())?;
+            let mut system =
+                crate::state::start::lattice(at(0.05)?, species, &[setup.n], &mut rng)?;
             let sizes = MoveSizes {
                 translate: 0.3,
                 rotate: 0.3,
@@ -178,8 +181,7 @@ fn start(setup: &Setup, seed: u64) -> Result<System, String> {
                 sizes,
                 &CompressOptions::to(setup.phi),
                 &mut rng,
-            )
-            .map_err(|e| e.to_string())?;
+            )?;
             Ok(system)
         }
     }
@@ -189,7 +191,7 @@ fn start(setup: &Setup, seed: u64) -> Result<System, String> {
 /// three repeats): each system with cells and with neighbour lists of three
 /// shells at the default ε_d, and the ellipsoids also in the setting of the
 /// paper's Fig. 7.
-pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, String> {
+pub fn speed(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
     let repeats = if quick { 3 } else { 5 };
     let mut rows = Vec::new();
     for setup in setups(quick) {
@@ -216,7 +218,7 @@ fn figure_7_setting(
     system: &System,
     repeats: usize,
     quick: bool,
-) -> Result<Vec<SpeedRow>, String> {
+) -> Result<Vec<SpeedRow>, BenchError> {
     let unit = system.species()[0].shape.min_half_extent();
     let mut rows = Vec::with_capacity(2);
     for neighbour_shell in [None, Some(0.15 * unit)] {
@@ -239,7 +241,7 @@ fn cells_and_lists(
     shell: f64,
     repeats: usize,
     quick: bool,
-) -> Result<[SpeedRow; 2], String> {
+) -> Result<[SpeedRow; 2], BenchError> {
     Ok([
         time_system(setup, system, None, repeats, quick)?,
         time_system(setup, system, Some(shell), repeats, quick)?,
@@ -248,9 +250,13 @@ fn cells_and_lists(
 
 /// The shell the dynamics picks by itself for `system` (for bodies, a tenth
 /// of the thinnest thickness).
-fn auto_shell(system: &System) -> Result<f64, String> {
-    crate::edmd::automatic_neighbour_shell(system.species(), system.packing_fraction())
-        .ok_or_else(|| "no automatic neighbour lists for this system".to_string())
+fn auto_shell(system: &System) -> Result<f64, BenchError> {
+    crate::edmd::automatic_neighbour_shell(system.species(), system.packing_fraction()).ok_or_else(
+        || BenchError::Wrong {
+            system: "this system".into(),
+            what: "no automatic neighbour lists".into(),
+        },
+    )
 }
 
 /// Times one system with one neighbour structure: 10 collisions per body
@@ -261,7 +267,7 @@ fn time_system(
     neighbour_shell: Option<f64>,
     repeats: usize,
     quick: bool,
-) -> Result<SpeedRow, String> {
+) -> Result<SpeedRow, BenchError> {
     let options = DynamicsOptions {
         neighbour_shell,
         ..DynamicsOptions::default()
@@ -276,11 +282,11 @@ fn time_with(
     options: &DynamicsOptions,
     repeats: usize,
     quick: bool,
-) -> Result<SpeedRow, String> {
+) -> Result<SpeedRow, BenchError> {
     let neighbour_shell = options.neighbour_shell;
     let mut rng = Pcg64::seed_from_u64(2);
-    let mut md = Dynamics::from_state(system, options, &mut rng).map_err(|e| e.to_string())?;
-    let fail = |e: crate::edmd::EdmdError| format!("{}: {e}", setup.system);
+    let mut md = Dynamics::from_state(system, options, &mut rng)?;
+    let fail = |e: crate::edmd::EdmdError| BenchError::from(e).of(&setup.system);
     md.run_collisions(10 * setup.n as u64 / if quick { 10 } else { 1 })
         .map_err(fail)?;
     let mut times = Vec::with_capacity(repeats);
@@ -296,8 +302,10 @@ fn time_with(
     let distances = (work.distances - work_before.distances) as f64;
     let iterations = (work.iterations - work_before.iterations) as f64;
     md.run_until(md.time() + 1e-3).map_err(fail)?;
-    md.to_system()
-        .map_err(|e| format!("{}: overlap at the end: {e}", setup.system))?;
+    md.to_system().map_err(|e| BenchError::Wrong {
+        system: setup.system.clone(),
+        what: format!("overlap at the end: {e}"),
+    })?;
     times.sort_by(f64::total_cmp);
     Ok(SpeedRow {
         system: setup.system.clone(),
@@ -351,7 +359,7 @@ fn plain(system: &str, shape: &str, n: usize, phi: f64, start: Start, collisions
 /// against the neighbour shell Δ for hard spheres at φ = 0.3, 0.4, 0.5 and
 /// prolate ellipsoids (2:1) at φ = 0.5, with the cells time beside each;
 /// the best Δ per system.
-pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, String> {
+pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
     let repeats = if quick { 3 } else { 5 };
     let (n_spheres, sphere_collisions) = if quick {
         (1000, 20_000)
@@ -407,7 +415,7 @@ pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, String> {
 /// against φ for ellipsoids of aspect 2 and 0.5 (N = 256), cells and
 /// neighbour lists (shell a twentieth of the bounding diameter), each φ
 /// compressed by Monte Carlo from the previous one.
-pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
+pub fn density(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
     let repeats = if quick { 3 } else { 5 };
     let phis: &[f64] = if quick {
         &[0.3, 0.45]
@@ -430,8 +438,7 @@ pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
         };
         let diameter = 2.0 * system.species()[0].shape.bounding_radius();
         for &phi in phis {
-            compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)
-                .map_err(|e| e.to_string())?;
+            compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)?;
             let setup = plain(name, shape, 256, phi, Start::Compressed, collisions);
             rows.extend(cells_and_lists(
                 &setup,
@@ -452,7 +459,7 @@ pub fn density(quick: bool) -> Result<Vec<SpeedRow>, String> {
 /// Starts: aligned lattices at φ (near-cubic boxes large enough for the
 /// minimum image, so N grows with the long axis) relaxed by 50 Monte Carlo
 /// sweeps. Medians of the repeats; the ratio cells/lists is in the plot.
-pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
+pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
     let repeats = if quick { 3 } else { 5 };
     let aspects: &[f64] = if quick {
         &[0.5, 5.0]
@@ -465,7 +472,7 @@ pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
     for &phi in phis {
         for &aspect in aspects {
             let text = format!("Ellipsoid(a: {}, b: 0.5, c: 0.5)", 0.5 * aspect);
-            let shape: Shape = text.parse().map_err(|e| format!("{e}"))?;
+            let shape: Shape = text.parse()?;
             let system = aligned_state(&shape, phi, quick)?;
             let setup = Setup {
                 system: format!("ellipsoids, aspect {aspect}"),
@@ -494,7 +501,7 @@ pub fn elongation(quick: bool) -> Result<Vec<SpeedRow>, String> {
 /// An aligned lattice of `shape` at `phi` in a box at least twice the
 /// interaction range across (at least 256 bodies; fewer when `quick`),
 /// relaxed by Monte Carlo sweeps tuned to 30 % acceptance.
-pub fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, String> {
+pub fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, BenchError> {
     // Bodies needed for an edge of twice the range, with room to spare.
     let edge = 4.0 * shape.bounding_radius() * 1.3;
     let mut n = ((edge.powi(3) * phi / shape.volume()) as usize).max(if quick { 100 } else { 256 });
@@ -502,7 +509,7 @@ pub fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, Str
         match super::mc::tuned(shape, n, phi, if quick { 10 } else { 50 }) {
             Ok((system, _)) => return Ok(system),
             Err(crate::state::StateError::BoxTooSmall { .. }) if n < 200_000 => n += n / 2,
-            Err(e) => return Err(e.to_string()),
+            Err(e) => return Err(e.into()),
         }
     }
 }
@@ -512,7 +519,7 @@ pub fn aligned_state(shape: &Shape, phi: f64, quick: bool) -> Result<System, Str
 /// evaluation against the exponent p of superellipsoids
 /// |x/a|² + |y/b|² + |z/c|ᵖ = 1 with b = c and elongation X₀ = a/b of 0.5
 /// and 2 (the paper's N = 512 at φ = 0.256), cells and oriented-box lists.
-pub fn superellipsoid(quick: bool) -> Result<Vec<SpeedRow>, String> {
+pub fn superellipsoid(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
     let repeats = if quick { 3 } else { 5 };
     let exponents: &[f64] = if quick {
         &[2.0, 8.0]

@@ -16,6 +16,7 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use super::BenchError;
 use crate::edmd::{Dynamics, DynamicsOptions};
 use crate::geometry::Shape;
 use crate::mc::moves::{Ensemble, MoveSizes, sweep};
@@ -45,20 +46,17 @@ const PHI: f64 = 0.3;
 
 /// N ellipsoids on a lattice at φ = 0.3 (hard walls along z if `walls`),
 /// relaxed by Monte Carlo; `rotation` says whether the species turns.
-fn state(n: usize, walls: bool, rotation: bool) -> Result<System, String> {
-    let shape: Shape = SHAPE.parse().map_err(|e| format!("{e}"))?;
+fn state(n: usize, walls: bool, rotation: bool) -> Result<System, BenchError> {
+    let shape: Shape = SHAPE.parse()?;
     let species = vec![Species {
         name: "prolate".into(),
         shape,
         rotation,
     }];
     let side = (n as f64 * shape.volume() / PHI).cbrt();
-    let box_ = PeriodicBox::new(Vector3::repeat(side))
-        .map_err(|e| e.to_string())?
-        .with_walls([false, false, walls]);
+    let box_ = PeriodicBox::new(Vector3::repeat(side))?.with_walls([false, false, walls]);
     let mut rng = Pcg64::seed_from_u64(9);
-    let mut system =
-        crate::state::start::lattice(box_, species, &[n], &mut rng).map_err(|e| e.to_string())?;
+    let mut system = crate::state::start::lattice(box_, species, &[n], &mut rng)?;
     let sizes = MoveSizes {
         translate: 0.1,
         rotate: 0.1,
@@ -90,10 +88,10 @@ impl Timed {
         sample_every: u64,
         observables: bool,
         warm: u64,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, BenchError> {
         let mut rng = Pcg64::seed_from_u64(4);
-        let mut md = Dynamics::from_state(system, options, &mut rng).map_err(|e| e.to_string())?;
-        md.run_collisions(warm).map_err(|e| e.to_string())?;
+        let mut md = Dynamics::from_state(system, options, &mut rng)?;
+        md.run_collisions(warm)?;
         Ok(Self {
             md,
             sample_every,
@@ -102,19 +100,15 @@ impl Timed {
     }
 
     /// Wall time per collision over `collisions` more collisions.
-    fn time(&mut self, collisions: u64) -> Result<f64, String> {
+    fn time(&mut self, collisions: u64) -> Result<f64, BenchError> {
         let clock = Instant::now();
         if self.sample_every == 0 {
-            self.md
-                .run_collisions(collisions)
-                .map_err(|e| e.to_string())?;
+            self.md.run_collisions(collisions)?;
         } else {
             let mut done = 0;
             let mut sink = 0.0;
             while done < collisions {
-                self.md
-                    .run_collisions(self.sample_every)
-                    .map_err(|e| e.to_string())?;
+                self.md.run_collisions(self.sample_every)?;
                 done += self.sample_every;
                 let s = self.md.sample();
                 sink += s.temperature;
@@ -131,10 +125,10 @@ impl Timed {
 
 /// Times `off` and `on` alternately, `repeats` times each.
 fn alternate(
-    off: &mut dyn FnMut() -> Result<f64, String>,
-    on: &mut dyn FnMut() -> Result<f64, String>,
+    off: &mut dyn FnMut() -> Result<f64, BenchError>,
+    on: &mut dyn FnMut() -> Result<f64, BenchError>,
     repeats: usize,
-) -> Result<(f64, f64), String> {
+) -> Result<(f64, f64), BenchError> {
     let (mut a, mut b) = (Vec::new(), Vec::new());
     for _ in 0..repeats {
         a.push(off()?);
@@ -155,7 +149,7 @@ fn row(driver: &str, effect: &str, (off, on): (f64, f64), unit: &str) -> EffectR
 }
 
 /// Runs the suite (`quick`: fewer bodies, collisions and moves).
-pub fn run(quick: bool) -> Result<Vec<EffectRow>, String> {
+pub fn run(quick: bool) -> Result<Vec<EffectRow>, BenchError> {
     let (n, collisions, repeats, warm) = if quick {
         (64, 300, 3, 300)
     } else {
@@ -175,7 +169,7 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, String> {
     let pair = |name: &str,
                 off: (&System, &DynamicsOptions, u64, bool),
                 on: (&System, &DynamicsOptions, u64, bool)|
-     -> Result<EffectRow, String> {
+     -> Result<EffectRow, BenchError> {
         let mut a = Timed::new(off.0, off.1, off.2, off.3, warm)?;
         let mut b = Timed::new(on.0, on.1, on.2, on.3, warm)?;
         let times = alternate(
@@ -241,7 +235,7 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, String> {
     let mc_pair = |name: &str,
                    (mut a, ea): (System, Ensemble),
                    (mut b, eb): (System, Ensemble)|
-     -> Result<EffectRow, String> {
+     -> Result<EffectRow, BenchError> {
         let mut seed = 0;
         let times = alternate(
             &mut || {

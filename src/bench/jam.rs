@@ -14,12 +14,14 @@ use rand_pcg::Pcg64;
 
 use std::path::{Path, PathBuf};
 
+use super::BenchError;
 use super::compress::dilute_start;
 use super::markdown_table;
 use super::plot::{Figure, Series, line_plot};
 use crate::edmd::DynamicsOptions;
 use crate::edmd::jam::{DEFAULT_GROWTH_RATE, JamEnd, JamOptions, jam};
 use crate::geometry::Shape;
+use crate::log::file::OutputError;
 
 /// One jamming run.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -71,8 +73,8 @@ pub const FLAT_FLUID_RATE: f64 = 0.1;
 /// [`FLAT_FLUID_RATE`]); `quick`, 64 spheres and 27 spheroids to
 /// βPV/N = 10⁶ (for the tests). Each row is told to `done` as it
 /// finishes (the whole suite takes an hour and more).
-pub fn run(quick: bool, mut done: impl FnMut(&JamRow)) -> Result<Vec<JamRow>, String> {
-    let shape = |text: &str| -> Result<Shape, String> { text.parse().map_err(|e| format!("{e}")) };
+pub fn run(quick: bool, mut done: impl FnMut(&JamRow)) -> Result<Vec<JamRow>, BenchError> {
+    let shape = |text: &str| -> Result<Shape, BenchError> { Ok(text.parse()?) };
     let sphere = shape("Sphere(radius: 0.5)")?;
     let cases: Vec<(Shape, usize, JamOptions)> = if quick {
         let ellipsoid = shape("Ellipsoid(a: 0.75, b: 0.5, c: 0.5)")?;
@@ -126,8 +128,8 @@ fn growing(growth_rate: f64, pressure: f64) -> JamOptions {
 
 /// `hardbody bench jam-rate`: 1000 spheres jammed at four growth rates
 /// (slower, denser); `quick`, 64 spheres at two rates to βPV/N = 10⁶.
-pub fn rates(quick: bool) -> Result<Vec<JamRow>, String> {
-    let sphere: Shape = "Sphere(radius: 0.5)".parse().map_err(|e| format!("{e}"))?;
+pub fn rates(quick: bool) -> Result<Vec<JamRow>, BenchError> {
+    let sphere: Shape = "Sphere(radius: 0.5)".parse()?;
     let (side, rates, pressure): (usize, &[f64], f64) = if quick {
         (4, &[1e-2, 3e-3], 1e6)
     } else {
@@ -140,7 +142,7 @@ pub fn rates(quick: bool) -> Result<Vec<JamRow>, String> {
 }
 
 /// Jams `side`³ bodies of `shape` with `options` and times it.
-fn timed(shape: Shape, side: usize, options: &JamOptions) -> Result<JamRow, String> {
+fn timed(shape: Shape, side: usize, options: &JamOptions) -> Result<JamRow, BenchError> {
     let start = dilute_start(&[shape], side, 3)?;
     let mut rng = Pcg64::seed_from_u64(4);
     let clock = Instant::now();
@@ -151,16 +153,23 @@ fn timed(shape: Shape, side: usize, options: &JamOptions) -> Result<JamRow, Stri
         &mut rng,
         |_| true,
     )
-    .map_err(|e| format!("{shape}: {e}"))?;
+    .map_err(|e| BenchError::Wrong {
+        system: shape.to_string(),
+        what: e.to_string(),
+    })?;
     let seconds = clock.elapsed().as_secs_f64();
     let system = &out.system;
     let network = system.contact_network(1e-9);
     if network.overlaps > 0 {
-        return Err(format!("{shape}: {} overlapping pairs", network.overlaps));
+        return Err(BenchError::Wrong {
+            system: shape.to_string(),
+            what: format!("{} overlapping pairs", network.overlaps),
+        });
     }
-    let last = out
-        .last
-        .ok_or_else(|| format!("{shape}: no chunk finished"))?;
+    let last = out.last.ok_or_else(|| BenchError::Wrong {
+        system: shape.to_string(),
+        what: "no chunk finished".into(),
+    })?;
     Ok(JamRow {
         shape: shape.to_string(),
         n: system.len(),
@@ -186,7 +195,7 @@ fn timed(shape: Shape, side: usize, options: &JamOptions) -> Result<JamRow, Stri
 /// number against the growth rate, a series per shape (slower growth:
 /// denser, and closer to isostatic).
 pub fn plot(rows: &[JamRow], dir: &Path) -> Result<Vec<PathBuf>, super::plot::PlotError> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, &e))?;
     let series = |value: &dyn Fn(&JamRow) -> f64| {
         let mut out: Vec<Series> = Vec::new();
         for r in rows {

@@ -140,7 +140,7 @@ fn draw_lines(
     path: &Path,
     figure: &Figure,
     series: &[Series],
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let (x0, x1) = range(
         series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
         figure.log_x,
@@ -200,7 +200,7 @@ fn draw_lines(
         (false, true) => draw!(x0..x1, log_y()),
         (true, true) => draw!(log_x(), log_y()),
     }
-    root.present().map_err(|e| fail(&e))
+    Ok(root.present().map_err(|e| fail(&e))?)
 }
 
 /// Writes a horizontal bar chart: one bar per label, of the given value,
@@ -224,7 +224,7 @@ fn draw_bars(
     x_label: &str,
     bars: &[(String, f64)],
     reference: f64,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let top = bars.iter().map(|b| b.1).fold(reference, f64::max) * 1.15;
     let height = 120 + 40 * bars.len() as u32;
@@ -270,7 +270,7 @@ fn draw_bars(
             BLACK.stroke_width(2),
         )))
         .map_err(|e| fail(&e))?;
-    root.present().map_err(|e| fail(&e))
+    Ok(root.present().map_err(|e| fail(&e))?)
 }
 
 /// A measured point with an error in x.
@@ -302,7 +302,7 @@ fn draw_eos(
     path: &Path,
     points: &[ErrorPoint],
     reference: &[(f64, f64)],
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let (x0, x1) = range(
         points
             .iter()
@@ -365,7 +365,7 @@ fn draw_eos(
         .border_style(BLACK)
         .draw()
         .map_err(|e| fail(&e))?;
-    root.present().map_err(|e| fail(&e))
+    Ok(root.present().map_err(|e| fail(&e))?)
 }
 
 #[cfg(test)]

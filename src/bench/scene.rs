@@ -14,6 +14,7 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
+use super::BenchError;
 use crate::bench::mc::dense_start;
 use crate::edmd::dynamics::{Dynamics, DynamicsOptions};
 use crate::geometry::Shape;
@@ -49,23 +50,22 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Runs the comparison; `quick` for CI smoke (shorter runs, 3 repeats).
-pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
+pub fn run(quick: bool) -> Result<Vec<SceneRow>, BenchError> {
     let (collisions, repeats) = if quick { (20_000, 3) } else { (300_000, 7) };
     let shape: Shape = "Sphere(radius: 0.5)".parse().expect("a valid shape");
     let phi = 0.45;
-    let system = dense_start(&shape, 500, phi).map_err(|e| e.to_string())?;
+    let system = dense_start(&shape, 500, phi)?;
     let n = system.len();
     let dir = std::env::temp_dir().join(format!("hardbody-bench-scene-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&dir).map_err(|e| crate::log::file::OutputError::io(&dir, &e))?;
     // The start as a log, for the scene's Resume.
     let start = dir.join("start.mcap");
-    let mut log = LogWriter::create(&start, "", "", system.species()).map_err(|e| e.to_string())?;
+    let mut log = LogWriter::create(&start, "", "", system.species())?;
     log.frame(
         0,
         &StateRecord::of_particles(system.periodic_box(), system.species(), system.particles()),
-    )
-    .map_err(|e| e.to_string())?;
-    log.finish().map_err(|e| e.to_string())?;
+    )?;
+    log.finish()?;
     // Simulated time for about `collisions` collisions, from a first run.
     // The neighbour lists the scene picks by itself.
     let options = DynamicsOptions {
@@ -75,11 +75,8 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
         ),
         ..DynamicsOptions::default()
     };
-    let mut probe = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(1))
-        .map_err(|e| e.to_string())?;
-    probe
-        .run_collisions(collisions)
-        .map_err(|e| e.to_string())?;
+    let mut probe = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(1))?;
+    probe.run_collisions(collisions)?;
     let duration = probe.time();
     let l = system.periodic_box().lengths().x;
     let text = format!(
@@ -94,26 +91,27 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, String> {
     for r in 0..repeats {
         let seed = 100 + r as u64;
         let clock = Instant::now();
-        let mut d = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(seed))
-            .map_err(|e| e.to_string())?;
-        d.run_until(duration).map_err(|e| e.to_string())?;
+        let mut d = Dynamics::from_state(&system, &options, &mut Pcg64::seed_from_u64(seed))?;
+        d.run_until(duration)?;
         let c = d.collisions();
         direct.push(clock.elapsed().as_secs_f64() * 1e6 / c as f64);
         counts.0.push(c as f64);
 
         let clock = Instant::now();
-        let mut scene = Scene::parse(&text).map_err(|e| e.to_string())?;
+        let mut scene = Scene::parse(&text)?;
         scene.seed = seed;
         let out = dir.join("scene.mcap");
-        run_scene(&scene, &text, &out, &mut Silent, &AtomicBool::new(false))
-            .map_err(|e| e.to_string())?;
+        run_scene(&scene, &text, &out, &mut Silent, &AtomicBool::new(false))?;
         let elapsed = clock.elapsed().as_secs_f64();
-        let log = read_log(&out, false).map_err(|e| e.to_string())?;
+        let log = read_log(&out, false)?;
         let c = log
             .stats
             .last()
             .and_then(|(_, s)| s.collisions)
-            .ok_or("the scene logged no collisions")?;
+            .ok_or_else(|| BenchError::Wrong {
+                system: "the scene".into(),
+                what: "logged no collisions".into(),
+            })?;
         scene_path.push(elapsed * 1e6 / c as f64);
         counts.1.push(c as f64);
     }
