@@ -283,7 +283,7 @@ pub fn analyze_logs(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<String> {
         }
         many => {
             let logs: Vec<_> = many.iter().map(|(name, c)| (name.clone(), c)).collect();
-            let replicas = replica_averages(&logs).map_err(LogError::new_err)?;
+            let replicas = replica_averages(&logs).map_err(|e| LogError::new_err(e.to_string()))?;
             serde_json::json!({
                 "logs": logs.iter().map(|(name, _)| name).collect::<Vec<_>>(),
                 "stages": replicas.combined,

@@ -209,10 +209,51 @@ pub struct ReplicaStage {
     pub equilibrated: bool,
 }
 
+/// Why logs are not replicas of one scene.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReplicaError {
+    /// No log was given.
+    #[error("no runs to average")]
+    None,
+    /// A log holds no scene to compare.
+    #[error("{0}: no readable scene in its metadata")]
+    NoScene(String),
+    /// Two logs of one scene and one seed: one run (a copy, or two cuts).
+    #[error("{log}: the same run as {other} (seed {seed}); replicas need different seeds")]
+    SameRun {
+        /// The log refused.
+        log: String,
+        /// The log it repeats.
+        other: String,
+        /// Their seed.
+        seed: u64,
+    },
+    /// A log of another scene.
+    #[error("{log}: its scene differs from that of {first} other than in the seed: not a replica")]
+    OtherScene {
+        /// The log refused.
+        log: String,
+        /// The first log.
+        first: String,
+    },
+    /// A run whose stages differ from the first run's.
+    #[error("run {run} has stages {stages:?}, run 1 {first:?}: not replicas of one scene")]
+    OtherStages {
+        /// The run (from 1).
+        run: usize,
+        /// Its stages (index, kind).
+        stages: Vec<(usize, String)>,
+        /// The first run's.
+        first: Vec<(usize, String)>,
+    },
+}
+
 /// The stages of several runs of one scene averaged stage by stage; the
 /// runs must have the same stages (index and kind) in the same order.
-pub fn stages_over_replicas(runs: &[Vec<StageAverages>]) -> Result<Vec<ReplicaStage>, String> {
-    let first = runs.first().ok_or("no runs to average")?;
+pub fn stages_over_replicas(
+    runs: &[Vec<StageAverages>],
+) -> Result<Vec<ReplicaStage>, ReplicaError> {
+    let first = runs.first().ok_or(ReplicaError::None)?;
     for (k, run) in runs.iter().enumerate().skip(1) {
         let kinds = |r: &[StageAverages]| {
             r.iter()
@@ -220,12 +261,11 @@ pub fn stages_over_replicas(runs: &[Vec<StageAverages>]) -> Result<Vec<ReplicaSt
                 .collect::<Vec<_>>()
         };
         if kinds(run) != kinds(first) {
-            return Err(format!(
-                "run {} has stages {:?}, run 1 {:?}: not replicas of one scene",
-                k + 1,
-                kinds(run),
-                kinds(first)
-            ));
+            return Err(ReplicaError::OtherStages {
+                run: k + 1,
+                stages: kinds(run),
+                first: kinds(first),
+            });
         }
     }
     Ok(first
@@ -265,7 +305,7 @@ pub struct Replicas {
 /// Averages over the logs of replicas of one scene, `(name, contents)`
 /// each: refused (naming the log) where a log holds no readable scene, or
 /// a scene that differs from the first's other than in its seed and log.
-pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, String> {
+pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, ReplicaError> {
     let mut first: Option<(&str, Scene)> = None;
     let mut seeds: Vec<(u64, &str)> = Vec::with_capacity(logs.len());
     let mut runs = Vec::with_capacity(logs.len());
@@ -278,9 +318,11 @@ pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, Str
         // log, or two cuts of one, is not a second replica.
         if let Some(scene) = &resolved {
             if let Some((seed, other)) = seeds.iter().find(|(s, _)| *s == scene.seed) {
-                return Err(format!(
-                    "{name}: the same run as {other} (seed {seed}); replicas need different seeds"
-                ));
+                return Err(ReplicaError::SameRun {
+                    log: name.clone(),
+                    other: other.to_string(),
+                    seed: *seed,
+                });
             }
             seeds.push((scene.seed, name));
         }
@@ -290,13 +332,14 @@ pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, Str
                 log: Default::default(),
                 ..s
             })
-            .ok_or_else(|| format!("{name}: no readable scene in its metadata"))?;
+            .ok_or_else(|| ReplicaError::NoScene(name.clone()))?;
         match &first {
             None => first = Some((name, scene)),
             Some((first_name, f)) if *f != scene => {
-                return Err(format!(
-                    "{name}: its scene differs from that of {first_name} other than in the seed: not a replica"
-                ));
+                return Err(ReplicaError::OtherScene {
+                    log: name.clone(),
+                    first: first_name.to_string(),
+                });
             }
             Some(_) => {}
         }

@@ -134,3 +134,35 @@ impl LogError {
         }
     }
 }
+
+/// How a `/state` record contradicts itself (damage, never a pose).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InconsistentState {
+    /// An array of another length than the particles.
+    #[error("{len} {name} for {n} particles")]
+    Count {
+        /// The array.
+        name: &'static str,
+        /// Its length.
+        len: usize,
+        /// The particles.
+        n: usize,
+    },
+    /// A species index past the species.
+    #[error("species index {index} of {species} species")]
+    Species {
+        /// The index.
+        index: u16,
+        /// The species there are.
+        species: usize,
+    },
+    /// Box edges that are not finite and positive.
+    #[error("box edges {0:?}")]
+    Box([f64; 3]),
+    /// A position that is not finite.
+    #[error("particle {0}: position {1:?}")]
+    Position(usize, [f64; 3]),
+    /// An orientation that is not a unit quaternion.
+    #[error("particle {0}: orientation {1:?} is not a unit quaternion")]
+    Orientation(usize, [f64; 4]),
+}

@@ -103,15 +103,25 @@ pub fn check_output(path: &Path, partial: bool, inputs: &[&Path]) -> Result<(), 
 /// Whether `path` may be read as an input (a log or a scene): a regular
 /// file, or a link to one. A FIFO would block the read and a device such
 /// as /dev/zero never end it; the refusal says which.
-pub fn check_input(path: &Path) -> Result<(), String> {
+pub fn check_input(path: &Path) -> Result<(), InputError> {
     match std::fs::metadata(path) {
-        Ok(m) if !m.is_file() => Err(if m.is_dir() {
-            "is a directory, not a file".into()
-        } else {
-            "is not a regular file (a device, FIFO or socket); hardbody reads logs and scenes only from regular files".into()
-        }),
+        Ok(m) if m.is_dir() => Err(InputError::Directory),
+        Ok(m) if !m.is_file() => Err(InputError::NotRegular),
         _ => Ok(()),
     }
+}
+
+/// Why an input path is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum InputError {
+    /// A directory.
+    #[error("is a directory, not a file")]
+    Directory,
+    /// A device, FIFO or socket.
+    #[error(
+        "is not a regular file (a device, FIFO or socket); hardbody reads logs and scenes only from regular files"
+    )]
+    NotRegular,
 }
 
 /// Whether `path` is a symbolic link (to anything, or dangling).

@@ -42,7 +42,7 @@ use crate::space::PeriodicBox;
 use crate::state::{Particle, Species};
 
 use error::io_reason;
-pub use error::{LogError, io_cause, is_storage_failure};
+pub use error::{InconsistentState, LogError, io_cause, is_storage_failure};
 
 /// Nanoseconds of log time per Monte Carlo sweep.
 pub const NS_PER_SWEEP: u64 = 1_000_000;
@@ -242,7 +242,7 @@ impl StateRecord {
     /// Whether the record's parts agree: one species index, position and
     /// orientation per particle (and velocities, where present), species
     /// indices that name a species, a box of finite positive edges.
-    pub fn check_consistent(&self) -> Result<(), String> {
+    pub fn check_consistent(&self) -> Result<(), InconsistentState> {
         let n = self.species_of.len();
         let lengths = [
             ("positions", Some(self.positions.len())),
@@ -257,7 +257,7 @@ impl StateRecord {
             if let Some(len) = len
                 && len != n
             {
-                return Err(format!("{len} {name} for {n} particles"));
+                return Err(InconsistentState::Count { name, len, n });
             }
         }
         if let Some(k) = self
@@ -265,29 +265,26 @@ impl StateRecord {
             .iter()
             .find(|&&k| k as usize >= self.species.len())
         {
-            return Err(format!(
-                "species index {k} of {} species",
-                self.species.len()
-            ));
+            return Err(InconsistentState::Species {
+                index: *k,
+                species: self.species.len(),
+            });
         }
         if !self.box_lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
-            return Err(format!("box edges {:?}", self.box_lengths));
+            return Err(InconsistentState::Box(self.box_lengths));
         }
         if let Some(i) = self
             .positions
             .iter()
             .position(|p| !p.iter().all(|x| x.is_finite()))
         {
-            return Err(format!("particle {i}: position {:?}", self.positions[i]));
+            return Err(InconsistentState::Position(i, self.positions[i]));
         }
         // Written as unit quaternions, to rounding: a zero or stretched one
         // is damage, not a pose.
         let unit = |q: &[f64; 4]| (q.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-9;
         if let Some(i) = self.orientations.iter().position(|q| !unit(q)) {
-            return Err(format!(
-                "particle {i}: orientation {:?} is not a unit quaternion",
-                self.orientations[i]
-            ));
+            return Err(InconsistentState::Orientation(i, self.orientations[i]));
         }
         Ok(())
     }

@@ -92,7 +92,7 @@ pub fn read_log_with(path: &Path, options: ReadOptions) -> Result<LogContents, L
     // A FIFO would block the read, a device (/dev/zero) fill the memory.
     super::file::check_input(path).map_err(|e| LogError::Content {
         path: path.to_path_buf(),
-        message: e,
+        message: e.to_string(),
     })?;
     let buf = std::fs::read(path).map_err(|source| LogError::Io {
         path: path.to_path_buf(),

@@ -271,7 +271,7 @@ pub fn collect(dir: &Path, stage: Option<usize>) -> Result<Collected, SweepError
             let combined =
                 stages_over_replicas(&runs).map_err(|message| SweepError::Workspace {
                     path: dir.to_path_buf(),
-                    message,
+                    message: message.to_string(),
                 })?;
             combined
                 .into_iter()
