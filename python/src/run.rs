@@ -12,7 +12,7 @@ use std::time::Duration;
 use hardbody::log::file::check_output;
 use hardbody::run::{Progress, RunError as RustRunError, RunSummary, check_start};
 use hardbody::scene::{Scene, Start};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -122,8 +122,9 @@ fn deliver(py: Python<'_>, callback: &Py<PyAny>, event: Event) -> PyResult<()> {
 pub(crate) fn run_error(py: Python<'_>, e: RustRunError) -> PyErr {
     match &e {
         RustRunError::Request(m) => PyValueError::new_err(m.clone()),
+        RustRunError::Output(o) if o.is_storage_failure() => PyOSError::new_err(e.to_string()),
         RustRunError::Output(_) => PyValueError::new_err(e.to_string()),
-        RustRunError::Start(_) | RustRunError::Resume(_) => {
+        RustRunError::Start(_) | RustRunError::Resume(_) | RustRunError::Phase(_) => {
             let err = SceneError::new_err(e.to_string());
             let _ = err.value(py).setattr("field", "start");
             let _ = err.value(py).setattr("line", py.None());

@@ -25,10 +25,10 @@ impl Runner {
         record: &StateRecord,
         info: &ResumeInfo,
         index: usize,
-    ) -> Result<Phase, String> {
+    ) -> Result<Phase, PhaseError> {
         if info.jam.is_some() {
             let (Some(v), Some(w)) = (&record.velocities, &record.angular_velocities) else {
-                return Err("a jam frame without velocities".into());
+                return Err(PhaseError::NoVelocities("jam"));
             };
             return Ok(Phase::Moving {
                 system,
@@ -40,12 +40,10 @@ impl Runner {
             return Ok(Phase::Mc(system));
         };
         let Some(Stage::Dynamics { true_inertia, .. }) = self.scene.stages.get(index) else {
-            return Err(format!(
-                "frame of stage {index} has dynamics, the scene's stage does not"
-            ));
+            return Err(PhaseError::NotDynamics(index));
         };
         let (Some(v), Some(w)) = (&record.velocities, &record.angular_velocities) else {
-            return Err("a dynamics frame without velocities".into());
+            return Err(PhaseError::NoVelocities("dynamics"));
         };
         let velocities: Vec<_> = v
             .iter()
@@ -53,8 +51,7 @@ impl Runner {
             .map(|(v, w)| (Vector3::from(*v), Vector3::from(*w)))
             .collect();
         let options = self.dynamics_options(d.temperature, *true_inertia, &system);
-        let dynamics = Dynamics::from_parts(&system, &velocities, &options, d.time, d.collisions)
-            .map_err(|e| e.to_string())?;
+        let dynamics = Dynamics::from_parts(&system, &velocities, &options, d.time, d.collisions)?;
         Ok(Phase::Dynamics {
             dynamics: Box::new(dynamics),
             temperature: d.temperature,

@@ -89,6 +89,10 @@ pub enum RunError {
     /// configuration that overlaps).
     #[error("{0}")]
     Request(String),
+    /// A logged frame to go on from does not make a state the scene can
+    /// go on with.
+    #[error("start: {0}")]
+    Phase(#[from] PhaseError),
     /// The output path may not be written (it is an input, a link, a
     /// directory...).
     #[error("{0}")]
@@ -120,6 +124,23 @@ pub enum RunError {
         /// The partial log.
         partial: PathBuf,
     },
+}
+
+/// Why a logged frame is no state to go on from.
+#[derive(Debug, thiserror::Error)]
+pub enum PhaseError {
+    /// Its bodies do not fit the scene, or overlap.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// A moving stage's frame without the velocities it goes on with.
+    #[error("a {0} frame without velocities")]
+    NoVelocities(&'static str),
+    /// A frame with dynamics for a stage that is not a dynamics stage.
+    #[error("frame of stage {0} has dynamics, the scene's stage does not")]
+    NotDynamics(usize),
+    /// The dynamics could not be rebuilt from it.
+    #[error(transparent)]
+    Dynamics(#[from] EdmdError),
 }
 
 /// Why a stage failed.
@@ -172,7 +193,10 @@ impl RunError {
     /// than the simulation.
     pub fn is_bad_input(&self) -> bool {
         match self {
-            RunError::Start(_) | RunError::Resume(_) | RunError::Request(_) => true,
+            RunError::Start(_)
+            | RunError::Resume(_)
+            | RunError::Phase(_)
+            | RunError::Request(_) => true,
             RunError::Output(e) => !e.is_storage_failure(),
             RunError::Log(e @ LogError::Io { .. }) => !e.is_storage_failure(),
             RunError::Log(LogError::Busy { .. }) => true,
@@ -519,8 +543,8 @@ impl Runner {
         record: &StateRecord,
         info: &ResumeInfo,
         index: usize,
-    ) -> Result<Phase, String> {
-        let system = system_from_record(record, &self.plan).map_err(|e| e.to_string())?;
+    ) -> Result<Phase, PhaseError> {
+        let system = system_from_record(record, &self.plan)?;
         self.resumed_phase(system, record, info, index)
     }
 

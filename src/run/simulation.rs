@@ -96,9 +96,7 @@ impl Simulation {
             }
             Some(point) if point.info.stage_complete => {
                 let index = point.record.stage_index;
-                let phase = runner
-                    .phase_of(&point.record, &point.info, index)
-                    .map_err(RunError::Resume)?;
+                let phase = runner.phase_of(&point.record, &point.info, index)?;
                 runner.sizes = point.info.sizes;
                 runner.clock = point.log_time;
                 (Held::Between(phase), index + 1)
@@ -106,9 +104,7 @@ impl Simulation {
             Some(point) => {
                 // Checked here, so that a log that cannot be resumed is
                 // refused before anything is written.
-                runner
-                    .phase_of(&point.record, &point.info, point.record.stage_index)
-                    .map_err(RunError::Resume)?;
+                runner.phase_of(&point.record, &point.info, point.record.stage_index)?;
                 (
                     Held::Paused(point.log_time, Box::new(point.record.clone())),
                     point.record.stage_index,
@@ -238,10 +234,7 @@ impl Simulation {
                     .resume
                     .clone()
                     .expect("a paused stage's frame carries its resume information");
-                let phase = self
-                    .runner
-                    .phase_of(&record, &info, index)
-                    .map_err(RunError::Resume)?;
+                let phase = self.runner.phase_of(&record, &info, index)?;
                 self.runner.sizes = info.sizes;
                 self.runner.clock = info.stage_clock;
                 (phase, Some(info))
