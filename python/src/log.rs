@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use hardbody::log::read::read_log as read_contents;
-use hardbody::log::{LogError as RustLogError, StateRecord, Stats};
+use hardbody::log::{LogError as RustLogError, StateRecord, Stats, StorageFailure};
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError};

@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 
+use hardbody::log::StorageFailure;
 use hardbody::log::file::check_output;
 use hardbody::run::{Progress, RunError as RustRunError, RunSummary, check_start};
 use hardbody::scene::{Scene, Start};

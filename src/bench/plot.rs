@@ -6,6 +6,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
+use crate::log::StorageFailure;
 use crate::log::file::OutputError;
 
 /// Why a plot was not written.
@@ -20,9 +21,8 @@ pub enum PlotError {
     Output(#[from] OutputError),
 }
 
-impl PlotError {
-    /// Whether the file system, not the input, is at fault.
-    pub fn is_storage_failure(&self) -> bool {
+impl StorageFailure for PlotError {
+    fn is_storage_failure(&self) -> bool {
         matches!(self, PlotError::Output(e) if e.is_storage_failure())
     }
 }

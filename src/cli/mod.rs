@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use hardbody::log::StorageFailure;
 
 mod analyze;
 mod bench;
@@ -318,41 +319,12 @@ fn bad_input(message: impl std::fmt::Display) -> ExitCode {
 /// An output a command could not write: a failure (exit 1) where the
 /// file system could not take it (full, over quota, read-only), bad input
 /// (exit 2) where the path was at fault.
-fn not_written(e: impl NotWritten) -> ExitCode {
+fn not_written(e: impl StorageFailure + std::fmt::Display) -> ExitCode {
     if e.is_storage_failure() {
         esay(&format!("hardbody: {e}"));
         ExitCode::from(EXIT_FAILED)
     } else {
         bad_input(e)
-    }
-}
-
-/// An error that may be the file system's.
-trait NotWritten: std::fmt::Display {
-    fn is_storage_failure(&self) -> bool;
-}
-
-impl NotWritten for hardbody::log::file::OutputError {
-    fn is_storage_failure(&self) -> bool {
-        self.is_storage_failure()
-    }
-}
-
-impl NotWritten for hardbody::log::LogError {
-    fn is_storage_failure(&self) -> bool {
-        self.is_storage_failure()
-    }
-}
-
-impl NotWritten for hardbody::bench::plot::PlotError {
-    fn is_storage_failure(&self) -> bool {
-        self.is_storage_failure()
-    }
-}
-
-impl NotWritten for hardbody::sweep::SweepError {
-    fn is_storage_failure(&self) -> bool {
-        self.is_storage_failure()
     }
 }
 

@@ -47,15 +47,32 @@ pub enum LogError {
     },
 }
 
-/// Whether an I/O error of this kind is the file system's (full, over
-/// quota, read-only) rather than the path's: a run that meets one failed
-/// (exit 1), one refused a path was given bad input (exit 2).
-pub fn is_storage_failure(kind: std::io::ErrorKind) -> bool {
-    use std::io::ErrorKind::*;
-    matches!(
-        kind,
-        StorageFull | QuotaExceeded | ReadOnlyFilesystem | FileTooLarge
-    )
+/// An error that may be the file system's (full, over quota, read-only)
+/// rather than its input's: a run or command that meets one failed (exit
+/// 1), one refused a path was given bad input (exit 2).
+pub trait StorageFailure {
+    /// Whether the file system, not the input, is at fault.
+    fn is_storage_failure(&self) -> bool;
+}
+
+impl StorageFailure for std::io::ErrorKind {
+    fn is_storage_failure(&self) -> bool {
+        use std::io::ErrorKind::*;
+        matches!(
+            self,
+            StorageFull | QuotaExceeded | ReadOnlyFilesystem | FileTooLarge
+        )
+    }
+}
+
+impl StorageFailure for LogError {
+    fn is_storage_failure(&self) -> bool {
+        match self {
+            LogError::Io { source, .. } => source.kind().is_storage_failure(),
+            LogError::Output(e) => e.is_storage_failure(),
+            _ => false,
+        }
+    }
 }
 
 /// The I/O error at the root of `e`'s chain of causes, if any.
@@ -80,16 +97,6 @@ pub(super) fn io_reason(e: &std::io::Error) -> String {
 }
 
 impl LogError {
-    /// Whether the file system could not take the log (full, over quota,
-    /// read-only), rather than the path or the file being at fault.
-    pub fn is_storage_failure(&self) -> bool {
-        match self {
-            LogError::Io { source, .. } => is_storage_failure(source.kind()),
-            LogError::Output(e) => e.is_storage_failure(),
-            _ => false,
-        }
-    }
-
     /// An MCAP writer's error on `path`, with the I/O cause kept where
     /// there is one.
     pub(super) fn from_mcap(path: &Path, source: mcap::McapError) -> Self {

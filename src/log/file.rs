@@ -9,7 +9,7 @@
 use std::fs::{File, OpenOptions};
 use std::path::{Path, PathBuf};
 
-use super::{LogError, partial_path};
+use super::{LogError, StorageFailure, partial_path};
 
 /// Why an output path is refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -49,15 +49,16 @@ impl OutputError {
     /// file system told from a refusal of the path.
     pub fn io(path: &Path, e: &std::io::Error) -> Self {
         let reason = super::io_reason(e);
-        if super::is_storage_failure(e.kind()) {
+        if e.kind().is_storage_failure() {
             OutputError::Storage(path.to_path_buf(), reason)
         } else {
             OutputError::Create(path.to_path_buf(), reason)
         }
     }
+}
 
-    /// Whether the file system, not the path, is at fault.
-    pub fn is_storage_failure(&self) -> bool {
+impl StorageFailure for OutputError {
+    fn is_storage_failure(&self) -> bool {
         matches!(self, OutputError::Storage(..))
     }
 }

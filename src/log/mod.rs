@@ -42,7 +42,7 @@ use crate::space::PeriodicBox;
 use crate::state::{Particle, Species};
 
 use error::io_reason;
-pub use error::{InconsistentState, LogError, io_cause, is_storage_failure};
+pub use error::{InconsistentState, LogError, StorageFailure, io_cause};
 
 /// Nanoseconds of log time per Monte Carlo sweep.
 pub const NS_PER_SWEEP: u64 = 1_000_000;

@@ -42,6 +42,7 @@ use rand_pcg::Pcg64;
 
 use crate::edmd::EdmdError;
 use crate::edmd::dynamics::{Dynamics, DynamicsDump};
+use crate::log::StorageFailure;
 use crate::log::file::{OutputError, check_output, lock_for_reading, same_file};
 use crate::log::read::{RawMessage, ReadOptions, read_log_with};
 use crate::log::{FailureRecord, LogError, LogWriter, ResumeInfo, StateRecord, partial_path};

@@ -58,9 +58,8 @@ pub enum SweepError {
     Output(#[from] crate::log::file::OutputError),
 }
 
-impl SweepError {
-    /// Whether the file system, not the input, is at fault.
-    pub fn is_storage_failure(&self) -> bool {
+impl crate::log::StorageFailure for SweepError {
+    fn is_storage_failure(&self) -> bool {
         matches!(self, SweepError::Output(e) if e.is_storage_failure())
     }
 }
