@@ -132,7 +132,7 @@ impl PackingReport {
             .iter()
             .map(|s| 2.0 * s.bounding_radius())
             .fold(0.0, f64::max);
-        let r_max = (0.49 * box_.lengths().min()).min(5.0 * diameter);
+        let r_max = (0.49 * box_.heights().min()).min(5.0 * diameter);
         let rdf = radial_distribution(&box_, &centres, 100, r_max);
         // The peaks of dense packings lie near 2π/σ.
         let (k, s) = structure_factor(

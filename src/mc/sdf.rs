@@ -67,7 +67,7 @@ impl Sdf {
         let largest = system.radii.iter().copied().fold(0.0, f64::max);
         // (A hair wider than the farthest pair that counts.)
         let width = 2.0 * largest / shrink * (1.0 + 1e-9);
-        let cells = CellList::new(system.box_.lengths(), width, system.positions.as_slice());
+        let cells = CellList::new(&system.box_, width, system.positions.as_slice());
         let pairs = (0..system.len()).flat_map(|i| {
             let cells = &cells;
             (cells.neighbour_cells(cells.cell_of(i)).into_iter())

@@ -11,14 +11,17 @@ use std::cell::RefCell;
 
 use nalgebra::Vector3;
 
+use super::PeriodicBox;
 use super::neighbour_list::FlatLists;
 
-/// AABB cell registry over a periodic orthorhombic box.
+/// AABB cell registry over a periodic box, cut in its unsheared
+/// coordinates (a tilted box registers the unsheared box that holds each
+/// AABB).
 #[derive(Debug, Clone)]
 pub struct AabbCells {
     dims: [usize; 3],
     width: Vector3<f64>,
-    lengths: Vector3<f64>,
+    box_: PeriodicBox,
     /// Per cell: its members, each once (a cell-major flat array: a query
     /// reads each visited cell's members from one contiguous run).
     cells: FlatLists,
@@ -33,14 +36,15 @@ thread_local! {
 }
 
 impl AabbCells {
-    /// Cells of width ≥ `width` in a box of edges `lengths`, with particle i
-    /// registered for the AABB `centres[i] ± half_extents[i]`.
+    /// Cells of width ≥ `width` in `box_`, with particle i registered for
+    /// the AABB `centres[i] ± half_extents[i]`.
     pub fn new(
-        lengths: Vector3<f64>,
+        box_: &PeriodicBox,
         width: f64,
         centres: &[Vector3<f64>],
         half_extents: &[Vector3<f64>],
     ) -> Self {
+        let lengths = box_.lengths();
         let dims = super::cell_grid(&lengths, width, centres.len());
         let cell_width = Vector3::new(
             lengths.x / dims[0] as f64,
@@ -50,7 +54,7 @@ impl AabbCells {
         let mut this = Self {
             dims,
             width: cell_width,
-            lengths,
+            box_: *box_,
             cells: FlatLists::new(dims[0] * dims[1] * dims[2], 8),
             spans: Vec::with_capacity(centres.len()),
         };
@@ -71,9 +75,10 @@ impl AabbCells {
 
     /// Unwrapped cell index range of the AABB per axis.
     fn span(&self, c: &Vector3<f64>, h: &Vector3<f64>) -> [[i64; 2]; 3] {
+        let (c, h) = (self.box_.unshear(c), self.box_.unshear_half_extents(h));
         let mut s = [[0i64; 2]; 3];
         for k in 0..3 {
-            let origin = -0.5 * self.lengths[k];
+            let origin = -0.5 * self.box_.lengths()[k];
             s[k][0] = ((c[k] - h[k] - origin) / self.width[k]).floor() as i64;
             s[k][1] = ((c[k] + h[k] - origin) / self.width[k]).floor() as i64;
         }
@@ -178,54 +183,55 @@ fn push_once(cells: &mut FlatLists, cell: usize, i: usize) {
 mod tests {
     use super::*;
 
-    /// Every pair whose periodic AABBs intersect is found, after moves too.
+    /// Every pair whose periodic AABBs intersect (any lattice image) is
+    /// found, after moves too, in an orthorhombic and a tilted box.
     #[test]
     fn finds_every_pair_of_intersecting_boxes() {
         let mut u = crate::test_support::uniform(9);
         let lengths = Vector3::new(10.0, 12.0, 9.0);
-        let n = 150;
-        let mut c: Vec<Vector3<f64>> = (0..n)
-            .map(|_| Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5).component_mul(&lengths))
-            .collect();
-        let h: Vec<Vector3<f64>> = (0..n)
-            .map(|i| {
-                if i % 10 == 0 {
-                    Vector3::new(2.5, 0.4, 1.0)
-                } else {
-                    Vector3::repeat(0.3)
-                }
-            })
-            .collect();
-        let mut cells = AabbCells::new(lengths, 0.8, &c, &h);
-        for round in 0..2 {
-            for i in 0..n {
-                let mut seen = Vec::new();
-                cells.any_near(&c[i], &h[i], |j| {
-                    seen.push(j);
-                    false
-                });
-                for j in 0..n {
-                    let mut d = c[j] - c[i];
-                    for k in 0..3 {
-                        d[k] -= lengths[k] * (d[k] / lengths[k]).round();
+        for tilts in [Vector3::zeros(), Vector3::new(0.3, -0.45, 0.2)] {
+            let box_ = PeriodicBox::triclinic(lengths, tilts).unwrap();
+            let n = 150;
+            let mut c: Vec<Vector3<f64>> = (0..n)
+                .map(|_| box_.from_fractional(&Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5)))
+                .collect();
+            let h: Vec<Vector3<f64>> = (0..n)
+                .map(|i| {
+                    if i % 10 == 0 {
+                        Vector3::new(2.5, 0.4, 1.0)
+                    } else {
+                        Vector3::repeat(0.3)
                     }
-                    let touching = (0..3).all(|k| d[k].abs() <= h[i][k] + h[j][k]);
-                    if touching {
-                        assert!(seen.contains(&j), "round {round}: {i}-{j} missed");
+                })
+                .collect();
+            let mut cells = AabbCells::new(&box_, 0.8, &c, &h);
+            for round in 0..2 {
+                for i in 0..n {
+                    let mut seen = Vec::new();
+                    cells.any_near(&c[i], &h[i], |j| {
+                        seen.push(j);
+                        false
+                    });
+                    for j in 0..n {
+                        let touching = (0..27).any(|s| {
+                            let m = Vector3::new(s % 3, (s / 3) % 3, s / 9).map(|x| x as f64 - 1.0);
+                            let d = box_.minimum_image(&(c[j] - c[i])) + box_.matrix() * m;
+                            (0..3).all(|k| d[k].abs() <= h[i][k] + h[j][k])
+                        });
+                        if touching {
+                            assert!(seen.contains(&j), "round {round}: {i}-{j} missed");
+                        }
                     }
+                    let mut unique = seen.clone();
+                    unique.sort();
+                    unique.dedup();
+                    assert_eq!(unique.len(), seen.len(), "a particle reported twice");
                 }
-                let mut unique = seen.clone();
-                unique.sort();
-                unique.dedup();
-                assert_eq!(unique.len(), seen.len(), "a particle reported twice");
-            }
-            // Move everything and re-register.
-            for i in 0..n {
-                c[i] += Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 2.0;
-                for k in 0..3 {
-                    c[i][k] -= lengths[k] * (c[i][k] / lengths[k]).round();
+                // Move everything and re-register.
+                for i in 0..n {
+                    c[i] = box_.wrap(&(c[i] + Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 2.0));
+                    cells.update(i, &c[i], &h[i]);
                 }
-                cells.update(i, &c[i], &h[i]);
             }
         }
     }

@@ -76,7 +76,7 @@ impl CapsuleLists {
             pad,
             slack,
             reference: segments.to_vec(),
-            references: AabbCells::new(box_.lengths(), cell_width, &centres, &halves),
+            references: AabbCells::new(box_, cell_width, &centres, &halves),
             lists: NeighbourLists::new(segments.len(), 16),
         };
         for i in 0..segments.len() {

@@ -1,6 +1,8 @@
-//! Linked cells for a periodic orthorhombic box: cells at least as wide as
-//! the interaction range, so that every pair within range lies in the same
-//! or an adjacent cell. In a box fewer than three cells wide along an axis
+//! Linked cells for a periodic box: cells at least as wide as the
+//! interaction range across their faces, so that every pair within range
+//! lies in the same or an adjacent cell. Cells are cut in the box's
+//! unsheared coordinates (see [`PeriodicBox`]), so a tilted box takes the
+//! same cells as an orthorhombic one, counted by its heights. In a box fewer than three cells wide along an axis
 //! the neighbour cells repeat; they are deduplicated, never skipped.
 //!
 //! Storage is flat: each cell owns `capacity` slots of one array (no
@@ -9,11 +11,13 @@
 
 use nalgebra::Vector3;
 
+use super::PeriodicBox;
+
 /// Particle indices binned into cells.
 #[derive(Debug, Clone)]
 pub struct CellList {
     dims: [usize; 3],
-    lengths: Vector3<f64>,
+    box_: PeriodicBox,
     capacity: usize,
     slots: Vec<u32>,
     counts: Vec<u32>,
@@ -26,13 +30,13 @@ pub struct CellList {
 }
 
 impl CellList {
-    /// Bins `positions` (in [−L/2, L/2)) into cells of width ≥ `range`.
-    pub fn new(lengths: Vector3<f64>, range: f64, positions: &[Vector3<f64>]) -> Self {
-        let dims = super::cell_grid(&lengths, range, positions.len());
+    /// Bins `positions` (in the box) into cells of width ≥ `range`.
+    pub fn new(box_: &PeriodicBox, range: f64, positions: &[Vector3<f64>]) -> Self {
+        let dims = super::cell_grid(&box_.heights(), range, positions.len());
         let count = dims[0] * dims[1] * dims[2];
         let mut this = Self {
             dims,
-            lengths,
+            box_: *box_,
             capacity: 4,
             slots: Vec::new(),
             counts: vec![0; count],
@@ -101,9 +105,10 @@ impl CellList {
     /// The cell holding position `r` (wrapped into the box).
     #[inline]
     pub fn cell_index(&self, r: &Vector3<f64>) -> usize {
+        let (u, lengths) = (self.box_.unshear(r), self.box_.lengths());
         let mut idx = [0usize; 3];
         for k in 0..3 {
-            let mut f = r[k] / self.lengths[k] + 0.5;
+            let mut f = u[k] / lengths[k] + 0.5;
             // One shift suffices for positions within a box of it.
             if f < 0.0 {
                 f += 1.0;
@@ -131,12 +136,14 @@ impl CellList {
         ]
     }
 
-    /// Cell edge lengths (the box divided by `dims`).
+    /// Cell edge lengths (the box divided by `dims`, in unsheared
+    /// coordinates).
     pub fn cell_lengths(&self) -> Vector3<f64> {
+        let l = self.box_.lengths();
         Vector3::new(
-            self.lengths.x / self.dims[0] as f64,
-            self.lengths.y / self.dims[1] as f64,
-            self.lengths.z / self.dims[2] as f64,
+            l.x / self.dims[0] as f64,
+            l.y / self.dims[1] as f64,
+            l.z / self.dims[2] as f64,
         )
     }
 
@@ -208,10 +215,12 @@ impl CellList {
 
     /// Which of the cells of [`CellList::neighbour_images`] (bit k for its
     /// step k) come within `limit` of `centre`, a point in `cell` (in
-    /// [−L/2, L/2)).
+    /// [−L/2, L/2)); in an orthorhombic box (distances are measured in
+    /// the cells' own coordinates).
     pub fn neighbours_within(&self, cell: usize, centre: &Vector3<f64>, limit: f64) -> u32 {
+        debug_assert!(!self.box_.is_tilted());
         let c = self.coords_of(cell);
-        let (l, cl) = (self.lengths, self.cell_lengths());
+        let (l, cl) = (self.box_.lengths(), self.cell_lengths());
         // Per axis, the squared distance to the cells one step below, level
         // with and one step above `cell`.
         let gaps: [[f64; 3]; 3] = std::array::from_fn(|a| {
@@ -401,7 +410,7 @@ mod tests {
         let below_half = f64::from_bits(6.0f64.to_bits() - 1);
         centres.push(Vector3::repeat(below_half));
         centres.push(Vector3::repeat(-6.0));
-        let cells = CellList::new(l, 2.5, &centres);
+        let cells = CellList::new(&PeriodicBox::new(l).unwrap(), 2.5, &centres);
         let (cl, dims) = (cells.cell_lengths(), cells.dims());
         assert_eq!(cells.coords_of(cells.cell_of(2000)), [0, 0, 0], "wrapped");
         let mut skipped = 0;
@@ -451,7 +460,11 @@ mod tests {
             [5, 1, 1],
         ] {
             let lengths = Vector3::from_fn(|a, _| dims[a] as f64 * 1.01);
-            let cl = CellList::new(lengths, 1.0, &[Vector3::zeros(); 64]);
+            let cl = CellList::new(
+                &PeriodicBox::new(lengths).unwrap(),
+                1.0,
+                &[Vector3::zeros(); 64],
+            );
             assert_eq!(cl.dims(), dims);
             for cell in 0..dims.iter().product() {
                 let c = cl.coords_of(cell);
@@ -475,39 +488,42 @@ mod tests {
         }
     }
 
-    /// Every pair closer than the range is found, in boxes of 1 to 5 cells.
+    /// Every pair closer than the range is found, in boxes of 1 to 5 cells,
+    /// orthorhombic and tilted.
     #[test]
     fn finds_every_pair_within_range() {
         let mut uniform = crate::test_support::uniform(3);
         let mut u = || uniform() - 0.5;
-        for &len in &[2.5, 4.0, 5.5, 7.2] {
-            let lengths = Vector3::new(len, len * 1.3, len * 0.9);
-            let pos: Vec<Vector3<f64>> = (0..200)
-                .map(|_| Vector3::new(u() * lengths.x, u() * lengths.y, u() * lengths.z))
-                .collect();
-            let cl = CellList::new(lengths, 1.2, &pos);
-            for i in 0..pos.len() {
-                let mut near = Vec::new();
-                cl.any_near(&pos[i], |j| {
-                    near.push(j);
-                    false
-                });
-                let mut sorted = near.clone();
-                assert!(near.contains(&i), "a particle is not near itself");
-                sorted.sort();
-                sorted.dedup();
-                assert_eq!(sorted.len(), near.len(), "a particle listed twice");
-                for j in 0..pos.len() {
-                    let mut d = pos[j] - pos[i];
-                    for k in 0..3 {
-                        d[k] -= lengths[k] * (d[k] / lengths[k]).round();
-                    }
-                    if d.norm() < 1.2 {
-                        assert!(
-                            near.contains(&j),
-                            "pair {i}-{j} at {} missed (box {len})",
-                            d.norm()
-                        );
+        for tilts in [Vector3::zeros(), Vector3::new(0.4, -0.3, 0.25)] {
+            for &len in &[2.5, 4.0, 5.5, 7.2] {
+                let lengths = Vector3::new(len, len * 1.3, len * 0.9);
+                let box_ = PeriodicBox::triclinic(lengths, tilts).unwrap();
+                let pos: Vec<Vector3<f64>> = (0..200)
+                    .map(|_| box_.from_fractional(&Vector3::new(u(), u(), u())))
+                    .collect();
+                let cl = CellList::new(&box_, 1.2, &pos);
+                for i in 0..pos.len() {
+                    let mut near = Vec::new();
+                    cl.any_near(&pos[i], |j| {
+                        near.push(j);
+                        false
+                    });
+                    let mut sorted = near.clone();
+                    assert!(near.contains(&i), "a particle is not near itself");
+                    sorted.sort();
+                    sorted.dedup();
+                    assert_eq!(sorted.len(), near.len(), "a particle listed twice");
+                    for j in 0..pos.len() {
+                        // The shortest image, by brute force over lattice shifts.
+                        let mut d = f64::INFINITY;
+                        for s in 0..125 {
+                            let n =
+                                Vector3::new(s % 5, (s / 5) % 5, s / 25).map(|c| c as f64 - 2.0);
+                            d = d.min((pos[j] - pos[i] + box_.matrix() * n).norm());
+                        }
+                        if d < 1.2 {
+                            assert!(near.contains(&j), "pair {i}-{j} at {d} missed (box {len})");
+                        }
                     }
                 }
             }
@@ -527,7 +543,7 @@ mod tests {
             let pos: Vec<Vector3<f64>> = (0..n)
                 .map(|_| Vector3::from_fn(|_, _| (u() - 0.5) * 6.0 * spread))
                 .collect();
-            let cl = CellList::new(lengths, 1.0, &pos);
+            let cl = CellList::new(&PeriodicBox::new(lengths).unwrap(), 1.0, &pos);
             capacities.push(cl.capacity);
             for cell in 0..cl.counts.len() {
                 let expected: Vec<u32> = cl
@@ -562,7 +578,7 @@ mod tests {
             let pos: Vec<Vector3<f64>> = (0..300)
                 .map(|_| Vector3::from_fn(|k, _| (u() - 0.5) * lengths[k]))
                 .collect();
-            let cl = CellList::new(lengths, range, &pos);
+            let cl = CellList::new(&PeriodicBox::new(lengths).unwrap(), range, &pos);
             let w = cl.cell_lengths();
             let mut wrapped = 0;
             for (i, r) in pos.iter().enumerate() {
@@ -594,7 +610,7 @@ mod tests {
         let mut pos: Vec<Vector3<f64>> = (0..60)
             .map(|_| Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 6.0)
             .collect();
-        let mut cl = CellList::new(lengths, 1.0, &pos);
+        let mut cl = CellList::new(&PeriodicBox::new(lengths).unwrap(), 1.0, &pos);
         for step in 0..3000 {
             let i = step % pos.len();
             // Drift everything towards one corner so that cells overflow.

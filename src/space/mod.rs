@@ -47,7 +47,7 @@ pub fn pairs_within(
     cutoff: f64,
     mut f: impl FnMut(usize, usize, Vector3<f64>),
 ) {
-    let cells = CellList::new(box_.lengths(), cutoff, centres);
+    let cells = CellList::new(box_, cutoff, centres);
     cells.for_each_near_pair(|i, j| {
         let d = box_.minimum_image(&(centres[j] - centres[i]));
         if d.norm_squared() < cutoff * cutoff {

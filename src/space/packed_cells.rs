@@ -1,9 +1,11 @@
 //! Cells for Monte Carlo's hot loop: as wide as the interaction range, each
 //! holding its members' positions beside their indices, so that scanning a
 //! neighbour cell reads one contiguous run of memory and never looks a
-//! position up elsewhere. The separation handed to the caller is
-//! `(rⱼ − r) + s` with `s` the image shift of the neighbour cell (whole box
-//! lengths, known from the cell offset), the same arithmetic as
+//! position up elsewhere. Cells are cut in the box's unsheared coordinates
+//! (see [`PeriodicBox`]), counted by its heights. The separation handed to
+//! the caller is `(rⱼ − r) + s` with `s` the image shift of the neighbour
+//! cell (whole lattice vectors, known from the cell offset), the same
+//! arithmetic as
 //! [`PeriodicBox::minimum_image_near`] and bit-identical to it for every
 //! pair within range. Boxes fewer than three cells wide along a periodic
 //! axis (where neighbour cells repeat) take the deduplicated cells and the
@@ -77,8 +79,7 @@ impl PackedCells {
         count: usize,
         members: impl Iterator<Item = (usize, (V3, f64))> + Clone,
     ) -> Self {
-        let lengths = box_.lengths();
-        let dims = super::cell_grid(&lengths, range, members.clone().count().max(1));
+        let dims = super::cell_grid(&box_.heights(), range, members.clone().count().max(1));
         let walls = box_.walls();
         let shifted = (0..3).all(|k| walls[k] || dims[k] >= 3);
         let cells = dims[0] * dims[1] * dims[2];
@@ -209,14 +210,14 @@ impl PackedCells {
         self.dims
     }
 
-    /// Integer cell coordinates of `r` (a position in the box, or within a
-    /// box length of it).
+    /// Integer cell coordinates of unsheared coordinates `u` (of a
+    /// position in the box, or within a box length of it).
     #[inline]
-    fn coords(&self, r: &V3) -> [usize; 3] {
+    fn coords(&self, u: &V3) -> [usize; 3] {
         let lengths = self.box_.lengths();
         let mut idx = [0usize; 3];
         for k in 0..3 {
-            let mut f = r[k] / lengths[k] + 0.5;
+            let mut f = u[k] / lengths[k] + 0.5;
             if f < 0.0 {
                 f += 1.0;
             } else if f >= 1.0 {
@@ -229,7 +230,7 @@ impl PackedCells {
 
     #[inline]
     fn cell_index(&self, r: &V3) -> usize {
-        let c = self.coords(r);
+        let c = self.coords(&self.box_.unshear(r));
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 
@@ -273,7 +274,8 @@ impl PackedCells {
     /// returns true as soon as `f` does.
     #[inline]
     pub fn any_near(&self, r: &V3, mut f: impl FnMut(usize, &V3) -> bool) -> bool {
-        let at = self.coords(r);
+        let u = self.box_.unshear(r);
+        let at = self.coords(&u);
         if !self.shifted {
             return self.repeated_cells(&at).iter().any(|&n| {
                 self.range_of(n as usize).any(|s| {
@@ -284,7 +286,7 @@ impl PackedCells {
                 })
             });
         }
-        self.any_shifted_cell(&at, r, |slots, members, shift| {
+        self.any_shifted_cell(&at, &u, |slots, members, shift| {
             slots.iter().zip(members).any(|(e, &j)| {
                 let d = (position(e) - r) + shift;
                 f(j as usize, &d)
@@ -304,14 +306,15 @@ impl PackedCells {
     /// with `keep(j)` only (asked only of those within reach).
     #[inline]
     pub fn sphere_overlaps_where(&self, r: &V3, radius: f64, keep: impl Fn(u32) -> bool) -> bool {
-        let at = self.coords(r);
+        let u = self.box_.unshear(r);
+        let at = self.coords(&u);
         if !self.shifted {
             return self.any_near(r, |j, d| {
                 let reach = radius + self.slots[self.slot_of[j] as usize][3];
                 d.norm_squared() <= reach * reach && keep(j as u32)
             });
         }
-        self.any_shifted_cell(&at, r, |slots, members, shift| {
+        self.any_shifted_cell(&at, &u, |slots, members, shift| {
             slots.iter().zip(members).any(|(e, &j)| {
                 let d = (position(e) - r) + shift;
                 let reach = radius + e[3];
@@ -321,8 +324,8 @@ impl PackedCells {
     }
 
     /// Calls `visit(slots, members, shift)` with the occupied slots of each
-    /// distinct cell around `r` (at cell coordinates `at`) and the cell's
-    /// image shift, the eight cells of the 2×2×2 block nearest `r` first (an
+    /// distinct cell around a position (unsheared coordinates `u`, at cell
+    /// coordinates `at`) and the cell's image shift, the eight cells of the 2×2×2 block nearest `r` first (an
     /// overlap, when there is one, is most likely there, and a rejected move
     /// stops at it); stops early and returns true as soon as `visit` does.
     /// Only when every periodic axis is at least three cells wide.
@@ -330,7 +333,7 @@ impl PackedCells {
     fn any_shifted_cell(
         &self,
         at: &[usize; 3],
-        r: &V3,
+        u: &V3,
         mut visit: impl FnMut(&[[f64; 4]], &[u32], &V3) -> bool,
     ) -> bool {
         let interior = (0..3).all(|k| at[k] >= 1 && at[k] + 1 < self.dims[k]);
@@ -343,7 +346,7 @@ impl PackedCells {
             for k in 0..3 {
                 let width = lengths[k] / self.dims[k] as f64;
                 let middle = (at[k] as f64 + 0.5) * width - 0.5 * lengths[k];
-                octant |= ((r[k] >= middle) as usize) << k;
+                octant |= ((u[k] >= middle) as usize) << k;
             }
             let zero = V3::zeros();
             for &offset in &self.interior_offsets[octant] {
@@ -354,9 +357,9 @@ impl PackedCells {
             }
             return false;
         }
-        let (xs, xt, nx) = self.axis_cells(0, at, r);
-        let (ys, yt, ny) = self.axis_cells(1, at, r);
-        let (zs, zt, nz) = self.axis_cells(2, at, r);
+        let (xs, xt, nx) = self.axis_cells(0, at, u);
+        let (ys, yt, ny) = self.axis_cells(1, at, u);
+        let (zs, zt, nz) = self.axis_cells(2, at, u);
         for [a, b, c] in NEAREST_FIRST {
             if a >= nx || b >= ny || c >= nz {
                 continue;
@@ -366,7 +369,7 @@ impl PackedCells {
             if visit(
                 &self.slots[range.clone()],
                 &self.members[range],
-                &V3::new(xt[a], yt[b], zt[c]),
+                &self.box_.shear(&V3::new(xt[a], yt[b], zt[c])),
             ) {
                 return true;
             }
@@ -382,6 +385,8 @@ impl PackedCells {
     /// among a grid of small ones.
     pub fn any_within(&self, r: &V3, reach: f64, mut f: impl FnMut(usize, &V3) -> bool) -> bool {
         let lengths = self.box_.lengths();
+        let heights = self.box_.heights();
+        let u = self.box_.unshear(r);
         let walls = self.box_.walls();
         // Per axis: the first unwrapped cell and how many, by the formula
         // `coords` bins with (monotone in x; the reach grown by 1e-9 of
@@ -392,13 +397,15 @@ impl PackedCells {
         let mut whole = false;
         for k in 0..3 {
             let n = self.dims[k] as i64;
-            let grown = reach + 1e-9 * lengths[k];
+            // A reach across the faces is lengths/heights as far in
+            // unsheared coordinates.
+            let grown = reach * (lengths[k] / heights[k]) + 1e-9 * lengths[k];
             let cell = |x: f64| {
                 let t = (x / lengths[k] + 0.5) * n as f64;
                 let i = t as i64;
                 if (i as f64) > t { i - 1 } else { i }
             };
-            let (mut lo, mut hi) = (cell(r[k] - grown), cell(r[k] + grown));
+            let (mut lo, mut hi) = (cell(u[k] - grown), cell(u[k] + grown));
             if walls[k] {
                 lo = lo.max(0);
                 hi = hi.min(n - 1);
@@ -412,16 +419,17 @@ impl PackedCells {
         for cz in first[2]..first[2] + count[2] {
             for cy in first[1]..first[1] + count[1] {
                 for cx in first[0]..first[0] + count[0] {
-                    let u = [cx, cy, cz];
+                    let unwrapped = [cx, cy, cz];
                     let mut shift = V3::zeros();
                     let mut at = [0usize; 3];
                     for k in 0..3 {
                         let n = self.dims[k] as i64;
-                        at[k] = u[k].rem_euclid(n) as usize;
+                        at[k] = unwrapped[k].rem_euclid(n) as usize;
                         if !walls[k] {
-                            shift[k] = u[k].div_euclid(n) as f64 * lengths[k];
+                            shift[k] = unwrapped[k].div_euclid(n) as f64 * lengths[k];
                         }
                     }
+                    let shift = self.box_.shear(&shift);
                     let cell = at[0] + self.dims[0] * (at[1] + self.dims[1] * at[2]);
                     for s in self.range_of(cell) {
                         let raw = position(&self.slots[s]) - r;
@@ -455,12 +463,12 @@ impl PackedCells {
     }
 
     /// Along axis `k`, the distinct cells around coordinate `at[k]` with
-    /// their image shifts and how many there are: own cell, then the
-    /// neighbour on the side of `r` within its cell, then the far one
+    /// their image shifts (unsheared) and how many there are: own cell, then
+    /// the neighbour on the side of `u` within its cell, then the far one
     /// (walled axes narrower than three cells have fewer). Only when every
     /// periodic axis is at least three cells wide.
     #[inline]
-    fn axis_cells(&self, k: usize, at: &[usize; 3], r: &V3) -> ([usize; 3], [f64; 3], usize) {
+    fn axis_cells(&self, k: usize, at: &[usize; 3], u: &V3) -> ([usize; 3], [f64; 3], usize) {
         let n = self.dims[k];
         let c = at[k];
         match n {
@@ -472,7 +480,7 @@ impl PackedCells {
                 let (below, s_below) = if c == 0 { (n - 1, -l) } else { (c - 1, 0.0) };
                 let (above, s_above) = if c + 1 == n { (0, l) } else { (c + 1, 0.0) };
                 let centre = (c as f64 + 0.5) * (length / n as f64) - 0.5 * length;
-                if r[k] < centre {
+                if u[k] < centre {
                     ([c, below, above], [0.0, s_below, s_above], 3)
                 } else {
                     ([c, above, below], [0.0, s_above, s_below], 3)
@@ -536,13 +544,17 @@ mod tests {
     fn box_queries_find_everything_within_reach() {
         let mut uniform = crate::test_support::uniform(12);
         let mut u = || uniform() - 0.5;
-        for walls in [[false; 3], [false, false, true]] {
-            let box_ = PeriodicBox::new(Vector3::new(9.0, 10.0, 11.0))
+        let tilted = Vector3::new(0.2, 0.1, -0.15);
+        for (tilts, walls) in [
+            (V3::zeros(), [false; 3]),
+            (V3::zeros(), [false, false, true]),
+            (tilted, [false; 3]),
+        ] {
+            let box_ = PeriodicBox::triclinic(Vector3::new(9.0, 10.0, 11.0), tilts)
                 .unwrap()
                 .with_walls(walls);
-            let lengths = box_.lengths();
             let pos: Vec<V3> = (0..3000)
-                .map(|_| Vector3::new(u(), u(), u()).component_mul(&lengths))
+                .map(|_| box_.from_fractional(&Vector3::new(u(), u(), u())))
                 .collect();
             // Every other particle is in the grid (a species of its own).
             let cells = PackedCells::with_members(
@@ -555,7 +567,7 @@ mod tests {
                     .filter(|(i, _)| i % 2 == 0),
             );
             for _ in 0..200 {
-                let r = Vector3::new(u(), u(), u()).component_mul(&lengths);
+                let r = box_.from_fractional(&Vector3::new(u(), u(), u()));
                 let reach = 0.3 + 4.0 * (u() + 0.5);
                 let mut seen = Vec::new();
                 cells.any_within(&r, reach, |j, d| {
@@ -582,26 +594,28 @@ mod tests {
 
     /// Every pair within range is found once, with the separation the box's
     /// minimum image gives bit for bit, and the sphere test agrees with all
-    /// pairs, in boxes of 2 to 7 cells, with and without walls, after moves
-    /// that overflow cells too.
+    /// pairs, in boxes of 2 to 7 cells, with and without walls, tilted or
+    /// not, after moves that overflow cells too.
     #[test]
     fn finds_every_pair_within_range_with_the_minimum_image() {
         let mut uniform = crate::test_support::uniform(5);
         let mut u = || uniform() - 0.5;
         let range = 1.2;
-        for (len, walls) in [
-            (2.5, [false; 3]),
-            (4.0, [false; 3]),
-            (5.5, [false, true, false]),
-            (8.7, [false; 3]),
-            (8.7, [true; 3]),
+        let tilted = V3::new(0.35, -0.2, 0.3);
+        for (len, walls, tilts) in [
+            (2.5, [false; 3], V3::zeros()),
+            (4.0, [false; 3], V3::zeros()),
+            (5.5, [false, true, false], V3::zeros()),
+            (8.7, [false; 3], V3::zeros()),
+            (8.7, [true; 3], V3::zeros()),
+            (4.0, [false; 3], tilted),
+            (8.7, [false; 3], tilted),
         ] {
-            let box_ = PeriodicBox::new(Vector3::new(len, len * 1.1, len * 0.95))
+            let box_ = PeriodicBox::triclinic(Vector3::new(len, len * 1.1, len * 0.95), tilts)
                 .unwrap()
                 .with_walls(walls);
-            let lengths = box_.lengths();
             let mut pos: Vec<V3> = (0..150)
-                .map(|_| Vector3::new(u(), u(), u()).component_mul(&lengths))
+                .map(|_| box_.from_fractional(&Vector3::new(u(), u(), u())))
                 .collect();
             let radii: Vec<f64> = (0..pos.len())
                 .map(|i| 0.3 + 0.05 * (i % 3) as f64)

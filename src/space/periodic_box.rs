@@ -1,63 +1,95 @@
-//! An orthorhombic box, positions in [−L/2, L/2): periodic along each axis
-//! unless that axis is closed by hard walls at ±L/2 (then no periodic
-//! image is taken along it, and bodies must keep inside the walls).
+//! The simulation box: a parallelepiped spanned by a₁ = (Lx, 0, 0),
+//! a₂ = (xy·Ly, Ly, 0), a₃ = (xz·Lz, yz·Lz, Lz) (HOOMD-blue's edges and
+//! tilt factors), periodic along each lattice vector unless that axis is
+//! closed by hard walls (then no periodic image is taken along it, and
+//! bodies must keep inside the walls; only an orthorhombic box has walls).
+//!
+//! Everything periodic is done in the box's unsheared coordinates
+//! u = T⁻¹r, where T is the unit upper-triangular tilt matrix: in u the
+//! box is the orthorhombic [−L/2, L/2)³ and every image shift is whole
+//! edges Lₖ along axis k. A zero-tilt box is the identity map, the same
+//! arithmetic with zero products (and the same bits, up to the sign of a
+//! zero).
 
 use nalgebra::Vector3;
 
-/// An orthorhombic box with edge lengths `lengths`, periodic along every
-/// axis without walls.
+type V3 = Vector3<f64>;
+
+/// A periodic box with edge lengths `lengths` and tilt factors `tilts`
+/// (xy, xz, yz), walls along none, some or all axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PeriodicBox {
-    lengths: Vector3<f64>,
+    lengths: V3,
+    /// Tilt factors (xy, xz, yz).
+    tilts: V3,
     /// Per axis: hard walls at ±L/2 (true) or periodic (false).
     walls: [bool; 3],
-    /// Per axis: 1 where periodic, 0 where walled (masks image shifts).
-    periodic: Vector3<f64>,
     /// Per axis: L/2 where periodic, ∞ where walled (image thresholds).
-    half: Vector3<f64>,
+    half: V3,
     /// Per axis: 1/L where periodic, 0 where walled (image counts).
-    inverse: Vector3<f64>,
+    inverse: V3,
 }
 
-/// A box with a non-positive or non-finite edge.
+/// A box that cannot hold a simulation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("box edge lengths must be finite and > 0, got {0:?}")]
-pub struct BoxError(pub [f64; 3]);
+pub enum BoxError {
+    /// A non-positive or non-finite edge.
+    #[error("box edge lengths must be finite and > 0, got {0:?}")]
+    Edges([f64; 3]),
+    /// A non-finite tilt factor.
+    #[error("box tilt factors (xy, xz, yz) must be finite, got {0:?}")]
+    Tilts([f64; 3]),
+}
 
 impl PeriodicBox {
-    /// A box with edges `lengths`.
-    pub fn new(lengths: Vector3<f64>) -> Result<Self, BoxError> {
-        if lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
-            Ok(Self::build(lengths, [false; 3]))
-        } else {
-            Err(BoxError(lengths.into()))
-        }
+    /// An orthorhombic box with edges `lengths`.
+    pub fn new(lengths: V3) -> Result<Self, BoxError> {
+        Self::triclinic(lengths, V3::zeros())
     }
 
-    fn build(lengths: Vector3<f64>, walls: [bool; 3]) -> Self {
+    /// A box with edges `lengths` and tilt factors `tilts` (xy, xz, yz).
+    pub fn triclinic(lengths: V3, tilts: V3) -> Result<Self, BoxError> {
+        if !lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
+            return Err(BoxError::Edges(lengths.into()));
+        }
+        if !tilts.iter().all(|t| t.is_finite()) {
+            return Err(BoxError::Tilts(tilts.into()));
+        }
+        Ok(Self::build(lengths, tilts, [false; 3]))
+    }
+
+    fn build(lengths: V3, tilts: V3, walls: [bool; 3]) -> Self {
         Self {
             lengths,
+            tilts,
             walls,
-            periodic: Vector3::from_fn(|k, _| if walls[k] { 0.0 } else { 1.0 }),
-            half: Vector3::from_fn(|k, _| {
+            half: V3::from_fn(|k, _| {
                 if walls[k] {
                     f64::INFINITY
                 } else {
                     0.5 * lengths[k]
                 }
             }),
-            inverse: Vector3::from_fn(|k, _| if walls[k] { 0.0 } else { 1.0 / lengths[k] }),
+            inverse: V3::from_fn(|k, _| if walls[k] { 0.0 } else { 1.0 / lengths[k] }),
         }
     }
 
     /// The same box with hard walls at ±L/2 along the axes marked true.
+    /// Walls belong to orthorhombic boxes: the scene refuses a tilted box
+    /// with walls before one is built.
     pub fn with_walls(self, walls: [bool; 3]) -> Self {
-        Self::build(self.lengths, walls)
+        debug_assert!(!walls.contains(&true) || !self.is_tilted());
+        Self::build(self.lengths, self.tilts, walls)
     }
 
-    /// The same walls with other edge lengths.
-    pub fn with_lengths(&self, lengths: Vector3<f64>) -> Result<Self, BoxError> {
-        Ok(Self::new(lengths)?.with_walls(self.walls))
+    /// The same walls and tilt factors with other edge lengths.
+    pub fn with_lengths(&self, lengths: V3) -> Result<Self, BoxError> {
+        Ok(Self::triclinic(lengths, self.tilts)?.with_walls(self.walls))
+    }
+
+    /// The same walls and edges with other tilt factors.
+    pub fn with_tilts(&self, tilts: V3) -> Result<Self, BoxError> {
+        Ok(Self::triclinic(self.lengths, tilts)?.with_walls(self.walls))
     }
 
     /// Per axis: whether hard walls close it.
@@ -70,97 +102,255 @@ impl PeriodicBox {
         self.walls.iter().any(|&w| w)
     }
 
-    /// Edge lengths.
-    pub fn lengths(&self) -> Vector3<f64> {
+    /// Edge lengths (Lx, Ly, Lz).
+    pub fn lengths(&self) -> V3 {
         self.lengths
     }
 
-    /// Volume.
+    /// Tilt factors (xy, xz, yz).
+    pub fn tilts(&self) -> V3 {
+        self.tilts
+    }
+
+    /// Whether any tilt factor is not zero.
+    pub fn is_tilted(&self) -> bool {
+        self.tilts != V3::zeros()
+    }
+
+    /// The lattice vectors a₁, a₂, a₃ as columns.
+    pub fn matrix(&self) -> nalgebra::Matrix3<f64> {
+        let (l, t) = (self.lengths, self.tilts);
+        nalgebra::Matrix3::new(
+            l.x,
+            t.x * l.y,
+            t.y * l.z,
+            0.0,
+            l.y,
+            t.z * l.z,
+            0.0,
+            0.0,
+            l.z,
+        )
+    }
+
+    /// Volume (Lx·Ly·Lz: tilts shear the box without changing it).
     pub fn volume(&self) -> f64 {
         self.lengths.product()
+    }
+
+    /// The distances between opposite faces: the face normal to the
+    /// reciprocal vector k sits hₖ = Lₖ / |row k of T⁻¹| from its partner.
+    /// A body fits its own periodic images when it is thinner than the
+    /// smallest; cells of width w along k take w ≤ hₖ.
+    pub fn heights(&self) -> V3 {
+        let (xy, xz, yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
+        let l = self.lengths;
+        V3::new(
+            l.x / (1.0 + xy * xy + (xy * yz - xz).powi(2)).sqrt(),
+            l.y / (1.0 + yz * yz).sqrt(),
+            l.z,
+        )
+    }
+
+    /// The unsheared coordinates T⁻¹r of `r` (the box is [−L/2, L/2)³ in
+    /// them).
+    #[inline(always)]
+    pub fn unshear(&self, r: &V3) -> V3 {
+        let (xy, xz, yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
+        let uy = r.y - yz * r.z;
+        V3::new(r.x - xy * uy - xz * r.z, uy, r.z)
+    }
+
+    /// Half extents, in unsheared coordinates, of a box that holds the
+    /// axis-aligned box ± `half_extents` once unsheared (|T⁻¹| applied
+    /// entry by entry).
+    #[inline]
+    pub fn unshear_half_extents(&self, half_extents: &V3) -> V3 {
+        let (xy, xz, yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
+        let h = half_extents;
+        V3::new(
+            h.x + xy.abs() * h.y + (xy * yz - xz).abs() * h.z,
+            h.y + yz.abs() * h.z,
+            h.z,
+        )
+    }
+
+    /// The position T·u of unsheared coordinates `u`.
+    #[inline(always)]
+    pub fn shear(&self, u: &V3) -> V3 {
+        let (xy, xz, yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
+        V3::new(u.x + xy * u.y + xz * u.z, u.y + yz * u.z, u.z)
+    }
+
+    /// Fractional coordinates H⁻¹r (in [−1/2, 1/2) in the box).
+    pub fn fractional(&self, r: &V3) -> V3 {
+        self.unshear(r).component_div(&self.lengths)
+    }
+
+    /// The position H·s of fractional coordinates `s`.
+    pub fn from_fractional(&self, s: &V3) -> V3 {
+        self.shear(&s.component_mul(&self.lengths))
+    }
+
+    /// Where `r`, a position in box `old`, goes when the box becomes this
+    /// one: the same fractional coordinates (an affine map of the box).
+    #[inline]
+    pub fn map_from(&self, old: &PeriodicBox, r: &V3) -> V3 {
+        let factor = self.lengths.component_div(&old.lengths);
+        self.shear(&old.unshear(r).component_mul(&factor))
+    }
+
+    /// The smallest factor by which the map from box `old` to this one
+    /// (same fractional coordinates) stretches any separation: the
+    /// smallest singular value of H·H₀⁻¹ (the smallest edge ratio when
+    /// neither box is tilted).
+    pub fn smallest_stretch_from(&self, old: &PeriodicBox) -> f64 {
+        let factor = self.lengths.component_div(&old.lengths);
+        if !self.is_tilted() && !old.is_tilted() {
+            return factor.min();
+        }
+        let map = self.matrix()
+            * old
+                .matrix()
+                .try_inverse()
+                .unwrap_or_else(nalgebra::Matrix3::zeros);
+        (map.transpose() * map)
+            .symmetric_eigenvalues()
+            .min()
+            .max(0.0)
+            .sqrt()
+    }
+
+    /// Whether the map from box `old` to this one scales every separation
+    /// by the same factor, at least 1 (an isotropic expansion: no convex
+    /// bodies that were apart can touch after it).
+    pub fn expands_uniformly_from(&self, old: &PeriodicBox) -> bool {
+        let f = self.lengths.component_div(&old.lengths);
+        self.tilts == old.tilts && f.x >= 1.0 && f.x == f.y && f.y == f.z
     }
 
     /// The shortest periodic image of the separation `d` (see
     /// [`PeriodicBox::image_shift`] for the rounding).
     #[inline]
-    pub fn minimum_image(&self, d: &Vector3<f64>) -> Vector3<f64> {
+    pub fn minimum_image(&self, d: &V3) -> V3 {
         d + self.image_shift(d)
     }
 
-    /// What [`PeriodicBox::minimum_image`] adds to `d` (whole box lengths
-    /// on periodic axes): to carry the image chosen for one separation
-    /// over to another (the same pair at another time).
-    /// Rounds halfway cases to even (the adding-2⁵² trick, exact for |dₖ| <
+    /// What [`PeriodicBox::minimum_image`] adds to `d` (whole lattice
+    /// vectors along periodic axes): to carry the image chosen for one
+    /// separation over to another (the same pair at another time). The
+    /// image with unsheared coordinates in [−L/2, L/2] per axis: the
+    /// shortest one for every separation shorter than half the smallest
+    /// height (it is then the only image that short).
+    /// Rounds halfway cases to even (the adding-2⁵² trick, exact for |uₖ| <
     /// 2⁵¹ Lₖ: no library call where the CPU baseline lacks a rounding
     /// instruction; the hot loop of the hard-sphere dynamics calls this).
     #[inline]
-    pub fn image_shift(&self, d: &Vector3<f64>) -> Vector3<f64> {
-        Vector3::new(
-            self.image_shift_along(0, d.x),
-            self.image_shift_along(1, d.y),
-            self.image_shift_along(2, d.z),
-        )
+    pub fn image_shift(&self, d: &V3) -> V3 {
+        let u = self.unshear(d);
+        self.shear(&V3::new(
+            self.image_shift_along(0, u.x),
+            self.image_shift_along(1, u.y),
+            self.image_shift_along(2, u.z),
+        ))
     }
 
-    /// Component `axis` of [`PeriodicBox::image_shift`] for a separation
-    /// whose component on that axis is `x` (written for loops the compiler
-    /// vectorises).
+    /// Component `axis` of [`PeriodicBox::image_shift`] in unsheared
+    /// coordinates, for a separation whose unsheared component on that
+    /// axis is `x` (in an orthorhombic box, the component itself; written
+    /// for loops the compiler vectorises).
     #[inline(always)]
     pub fn image_shift_along(&self, axis: usize, x: f64) -> f64 {
         const SHIFTER: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
         -self.lengths[axis] * ((x * self.inverse[axis] + SHIFTER) - SHIFTER)
     }
 
-    /// The shortest periodic image of `d` when |dₖ| < 3Lₖ/2, as for the
-    /// separation of two positions in the box or one slightly outside it:
-    /// one compare-and-shift per axis instead of a rounding call.
+    /// The shortest periodic image of `d` when |uₖ| < 3Lₖ/2 in unsheared
+    /// coordinates, as for the separation of two positions in the box or
+    /// one slightly outside it: one compare-and-shift per axis instead of a
+    /// rounding call.
     #[inline]
-    pub fn minimum_image_near(&self, d: &Vector3<f64>) -> Vector3<f64> {
+    pub fn minimum_image_near(&self, d: &V3) -> V3 {
         // Branch-free: the shifts are selected, not jumped to (separations
         // are random, so branches would mispredict).
-        let mut r = *d;
+        let u = self.unshear(d);
+        let mut shift = V3::zeros();
         for k in 0..3 {
             let (l, h) = (self.lengths[k], self.half[k]);
-            let up = if r[k] < -h { l } else { 0.0 };
-            let down = if r[k] > h { l } else { 0.0 };
-            r[k] += up - down;
+            let up = if u[k] < -h { l } else { 0.0 };
+            let down = if u[k] > h { l } else { 0.0 };
+            shift[k] = up - down;
         }
-        r
+        d + self.shear(&shift)
     }
 
-    /// `r` wrapped into [−L/2, L/2) when it lies within a box of it (a
+    /// `r` wrapped into the box when it lies within a box of it (a
     /// particle just moved): one compare-and-shift per axis.
     #[inline]
-    pub fn wrap_near(&self, r: &Vector3<f64>) -> Vector3<f64> {
-        let mut w = *r;
+    pub fn wrap_near(&self, r: &V3) -> V3 {
+        let u = self.unshear(r);
+        let mut shift = V3::zeros();
         for k in 0..3 {
             let (l, h) = (self.lengths[k], self.half[k]);
-            if w[k] >= h {
-                w[k] -= l;
-            } else if w[k] < -h {
-                w[k] += l;
+            if u[k] >= h {
+                shift[k] = -l;
+            } else if u[k] < -h {
+                shift[k] = l;
+            }
+        }
+        if shift == V3::zeros() {
+            *r
+        } else {
+            r + self.shear(&shift)
+        }
+    }
+
+    /// `r` wrapped into the box (unsheared coordinates in [−L/2, L/2)).
+    #[inline]
+    pub fn wrap(&self, r: &V3) -> V3 {
+        let mut w = self.minimum_image(r);
+        let u = self.unshear(&w);
+        for k in (0..3).rev() {
+            if u[k] >= self.half[k] {
+                w -= self.lattice_vector(k);
             }
         }
         w
     }
 
-    /// `r` wrapped into [−L/2, L/2).
+    /// Lattice vector aₖ.
     #[inline]
-    pub fn wrap(&self, r: &Vector3<f64>) -> Vector3<f64> {
-        let mut w = self.minimum_image(r);
-        for i in 0..3 {
-            if w[i] >= self.half[i] {
-                w[i] -= self.lengths[i];
-            }
-        }
-        w
+    pub fn lattice_vector(&self, k: usize) -> V3 {
+        let mut e = V3::zeros();
+        e[k] = self.lengths[k];
+        self.shear(&e)
+    }
+
+    /// The same lattice with the shortest tilts: each lattice vector
+    /// reduced by whole earlier ones until |xy·Ly| ≤ Lx/2, |yz·Lz| ≤ Ly/2
+    /// and |xz·Lz| ≤ Lx/2 (the same periodic system; positions must be
+    /// wrapped again). Heights then stay within a factor of the edges, so
+    /// cells stay valid however far a crystal shears.
+    pub fn reduced(&self) -> Self {
+        let l = self.lengths;
+        let (mut xy, mut xz, mut yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
+        // a₂ ← a₂ − m a₁
+        let m = (xy * l.y / l.x).round();
+        xy -= m * l.x / l.y;
+        // a₃ ← a₃ − n a₂, then − m a₁
+        let n = (yz * l.z / l.y).round();
+        yz -= n * l.y / l.z;
+        xz -= n * xy * l.y / l.z;
+        let m = (xz * l.z / l.x).round();
+        xz -= m * l.x / l.z;
+        Self::build(l, V3::new(xy, xz, yz), self.walls)
     }
 
     /// How far a body reaching `extent` from its centre `r` along each axis
     /// stays inside the walls: the smallest gap L/2 − |rₖ| − extentₖ over
     /// the walled axes (∞ without walls); not positive when it touches or
     /// crosses one.
-    pub fn wall_gap(&self, r: &Vector3<f64>, extent: &Vector3<f64>) -> f64 {
+    pub fn wall_gap(&self, r: &V3, extent: &V3) -> f64 {
         (0..3)
             .filter(|&k| self.walls[k])
             .map(|k| 0.5 * self.lengths[k] - r[k].abs() - extent[k])
@@ -200,6 +390,9 @@ mod tests {
         let w = b.wrap(&Vector3::new(5.0, -4.0, 13.0));
         assert!((w - Vector3::new(-5.0, -4.0, 1.0)).norm() < 1e-12);
         assert!(PeriodicBox::new(Vector3::new(1.0, 0.0, 1.0)).is_err());
+        assert!(
+            PeriodicBox::triclinic(Vector3::repeat(1.0), Vector3::new(0.0, f64::NAN, 0.0)).is_err()
+        );
         let near = Vector3::new(13.0, -5.0, 2.9);
         assert!((b.minimum_image_near(&near) - b.minimum_image(&near)).norm() < 1e-12);
         let moved = Vector3::new(5.5, -4.5, 2.0);
@@ -233,5 +426,116 @@ mod tests {
             b.with_lengths(Vector3::repeat(4.0)).unwrap().walls(),
             [false, false, true]
         );
+    }
+
+    fn tilted() -> PeriodicBox {
+        PeriodicBox::triclinic(Vector3::new(7.0, 6.0, 8.0), Vector3::new(0.4, -0.3, 0.25)).unwrap()
+    }
+
+    /// In a tilted box the minimum image is the shortest of all images
+    /// (brute force over 5³ lattice shifts) for every separation shorter
+    /// than half the smallest height, and a whole lattice vector away.
+    #[test]
+    fn tilted_minimum_image_is_the_shortest_image() {
+        let b = tilted();
+        let h = b.heights().min();
+        let mut u = crate::test_support::uniform(5);
+        let mut short = 0;
+        for _ in 0..20_000 {
+            let d = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 40.0;
+            let m = b.minimum_image(&d);
+            let mut best = f64::INFINITY;
+            for i in -6..=6 {
+                for j in -6..=6 {
+                    for k in -6..=6 {
+                        let s = b.matrix() * Vector3::new(i as f64, j as f64, k as f64);
+                        best = best.min((d + s).norm());
+                    }
+                }
+            }
+            let whole = b.matrix().try_inverse().unwrap() * (m - d);
+            assert!(
+                whole.iter().all(|w| (w - w.round()).abs() < 1e-9),
+                "{whole}"
+            );
+            if best < 0.5 * h {
+                short += 1;
+                assert!(
+                    (m.norm() - best).abs() < 1e-9,
+                    "{d}: {} vs {best}",
+                    m.norm()
+                );
+            }
+            let near = b.wrap(&(d * 0.01)) - b.wrap(&(d * 0.013));
+            assert!((b.minimum_image_near(&near) - b.minimum_image(&near)).norm() < 1e-9);
+        }
+        assert!(short > 1000, "{short}");
+    }
+
+    /// Wrapped positions have fractional coordinates in [−1/2, 1/2) and
+    /// differ from the original by whole lattice vectors; `wrap_near`
+    /// agrees with `wrap` one box away.
+    #[test]
+    fn tilted_wrap_lands_in_the_parallelepiped() {
+        let b = tilted();
+        let mut u = crate::test_support::uniform(6);
+        for _ in 0..10_000 {
+            let r = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 30.0;
+            let w = b.wrap(&r);
+            let s = b.fractional(&w);
+            assert!(s.iter().all(|&x| (-0.5..0.5).contains(&x)), "{s}");
+            let whole = b.fractional(&(w - r));
+            assert!(whole.iter().all(|x| (x - x.round()).abs() < 1e-9));
+            let moved = w + Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 2.0;
+            assert!((b.wrap_near(&moved) - b.wrap(&moved)).norm() < 1e-9);
+            assert!((b.from_fractional(&s) - w).norm() < 1e-12);
+        }
+    }
+
+    /// Heights are the volume over the area of the opposite face.
+    #[test]
+    fn heights_are_volume_over_face_area() {
+        let b = tilted();
+        let a = [0, 1, 2].map(|k| b.lattice_vector(k));
+        for k in 0..3 {
+            let face = a[(k + 1) % 3].cross(&a[(k + 2) % 3]).norm();
+            assert!((b.heights()[k] - b.volume() / face).abs() < 1e-12);
+        }
+        assert!((b.matrix().determinant() - b.volume()).abs() < 1e-9);
+        let cube = PeriodicBox::new(Vector3::new(3.0, 4.0, 5.0)).unwrap();
+        assert_eq!(cube.heights(), cube.lengths());
+    }
+
+    /// Reduction keeps the lattice (the new vectors are integer
+    /// combinations of the old, and back) and brings every tilt within
+    /// half an edge.
+    #[test]
+    fn reduction_keeps_the_lattice_and_bounds_the_tilts() {
+        for tilts in [[1.7, -2.2, 0.9], [0.3, 0.1, -0.2], [-0.6, 3.1, -1.4]] {
+            let b =
+                PeriodicBox::triclinic(Vector3::new(5.0, 6.0, 7.0), Vector3::from(tilts)).unwrap();
+            let r = b.reduced();
+            let l = r.lengths();
+            let t = r.tilts();
+            assert!((t.x * l.y).abs() <= 0.5 * l.x + 1e-12);
+            assert!((t.z * l.z).abs() <= 0.5 * l.y + 1e-12);
+            assert!((t.y * l.z).abs() <= 0.5 * l.x + 1e-12);
+            let m = b.matrix().try_inverse().unwrap() * r.matrix();
+            assert!(m.iter().all(|x| (x - x.round()).abs() < 1e-9), "{m}");
+            assert!((m.determinant().abs() - 1.0).abs() < 1e-9);
+        }
+    }
+
+    /// A box change keeps fractional coordinates.
+    #[test]
+    fn map_from_keeps_fractional_coordinates() {
+        let b = tilted();
+        let c = b
+            .with_lengths(Vector3::new(8.0, 5.0, 9.0))
+            .unwrap()
+            .with_tilts(Vector3::new(-0.1, 0.2, 0.0))
+            .unwrap();
+        let r = Vector3::new(1.0, -2.0, 3.0);
+        assert!((c.fractional(&c.map_from(&b, &r)) - b.fractional(&r)).norm() < 1e-12);
     }
 }

@@ -350,6 +350,39 @@ mod tests {
         assert_eq!(listed.first_overlap_all_pairs(), None);
     }
 
+    /// Growing one edge, or shearing, can bring bodies that are not
+    /// spheres into contact (two parallel needles side by side along the
+    /// diagonal, moved closer across their axes): such a box change is
+    /// checked and refused; the isotropic growth is accepted unchecked.
+    #[test]
+    fn one_edge_grown_or_a_shear_can_make_needles_overlap() {
+        let species = vec![Species {
+            name: "needle".into(),
+            shape: "Ellipsoid(a: 2.0, b: 0.3, c: 0.3)".parse().unwrap(),
+            rotation: true,
+        }];
+        let along_diagonal = UnitQuaternion::from_axis_angle(
+            &nalgebra::Vector3::z_axis(),
+            std::f64::consts::FRAC_PI_4,
+        );
+        let at = |x: f64, y: f64| Particle {
+            position: V3::new(x, y, 0.0),
+            orientation: along_diagonal,
+            species: 0,
+        };
+        let box_ = PeriodicBox::new(V3::repeat(12.0)).unwrap();
+        let system = System::new(box_, species, vec![at(0.0, 0.0), at(1.3, 0.3)]).unwrap();
+        let mut grown = system.clone();
+        assert!(!grown.try_rescale(V3::new(12.0, 24.0, 12.0)));
+        assert_eq!(grown.particles(), system.particles());
+        let mut sheared = system.clone();
+        let tilted = box_.with_tilts(V3::new(-0.8, 0.0, 0.0)).unwrap();
+        assert!(!sheared.try_change_box(tilted));
+        let mut expanded = system.clone();
+        assert!(expanded.try_rescale(V3::repeat(24.0)));
+        assert_eq!(expanded.first_overlap_all_pairs(), None);
+    }
+
     /// One species of spheres of diameter 1, and a periodic box of edge 6.
     fn unit_spheres_in_a_box_of_six() -> (Vec<Species>, PeriodicBox) {
         let species = vec![Species {

@@ -135,12 +135,7 @@ impl Neighbours {
                 .collect();
             Neighbours::PerSpecies(grids)
         } else if plan.aabb_cells {
-            Neighbours::Aabb(AabbCells::new(
-                box_.lengths(),
-                plan.aabb_width,
-                centres,
-                halves,
-            ))
+            Neighbours::Aabb(AabbCells::new(box_, plan.aabb_width, centres, halves))
         } else {
             Neighbours::Cells(PackedCells::new(box_, range, centres, &radii))
         }

@@ -10,20 +10,22 @@ use super::*;
 type V3 = Vector3<f64>;
 
 impl System {
-    /// The box of these edges, if valid and at least twice the interaction
-    /// range along each.
+    /// The box of these edges (the tilts kept), if valid and at least
+    /// twice the interaction range across each pair of faces.
     pub(super) fn box_with_lengths(&self, lengths: V3) -> Option<PeriodicBox> {
         let new_box = self.box_.with_lengths(lengths).ok()?;
         Self::check_box(&new_box, self.range).ok()?;
         Some(new_box)
     }
 
-    /// Puts the system in `new_box`, every centre scaled by `factor` (the
-    /// neighbour structures are the caller's to renew).
-    pub(super) fn scale_into(&mut self, new_box: PeriodicBox, factor: &V3) {
+    /// Puts the system in `new_box`, every centre taken along with the box
+    /// (the same fractional coordinates; the neighbour structures are the
+    /// caller's to renew).
+    pub(super) fn scale_into(&mut self, new_box: PeriodicBox) {
+        let old_box = self.box_;
         self.box_ = new_box;
         for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
-            p.position = new_box.wrap(&p.position.component_mul(factor));
+            p.position = new_box.wrap(&new_box.map_from(&old_box, &p.position));
             *r = p.position;
         }
     }
@@ -36,12 +38,12 @@ impl System {
         let Some(new_box) = self.box_with_lengths(lengths) else {
             return false;
         };
-        let factor = lengths.component_div(&self.box_.lengths());
-        self.scale_into(new_box, &factor);
+        let old_box = self.box_;
+        self.scale_into(new_box);
         self.capsule_lists = None;
         self.cells = self.neighbours_as_they_are();
         if let Some(mut lists) = self.sphere_lists.take()
-            && lists.rescaled(&self.box_, &factor, self.positions.as_slice())
+            && lists.rescaled(&old_box, &self.box_, self.positions.as_slice())
         {
             self.sphere_lists = Some(lists);
         }
@@ -76,21 +78,37 @@ impl System {
         self.overlaps_at(i, &self.positions[i], &self.rotations[i])
     }
 
-    /// Rescales the box to `lengths` and the positions with it, if that
-    /// creates no overlap and keeps the box at least twice the interaction
-    /// range; returns whether it did.
+    /// Rescales the box to `lengths` (its tilts kept) and the positions
+    /// with it, if that creates no overlap and keeps the box at least twice
+    /// the interaction range; returns whether it did.
     pub(crate) fn try_rescale(&mut self, lengths: V3) -> bool {
-        let Some(new_box) = self.box_with_lengths(lengths) else {
+        match self.box_with_lengths(lengths) {
+            Some(new_box) => self.try_change_box(new_box),
+            None => false,
+        }
+    }
+
+    /// Changes the box to `new_box` (any edges and tilts, the same walls)
+    /// and the positions with it (the same fractional coordinates), if that
+    /// creates no overlap and keeps the box at least twice the interaction
+    /// range across each pair of faces; returns whether it did.
+    pub(crate) fn try_change_box(&mut self, new_box: PeriodicBox) -> bool {
+        if Self::check_box(&new_box, self.range).is_err() {
             return false;
-        };
-        let old_lengths = self.box_.lengths();
-        let factor = lengths.component_div(&old_lengths);
-        let shrinks = factor.iter().any(|&f| f < 1.0);
-        // Most shrinks that fail make a listed pair overlap: the listed
+        }
+        let old_box = self.box_;
+        // Only an isotropic expansion keeps convex bodies apart whatever
+        // their shape (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); a map that
+        // stretches every separation keeps spheres apart; anything else
+        // (one edge grown, a shear) can bring bodies into contact.
+        let stretch = new_box.smallest_stretch_from(&old_box);
+        let may_touch =
+            !new_box.expands_uniformly_from(&old_box) && (stretch < 1.0 || !self.only_spheres());
+        // Most may_touch that fail make a listed pair overlap: the listed
         // pairs are measured on the scaled centres alone, before any cell
         // is rebuilt (the arithmetic of the centres scaled in place below,
         // so the same answer); below, only the strays are left to check.
-        if shrinks
+        if may_touch
             && !self.ideal
             && !self.box_.has_walls()
             && let Some(lists) = &self.sphere_lists
@@ -99,9 +117,9 @@ impl System {
             (self.scaled).extend(
                 self.positions
                     .iter()
-                    .map(|r| new_box.wrap(&r.component_mul(&factor))),
+                    .map(|r| new_box.wrap(&new_box.map_from(&old_box, r))),
             );
-            if lists.listed_overlap_after_rescale(&new_box, &factor, &self.scaled) {
+            if lists.listed_overlap_after_rescale(&old_box, &new_box, &self.scaled) {
                 return false;
             }
         }
@@ -112,23 +130,19 @@ impl System {
         // 4000 spheres).
         let lists = self.sphere_lists.take();
         let capsule_lists = self.capsule_lists.take();
-        let old_box = self.box_;
         let old_positions = self.positions.clone();
-        self.scale_into(new_box, &factor);
+        self.scale_into(new_box);
         let new_cells = self.neighbours_as_they_are();
         let old_cells = std::mem::replace(&mut self.cells, new_cells);
-        // Scaling all centres up cannot create an overlap of convex bodies
-        // (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); only a shrink along some
-        // axis needs checking.
         let overlaps =
             |i: usize| self.overlaps_at(i, &self.particles[i].position, &self.rotations[i]);
         // Sphere lists answered above for all but the centres that strayed
         // far from their references (walls aside).
-        if shrinks
+        if may_touch
             && !self.ideal
             && match &lists {
                 Some(lists) if !self.box_.has_walls() => (lists)
-                    .strays_after_rescale(&self.box_, &factor, self.positions.as_slice())
+                    .strays_after_rescale(&old_box, &self.box_, self.positions.as_slice())
                     .any(overlaps),
                 _ => (0..self.len()).any(overlaps),
             }
@@ -146,12 +160,17 @@ impl System {
         // The sphere lists go with the box (scaled) while the gap they keep
         // allows; the capsule lists do not.
         if let Some(mut lists) = lists
-            && lists.rescaled(&self.box_, &factor, self.positions.as_slice())
+            && lists.rescaled(&old_box, &self.box_, self.positions.as_slice())
         {
             self.sphere_lists = Some(lists);
         }
         self.list_window = (0, 0.0);
         self.changed = true;
         true
+    }
+
+    /// Whether every species is a sphere.
+    fn only_spheres(&self) -> bool {
+        self.species.iter().all(|s| s.shape.is_sphere())
     }
 }

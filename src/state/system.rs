@@ -158,7 +158,7 @@ impl System {
     }
 
     pub(super) fn check_box(box_: &PeriodicBox, range: f64) -> Result<(), StateError> {
-        if box_.lengths().min() < 2.0 * range {
+        if box_.heights().min() < 2.0 * range {
             Err(StateError::BoxTooSmall {
                 lengths: box_.lengths().into(),
                 range,

@@ -375,7 +375,7 @@ impl Dynamics {
                 V3::from_fn(|k, _| ((r[k] - moved[k]) / l[k]).round() * l[k])
             })
             .collect();
-        let cells = CellList::new(box_.lengths(), range, &positions);
+        let cells = CellList::new(&box_, range, &positions);
         let cell_lengths = cells.cell_lengths();
         let neighbours = match options.neighbour_shell {
             Some(shell) => {

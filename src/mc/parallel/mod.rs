@@ -192,8 +192,12 @@ impl Slabs {
     }
 
     /// How many slabs `system`'s box takes along its longest axis for
-    /// `threads` threads ([`slab_count`]).
+    /// `threads` threads ([`slab_count`]); none in a tilted box (its slabs
+    /// would be cut across the shear: such systems keep replicas).
     fn count_in(system: &System, threads: usize) -> Option<usize> {
+        if system.periodic_box().is_tilted() {
+            return None;
+        }
         let lengths = system.periodic_box().lengths();
         slab_count(lengths.max(), system.range, threads)
     }
