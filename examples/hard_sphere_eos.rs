@@ -30,13 +30,14 @@ fn main() {
         translate: 0.3,
         rotate: 0.0,
         volume: 0.01,
+        shear: 0.01,
     };
     println!("| betaP sigma^3 | phi (MC) | phi (Carnahan-Starling) |");
     println!("|---|---|---|");
     for pressure in [1.0, 3.0, 6.0] {
         let ensemble = Ensemble::Npt {
             pressure,
-            anisotropic: false,
+            moves: hardbody::mc::box_moves::BoxMoves::Isotropic,
         };
         let tuner = Tuner {
             target: 0.3,

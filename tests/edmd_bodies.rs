@@ -157,6 +157,7 @@ fn needles_and_plates_with_box_lists() {
             translate: 0.05,
             rotate: 0.05,
             volume: 0.0,
+            shear: 0.01,
         };
         for _ in 0..30 {
             sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);

@@ -25,6 +25,7 @@ fn mc_sdf_pressure(mut system: System, seed: u64) -> (f64, f64) {
         translate: 0.1,
         rotate: 0.1,
         volume: 0.0,
+        shear: 0.01,
     };
     let tuner = Tuner {
         target: 0.3,

@@ -181,8 +181,8 @@ proptest! {
                 prop_assert!(scene.species.len() <= MAX_SPECIES);
                 prop_assert!(!scene.log.path.ends_with('/'));
                 let (low, high) = VALUE_RANGE;
-                let (x, y, z) = scene.box_lengths;
-                prop_assert!([x, y, z].iter().all(|l| (low..=high).contains(l)));
+                let l = scene.periodic_box().lengths();
+                prop_assert!(l.iter().all(|l| (low..=high).contains(l)));
                 prop_assert!(scene.species.iter().all(|s| (low..=high).contains(&s.mass)));
                 for stage in &scene.stages {
                     if let Stage::Jam { growth_rate, fluid_rate, pressure, .. } = stage {

@@ -34,6 +34,7 @@ fn sizes() -> MoveSizes {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     }
 }
 

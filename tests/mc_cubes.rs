@@ -46,6 +46,7 @@ fn cubes_at(phi: f64, sweeps: u64, seed: u64) -> f64 {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     let report = compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
     sizes = report.sizes;

@@ -6,6 +6,7 @@ use hardbody::analysis::eos::carnahan_starling_packing_fraction;
 use std::f64::consts::PI;
 
 use hardbody::geometry::Shape;
+use hardbody::mc::box_moves::{BoxMoves, box_move};
 use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::tuning::Tuner;
 use hardbody::space::PeriodicBox;
@@ -68,12 +69,13 @@ fn npt_replica(beta_p: f64, seed: u64) -> (Vec<f64>, System) {
     let mut rng = Pcg64::seed_from_u64(seed);
     let ensemble = Ensemble::Npt {
         pressure: beta_p,
-        anisotropic: false,
+        moves: BoxMoves::Isotropic,
     };
     let mut sizes = MoveSizes {
         translate: 0.2,
         rotate: 0.0,
         volume: 0.01,
+        shear: 0.01,
     };
     let tuner = Tuner {
         target: 0.3,
@@ -135,10 +137,17 @@ fn ideal_gas_volume_moves_give_n_plus_one_over_p() {
         translate: 0.5,
         rotate: 0.0,
         volume: 0.3,
+        shear: 0.01,
     };
     let mut volumes = Vec::new();
     for _ in 0..200_000 {
-        hardbody::mc::box_moves::box_move(&mut system, beta_p, sizes.volume, false, &mut rng);
+        box_move(
+            &mut system,
+            beta_p,
+            (sizes.volume, sizes.shear),
+            BoxMoves::Isotropic,
+            &mut rng,
+        );
         volumes.push(system.periodic_box().volume());
     }
     let (mean, se) = mean_and_error(&block_means(&volumes[10_000..], 9_500));
@@ -149,6 +158,79 @@ fn ideal_gas_volume_moves_give_n_plus_one_over_p() {
         "⟨V⟩ = {mean} ± {se}, (N+1)/βP = {exact}"
     );
     assert!(se < 0.01 * exact);
+}
+
+/// With overlaps off, ln L moves of one edge at a time sample
+/// p(ln Lx, ln Ly, ln Lz) ∝ V^{N+1} e^{−βPV} with every edge at least
+/// twice the interaction range c₀ (the box's own bound), so
+/// p(V) ∝ V^N e^{−βPV} (ln V − 3 ln c₀)² on V ≥ c₀³ (the area of the slice
+/// of fixed ln V); its mean by quadrature is what the chain must give.
+#[test]
+fn ideal_gas_edge_moves_sample_the_edge_distribution() {
+    let mut system = cubic_spheres(3, 0.05);
+    system.set_ideal(true);
+    let (beta_p, n) = (0.5, system.len() as f64);
+    let floor = 2.0 * system.interaction_range();
+    let mut rng = Pcg64::seed_from_u64(11);
+    let mut volumes = Vec::new();
+    for _ in 0..400_000 {
+        box_move(&mut system, beta_p, (0.3, 0.0), BoxMoves::Axes, &mut rng);
+        volumes.push(system.periodic_box().volume());
+    }
+    let (mean, se) = mean_and_error(&block_means(&volumes[20_000..], 19_000));
+    // ∫ V p(V) dV / ∫ p(V) dV on a fine grid in ln V.
+    let c = 3.0 * floor.ln();
+    let log_weight = |u: f64| (n + 1.0) * u - beta_p * u.exp() + 2.0 * (u - c).ln();
+    let grid: Vec<f64> = (1..200_000).map(|k| c + k as f64 * 1e-4).collect();
+    let peak = grid.iter().map(|&u| log_weight(u)).fold(f64::MIN, f64::max);
+    let (mut z, mut first) = (0.0, 0.0);
+    for &u in &grid {
+        let w = (log_weight(u) - peak).exp();
+        z += w;
+        first += w * u.exp();
+    }
+    let exact = first / z;
+    eprintln!("ideal gas, edge moves: <V> = {mean:.3} ± {se:.3}, exact {exact:.3}");
+    assert!(
+        (mean - exact).abs() < 3.0 * se,
+        "<V> = {mean} ± {se}, exact {exact}"
+    );
+    assert!(se < 0.01 * exact);
+    // The isotropic answer, (N+1)/βP, is far off: the test can tell.
+    assert!(((n + 1.0) / beta_p - exact).abs() > 10.0 * se);
+}
+
+/// With overlaps off and the edges held, shear moves with lattice
+/// reduction sample the tilts uniformly over the reduced cell of tilts
+/// (|t| ≤ 1/2 in a cube): ⟨t²⟩ = 1/12 for each, and no tilt leaves it.
+#[test]
+fn ideal_gas_shear_moves_sample_tilts_uniformly() {
+    let mut system = cubic_spheres(3, 0.05);
+    system.set_ideal(true);
+    let mut rng = Pcg64::seed_from_u64(12);
+    let mut squares = [Vec::new(), Vec::new(), Vec::new()];
+    let mut sheared = 0;
+    for _ in 0..300_000 {
+        let outcome = box_move(&mut system, 1.0, (0.0, 0.4), BoxMoves::Triclinic, &mut rng);
+        sheared += usize::from(outcome.shear && outcome.accepted);
+        let t = system.periodic_box().tilts();
+        for k in 0..3 {
+            assert!(t[k].abs() <= 0.5 + 1e-12, "tilt {t}");
+            squares[k].push(t[k] * t[k]);
+        }
+    }
+    assert!(sheared > 100_000, "{sheared}");
+    for (k, sq) in squares.iter().enumerate() {
+        let (mean, se) = mean_and_error(&block_means(&sq[10_000..], 14_500));
+        eprintln!(
+            "tilt {k}: <t^2> = {mean:.5} ± {se:.5}, uniform 1/12 = {:.5}",
+            1.0 / 12.0
+        );
+        assert!(
+            (mean - 1.0 / 12.0).abs() < 3.0 * se && se < 0.003,
+            "{k}: {mean} ± {se}"
+        );
+    }
 }
 
 /// NVT at φ = 0.3: the pressure from the scale distribution function agrees
@@ -165,6 +247,7 @@ fn nvt_sdf_pressure_follows_carnahan_starling() {
         translate: 0.5,
         rotate: 0.0,
         volume: 0.0,
+        shear: 0.01,
     };
     for _ in 0..2000 {
         sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);

@@ -50,6 +50,7 @@ fn check_placements(system: &System, seed: u64) {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     for _ in 0..30 {
         sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
@@ -101,6 +102,7 @@ fn verlet_lists_for_dense_spheres() {
         translate: 0.15,
         rotate: 0.0,
         volume: 0.0,
+        shear: 0.01,
     };
     assert!(!system.uses_sphere_lists(), "lists before any move");
     for _ in 0..200 {

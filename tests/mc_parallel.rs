@@ -28,6 +28,7 @@ fn run(system: &mut System, sweeps: u64, threads: usize, seed: u64) -> Counts {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.005,
+        shear: 0.01,
     };
     pool(threads).install(|| {
         let mut counts = Counts::default();
@@ -80,10 +81,15 @@ fn chunks_of_sweeps_are_the_sweeps_one_by_one() {
             translate: 0.3,
             rotate: 0.3,
             volume: 0.002,
+            shear: 0.01,
         };
         let ensemble = Ensemble::Npt {
             pressure: 4.0,
-            anisotropic,
+            moves: if anisotropic {
+                hardbody::mc::box_moves::BoxMoves::Axes
+            } else {
+                hardbody::mc::box_moves::BoxMoves::Isotropic
+            },
         };
         let seeds: Vec<u64> = (0..28u64).map(|k| 1000 + 37 * k).collect();
         let mut one = start.clone();
@@ -141,10 +147,11 @@ fn a_chunk_in_which_the_slabs_thin_out_is_the_sweeps_one_by_one() {
         translate: 0.3,
         rotate: 0.0,
         volume: 0.03,
+        shear: 0.01,
     };
     let ensemble = Ensemble::Npt {
         pressure: 30.0,
-        anisotropic: false,
+        moves: hardbody::mc::box_moves::BoxMoves::Isotropic,
     };
     let seeds: Vec<u64> = (0..32u64).map(|k| 7 + 11 * k).collect();
     let (mut one, mut two) = (start.clone(), start.clone());
@@ -212,12 +219,13 @@ fn members_sharing_a_system_make_the_moves_of_one_thread() {
             translate,
             rotate: 0.0,
             volume: 0.002,
+            shear: 0.01,
         };
         for ensemble in [
             Ensemble::Nvt,
             Ensemble::Npt {
                 pressure: 8.0,
-                anisotropic: true,
+                moves: hardbody::mc::box_moves::BoxMoves::Axes,
             },
         ] {
             let what = format!("step {translate}, {ensemble:?}");
@@ -275,6 +283,7 @@ fn a_small_sharing_team_makes_the_moves_of_one_thread() {
         translate: 0.05,
         rotate: 0.0,
         volume: 0.0,
+        shear: 0.01,
     };
     let (mut one, mut two) = (start.clone(), start.clone());
     let (c1, _) = chunked(&mut one, (&sizes, &Ensemble::Nvt), 7, 1, false);
@@ -301,10 +310,11 @@ fn sweeps_whose_slabs_grow_too_thin_to_share_are_made_alone() {
         translate: 0.02,
         rotate: 0.0,
         volume: 0.002,
+        shear: 0.01,
     };
     let ensemble = Ensemble::Npt {
         pressure: 40.0,
-        anisotropic: false,
+        moves: hardbody::mc::box_moves::BoxMoves::Isotropic,
     };
     let (mut one, mut shared) = (start.clone(), start.clone());
     let (c1, _) = chunked(&mut one, (&sizes, &ensemble), 70, 1, false);
@@ -338,12 +348,13 @@ fn npt_packing_fraction(parallel: bool) -> (f64, f64) {
         let mut system = dense_start(&shape, 500, 0.9 * cs).unwrap();
         let ensemble = Ensemble::Npt {
             pressure: 3.0,
-            anisotropic: false,
+            moves: hardbody::mc::box_moves::BoxMoves::Isotropic,
         };
         let mut sizes = MoveSizes {
             translate: 0.2,
             rotate: 0.0,
             volume: 0.01,
+            shear: 0.01,
         };
         let tuner = Tuner {
             target: 0.3,

@@ -46,12 +46,13 @@ fn sdf_in_npt(shape: &str, beta_p: f64, seed: u64) -> (f64, f64) {
     let mut rng = Pcg64::seed_from_u64(seed);
     let ensemble = Ensemble::Npt {
         pressure: beta_p,
-        anisotropic: false,
+        moves: hardbody::mc::box_moves::BoxMoves::Isotropic,
     };
     let mut sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.02,
+        shear: 0.01,
     };
     let tuner = Tuner {
         target: 0.3,

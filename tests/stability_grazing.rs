@@ -220,6 +220,7 @@ fn loose_grazing_threshold_neither_stalls_nor_overlaps() {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     let mut sizes = compress(&mut system, sizes, &CompressOptions::to(0.5), &mut rng)
         .unwrap()

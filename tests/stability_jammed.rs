@@ -32,6 +32,7 @@ fn jammed(shape: &str, n_side: usize, seed: u64) -> System {
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     // A target past any jamming density, a short patience: the packing is
     // called jammed when a shrink of 1e-5 of the box has failed for 300

@@ -45,6 +45,7 @@ fn monte_carlo_keeps_bodies_inside_the_walls() {
         translate: 0.4,
         rotate: 0.4,
         volume: 0.0,
+        shear: 0.01,
     };
     let mut near_wall = 0;
     for _ in 0..400 {

@@ -67,6 +67,7 @@ pub fn dilute_start(shapes: &[Shape], n: usize, seed: u64) -> Result<System, Ben
         translate: 0.5,
         rotate: 0.5,
         volume: 0.0,
+        shear: 0.01,
     };
     for _ in 0..20 {
         sweep(&mut system, &melt, &Ensemble::Nvt, &mut rng);
@@ -83,6 +84,7 @@ pub fn timed(table: &'static str, start: &System, target: f64) -> Result<Compres
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     let names: Vec<String> = (system.species().iter())
         .map(|s| s.shape.to_string())

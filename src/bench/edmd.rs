@@ -82,6 +82,7 @@ fn start(
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     let report = compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng)?;
     sizes = report.sizes;

@@ -175,6 +175,7 @@ fn start(setup: &Setup, seed: u64) -> Result<System, BenchError> {
                 translate: 0.3,
                 rotate: 0.3,
                 volume: 0.0,
+                shear: 0.01,
             };
             compress(
                 &mut system,
@@ -435,6 +436,7 @@ pub fn density(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
             translate: 0.3,
             rotate: 0.3,
             volume: 0.0,
+            shear: 0.01,
         };
         let diameter = 2.0 * system.species()[0].shape.bounding_radius();
         for &phi in phis {

@@ -61,6 +61,7 @@ fn state(n: usize, walls: bool, rotation: bool) -> Result<System, BenchError> {
         translate: 0.1,
         rotate: 0.1,
         volume: 0.0,
+        shear: 0.01,
     };
     for _ in 0..20 {
         sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
@@ -221,6 +222,7 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, BenchError> {
         translate: 0.1,
         rotate: 0.1,
         volume: 0.01,
+        shear: 0.01,
     };
     let mc_time = |system: &mut System, ensemble: &Ensemble, seed: u64| {
         let mut rng = Pcg64::seed_from_u64(seed);
@@ -264,7 +266,7 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, BenchError> {
             periodic.clone(),
             Ensemble::Npt {
                 pressure: 5.0,
-                anisotropic: false,
+                moves: crate::mc::box_moves::BoxMoves::Isotropic,
             },
         ),
     )?);

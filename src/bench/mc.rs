@@ -334,6 +334,7 @@ pub fn tuned(
         translate: 0.1,
         rotate: 0.1,
         volume: 0.0,
+        shear: 0.01,
     };
     let tuner = Tuner {
         target: 0.3,
@@ -414,6 +415,7 @@ pub fn by_move_size(quick: bool) -> Result<Vec<AcceptanceRow>, StateError> {
                 translate: step * thickness,
                 rotate: step,
                 volume: 0.0,
+                shear: 0.01,
             };
             let mut rng = Pcg64::seed_from_u64(19);
             let mut counts = Counts::default();

@@ -166,6 +166,9 @@ pub enum InconsistentState {
     /// Box edges that are not finite and positive.
     #[error("box edges {0:?}")]
     Box([f64; 3]),
+    /// Tilt factors that are not finite.
+    #[error("box tilts {0:?}")]
+    Tilts([f64; 3]),
     /// A position that is not finite.
     #[error("particle {0}: position {1:?}")]
     Position(usize, [f64; 3]),

@@ -226,9 +226,10 @@ fn write_gsd(contents: &LogContents, out: &Path, partial: &Path) -> Result<usize
         let context = format!("frame {k}: ");
         let w = |e: hoomd_gsd::file_layer::WriteError| gsd_error(out, &context, &e);
         let [lx, ly, lz] = state.box_lengths.map(|l| l as f32);
+        let [xy, xz, yz] = state.tilts.map(|t| t as f32);
         gsd.write_scalars("configuration/step", [*log_time])
             .map_err(w)?;
-        gsd.write_scalars("configuration/box", [lx, ly, lz, 0.0, 0.0, 0.0])
+        gsd.write_scalars("configuration/box", [lx, ly, lz, xy, xz, yz])
             .map_err(w)?;
         gsd.write_scalars("particles/N", [state.positions.len() as u32])
             .map_err(w)?;

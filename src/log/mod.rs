@@ -70,12 +70,19 @@ pub struct Stats {
     /// Box edges.
     #[serde(rename = "box")]
     pub box_lengths: [f64; 3],
+    /// Box tilt factors (xy, xz, yz); left out where all are zero.
+    #[serde(default, skip_serializing_if = "no_tilt")]
+    pub tilts: [f64; 3],
     /// Acceptance of translations over the interval (Monte Carlo).
     pub acceptance_translate: Option<f64>,
     /// Acceptance of rotations over the interval (Monte Carlo).
     pub acceptance_rotate: Option<f64>,
     /// Acceptance of box moves over the interval (Monte Carlo, NPT).
     pub acceptance_volume: Option<f64>,
+    /// Acceptance of shear box moves over the interval (Monte Carlo, NPT
+    /// with triclinic box moves); left out otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceptance_shear: Option<f64>,
     /// Collisions since the stage began (dynamics).
     pub collisions: Option<u64>,
     /// kT from the kinetic energy (dynamics).
@@ -126,6 +133,9 @@ pub struct StateRecord {
     /// Box edges.
     #[serde(rename = "box")]
     pub box_lengths: [f64; 3],
+    /// Box tilt factors (xy, xz, yz); left out where all are zero.
+    #[serde(default, skip_serializing_if = "no_tilt")]
+    pub tilts: [f64; 3],
     /// The species.
     pub species: Vec<SpeciesRecord>,
     /// Species index per particle.
@@ -206,7 +216,19 @@ pub struct DynamicsProgress {
     pub interval: Option<crate::edmd::dynamics::Interval>,
 }
 
+fn no_tilt(tilts: &[f64; 3]) -> bool {
+    *tilts == [0.0; 3]
+}
+
 impl StateRecord {
+    /// The box the record holds, with `walls`.
+    pub fn periodic_box(
+        &self,
+        walls: [bool; 3],
+    ) -> Result<PeriodicBox, crate::space::periodic_box::BoxError> {
+        Ok(PeriodicBox::triclinic(self.box_lengths.into(), self.tilts.into())?.with_walls(walls))
+    }
+
     /// The box, species, positions and orientations (no velocities), as
     /// stage 0 `start`; set the stage fields with struct update syntax.
     pub fn of_particles(box_: &PeriodicBox, species: &[Species], particles: &[Particle]) -> Self {
@@ -216,6 +238,7 @@ impl StateRecord {
             sweep: None,
             time: None,
             box_lengths: box_.lengths().into(),
+            tilts: box_.tilts().into(),
             species: species
                 .iter()
                 .map(|s| SpeciesRecord {
@@ -272,6 +295,9 @@ impl StateRecord {
         }
         if !self.box_lengths.iter().all(|l| l.is_finite() && *l > 0.0) {
             return Err(InconsistentState::Box(self.box_lengths));
+        }
+        if !self.tilts.iter().all(|t| t.is_finite()) {
+            return Err(InconsistentState::Tilts(self.tilts));
         }
         if let Some(i) = self
             .positions

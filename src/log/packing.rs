@@ -16,7 +16,6 @@ use crate::analysis::structure::{
 };
 use crate::geometry::Shape;
 use crate::scene::Scene;
-use crate::space::PeriodicBox;
 use crate::space::periodic_box::BoxError;
 
 /// S(k) sampled at `k`.
@@ -109,7 +108,7 @@ impl PackingReport {
         gap: Option<f64>,
         reduced_pressure: Option<f64>,
     ) -> Result<Self, BoxError> {
-        let box_ = PeriodicBox::new(Vector3::from(state.box_lengths))?.with_walls(walls);
+        let box_ = state.periodic_box(walls)?;
         let shapes: Vec<Shape> = state.species.iter().map(|s| s.shape).collect();
         let bodies: Vec<PackedBody> = state
             .positions

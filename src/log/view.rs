@@ -159,11 +159,17 @@ impl SceneView {
                 }
             }
         }
-        let [x, y, z] = state.box_lengths.map(|l| l / 2.0);
-        let corner = |i: usize| Point3 {
-            x: if i & 1 == 0 { -x } else { x },
-            y: if i & 2 == 0 { -y } else { y },
-            z: if i & 4 == 0 { -z } else { z },
+        // The parallelepiped H·s for fractional s = ±1/2 per axis.
+        let [lx, ly, lz] = state.box_lengths;
+        let [xy, xz, yz] = state.tilts;
+        let corner = |i: usize| {
+            let s = [1, 2, 4].map(|bit| if i & bit == 0 { -0.5 } else { 0.5 });
+            let u = [s[0] * lx, s[1] * ly, s[2] * lz];
+            Point3 {
+                x: u[0] + xy * u[1] + xz * u[2],
+                y: u[1] + yz * u[2],
+                z: u[2],
+            }
         };
         // The twelve edges: corners differing in one bit.
         let mut points = Vec::with_capacity(24);
@@ -307,6 +313,7 @@ mod tests {
             sweep: Some(0),
             time: None,
             box_lengths: [10.0, 10.0, 10.0],
+            tilts: [0.0; 3],
             species: Vec::new(),
             species_of: vec![0, 1, 0],
             positions: vec![[1.0, 2.0, 3.0], [0.0, 0.0, 0.0], [-1.0, -2.0, -3.0]],
@@ -356,6 +363,7 @@ mod tests {
             sweep: None,
             time: Some(1.0),
             box_lengths: [10.0, 10.0, 10.0],
+            tilts: [0.0; 3],
             species: species(1.5)
                 .into_iter()
                 .map(|s| crate::log::SpeciesRecord {

@@ -1,7 +1,7 @@
-//! Trial moves: translation, rotation, and ln V box moves (isotropic or
-//! along one axis), with their counters.
+//! Trial moves: translation, rotation, and box moves (ln V, ln L along
+//! one axis, or a shear), with their counters.
 
-use super::box_moves::box_move;
+use super::box_moves::{BoxMoveOutcome, BoxMoves, box_move};
 use std::ops::{Add, AddAssign, Sub};
 
 use nalgebra::{Unit, UnitQuaternion, Vector3};
@@ -48,8 +48,11 @@ pub struct Counts {
     pub translate: Count,
     /// Rotations.
     pub rotate: Count,
-    /// Box moves.
+    /// Box moves that change the volume (ln V or one edge).
     pub volume: Count,
+    /// Box moves that shear (a tilt factor).
+    #[serde(default)]
+    pub shear: Count,
     /// Overlap tests the boolean test left undecided (counted on the
     /// threads that ran them, see [`take_overlap_strains`]).
     #[serde(default)]
@@ -63,6 +66,15 @@ impl Counts {
         self.strains += take_overlap_strains();
         self
     }
+
+    /// Counts a box move under its kind.
+    pub(crate) fn record_box(&mut self, outcome: BoxMoveOutcome) {
+        if outcome.shear {
+            self.shear.record(outcome.accepted);
+        } else {
+            self.volume.record(outcome.accepted);
+        }
+    }
 }
 
 impl Add for Counts {
@@ -72,6 +84,7 @@ impl Add for Counts {
             translate: self.translate + o.translate,
             rotate: self.rotate + o.rotate,
             volume: self.volume + o.volume,
+            shear: self.shear + o.shear,
             strains: self.strains + o.strains,
         }
     }
@@ -95,6 +108,7 @@ impl Sub for Counts {
             translate: self.translate - o.translate,
             rotate: self.rotate - o.rotate,
             volume: self.volume - o.volume,
+            shear: self.shear - o.shear,
             strains: self.strains - o.strains,
         }
     }
@@ -115,6 +129,13 @@ pub struct MoveSizes {
     pub rotate: f64,
     /// Largest change of ln V (or ln L for a per-axis move).
     pub volume: f64,
+    /// Largest change of a tilt factor in a shear move.
+    #[serde(default = "default_shear")]
+    pub shear: f64,
+}
+
+fn default_shear() -> f64 {
+    0.01
 }
 
 /// The thermodynamic ensemble of a stage.
@@ -122,12 +143,12 @@ pub struct MoveSizes {
 pub enum Ensemble {
     /// Fixed N, V, T.
     Nvt,
-    /// Fixed N, P, T: βP and whether box moves change one axis at a time.
+    /// Fixed N, P, T: βP and the kind of box move.
     Npt {
         /// βP (1/length³).
         pressure: f64,
-        /// Per-axis (true) or isotropic (false) box moves.
-        anisotropic: bool,
+        /// Which box moves.
+        moves: BoxMoves,
     },
 }
 
@@ -149,14 +170,14 @@ pub fn sweep<R: Rng>(
         |_| true,
         |_, _, _, _| {},
     );
-    if let Ensemble::Npt {
-        pressure,
-        anisotropic,
-    } = *ensemble
-    {
-        counts
-            .volume
-            .record(box_move(system, pressure, sizes.volume, anisotropic, rng));
+    if let Ensemble::Npt { pressure, moves } = *ensemble {
+        counts.record_box(box_move(
+            system,
+            pressure,
+            (sizes.volume, sizes.shear),
+            moves,
+            rng,
+        ));
     }
     counts
 }

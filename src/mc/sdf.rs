@@ -231,6 +231,7 @@ mod tests {
             translate: 0.1,
             rotate: 0.1,
             volume: 0.0,
+            shear: 0.01,
         };
         for _ in 0..20 {
             sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
@@ -298,6 +299,7 @@ mod tests {
             translate: 0.03,
             rotate: 0.0,
             volume: 0.0,
+            shear: 0.01,
         };
         for _ in 0..200 {
             sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);

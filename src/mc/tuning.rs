@@ -30,6 +30,7 @@ impl Tuner {
         sizes.translate = (sizes.translate * factor(&window.translate)).min(self.max_translate);
         sizes.rotate = (sizes.rotate * factor(&window.rotate)).min(std::f64::consts::PI);
         sizes.volume = (sizes.volume * factor(&window.volume)).min(1.0);
+        sizes.shear = (sizes.shear * factor(&window.shear)).min(0.5);
     }
 
     /// Runs `sweeps` serial sweeps of `ensemble`, tuning `sizes` from the

@@ -377,6 +377,7 @@ fn initial_sizes(scene: &Scene) -> MoveSizes {
         translate: 0.5 * thinnest,
         rotate: 0.2,
         volume: 0.01,
+        shear: 0.01,
     }
 }
 

@@ -74,12 +74,9 @@ impl<'a> MonteCarloStage<'a> {
     ) -> Result<Self, StageError> {
         let mc_ensemble = match ensemble {
             Ensemble::Nvt => McEnsemble::Nvt,
-            Ensemble::Npt {
+            Ensemble::Npt { pressure, .. } => McEnsemble::Npt {
                 pressure,
-                anisotropic,
-            } => McEnsemble::Npt {
-                pressure,
-                anisotropic,
+                moves: ensemble.box_moves().unwrap_or_default(),
             },
         };
         runner.drift = resume

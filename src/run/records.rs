@@ -94,11 +94,13 @@ impl Runner {
                 packing_fraction: system.packing_fraction(),
                 pressure,
                 box_lengths: system.periodic_box().lengths().into(),
+                tilts: system.periodic_box().tilts().into(),
                 acceptance: [
                     rate(&window.translate),
                     rate(&window.rotate),
                     rate(&window.volume),
                 ],
+                acceptance_shear: rate(&window.shear),
                 nematic_order: self.system_nematic_order(system),
                 overlap_strains: Some(window.strains),
                 ..Interval::default()
@@ -134,9 +136,11 @@ impl Runner {
             packing_fraction: interval.packing_fraction,
             pressure: interval.pressure,
             box_lengths: interval.box_lengths,
+            tilts: interval.tilts,
             acceptance_translate,
             acceptance_rotate,
             acceptance_volume,
+            acceptance_shear: interval.acceptance_shear,
             collisions: interval.collisions,
             temperature: interval.temperature,
             nematic_order: interval.nematic_order.filter(|_| self.plan.nematic_order),
@@ -160,8 +164,11 @@ pub(super) struct Interval {
     /// βP over the interval.
     pub(super) pressure: Option<f64>,
     pub(super) box_lengths: [f64; 3],
+    pub(super) tilts: [f64; 3],
     /// Translation, rotation and volume acceptance (Monte Carlo).
     pub(super) acceptance: [Option<f64>; 3],
+    /// Shear acceptance (Monte Carlo, triclinic box moves).
+    pub(super) acceptance_shear: Option<f64>,
     /// Dynamics: collisions since the stage began, kT.
     pub(super) collisions: Option<u64>,
     pub(super) temperature: Option<f64>,

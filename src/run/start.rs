@@ -10,7 +10,6 @@ use crate::log::StateRecord;
 use crate::log::read::read_log;
 use crate::scene::plan::Plan;
 use crate::scene::{Scene, Start};
-use crate::space::PeriodicBox;
 use crate::state::start::{lattice, random_insertion};
 use crate::state::{Particle, StateError, System};
 
@@ -38,6 +37,13 @@ pub(super) fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result
             )?)
         }
         Start::Resume(path) => resumed_start(path, plan),
+        Start::Crystal { .. } => {
+            let crystal = (scene.crystal())
+                .expect("a Crystal start")
+                .map_err(|e| RunError::Start(e.into()))?;
+            Ok(crate::state::crystal::crystal(&crystal, species, &counts)
+                .map_err(|e| RunError::Start(e.into()))?)
+        }
     }
 }
 
@@ -110,6 +116,11 @@ pub(super) fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError>
 /// Why a logged state cannot be this scene's state.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RecordError {
+    /// A tilted box where the scene has walls.
+    #[error(
+        "the logged box is tilted {0:?}, and walls close an orthorhombic box only: resume it without walls"
+    )]
+    TiltedWithWalls([f64; 3]),
     /// Other species (names or shapes) than the scene's.
     #[error("the logged species ({logged}) differ from the scene's ({scene})")]
     Species {
@@ -231,7 +242,10 @@ fn system_from_logged(
             particles: n,
         });
     }
-    let box_ = PeriodicBox::new(Vector3::from(record.box_lengths))?.with_walls(plan.walls);
+    if record.tilts != [0.0; 3] && plan.walls.contains(&true) {
+        return Err(RecordError::TiltedWithWalls(record.tilts));
+    }
+    let box_ = record.periodic_box(plan.walls)?;
     let particles = record
         .positions
         .iter()

@@ -4,6 +4,7 @@
 
 pub mod outline;
 pub mod plan;
+pub mod space;
 mod validate;
 
 use serde::{Deserialize, Serialize};
@@ -18,9 +19,10 @@ pub struct Scene {
     /// Random seed (the command line's `--seed` overrides it).
     #[serde(default = "default_seed")]
     pub seed: u64,
-    /// Box edges (the starting box; compression and NPT change it).
-    #[serde(rename = "box")]
-    pub box_lengths: (f64, f64, f64),
+    /// The starting box (compression and NPT change it): edges, or edges
+    /// and tilts; left out by a `Crystal` start, whose supercell it is.
+    #[serde(rename = "box", default, skip_serializing_if = "Option::is_none")]
+    pub box_spec: Option<space::BoxSpec>,
     /// Axes closed by hard walls (the others are periodic).
     #[serde(default)]
     pub walls: Vec<Axis>,
@@ -139,6 +141,16 @@ pub enum Start {
     /// scene order (the first at the low end): two species released from
     /// the two halves of a box.
     Layered(Axis),
+    /// A crystal: `cells` unit cells of `lattice` along its three vectors,
+    /// scaled to `packing_fraction`; the supercell is the box.
+    Crystal {
+        /// The lattice.
+        lattice: space::Lattice,
+        /// Unit cells along each lattice vector.
+        cells: (usize, usize, usize),
+        /// The packing fraction.
+        packing_fraction: f64,
+    },
 }
 
 /// One stage of a scene.
@@ -266,10 +278,33 @@ pub enum Ensemble {
     Npt {
         /// βP (1/length³).
         pressure: f64,
-        /// Box moves one axis at a time.
+        /// Box moves one axis at a time (the same as `box_moves: Axes`).
         #[serde(default)]
         anisotropic: bool,
+        /// Which box moves: `Isotropic` (ln V, the default), `Axes` (ln L
+        /// of one edge) or `Triclinic` (edges and shears).
+        #[serde(default)]
+        box_moves: Option<crate::mc::box_moves::BoxMoves>,
     },
+}
+
+impl Ensemble {
+    /// The box moves of an NPT ensemble (`anisotropic: true` is `Axes`).
+    pub fn box_moves(&self) -> Option<crate::mc::box_moves::BoxMoves> {
+        use crate::mc::box_moves::BoxMoves;
+        match self {
+            Ensemble::Nvt => None,
+            Ensemble::Npt {
+                anisotropic,
+                box_moves,
+                ..
+            } => Some(box_moves.unwrap_or(if *anisotropic {
+                BoxMoves::Axes
+            } else {
+                BoxMoves::Isotropic
+            })),
+        }
+    }
 }
 
 /// Where and how often to log.
@@ -490,10 +525,39 @@ impl Scene {
             .collect()
     }
 
-    /// The box edges.
+    /// The starting box's edges.
     pub fn box_vector(&self) -> nalgebra::Vector3<f64> {
-        let (x, y, z) = self.box_lengths;
-        nalgebra::Vector3::new(x, y, z)
+        self.periodic_box().lengths()
+    }
+
+    /// The crystal of a `Crystal` start.
+    pub fn crystal(
+        &self,
+    ) -> Option<Result<crate::state::crystal::CrystalSpec, crate::state::crystal::CrystalError>>
+    {
+        let Start::Crystal {
+            lattice,
+            cells,
+            packing_fraction,
+        } = &self.start
+        else {
+            return None;
+        };
+        let shape = self.species.first()?.shape;
+        Some(
+            lattice
+                .unit_cell(&shape)
+                .map(|cell| crate::state::crystal::CrystalSpec {
+                    cell,
+                    cells: [cells.0, cells.1, cells.2],
+                    packing_fraction: *packing_fraction,
+                }),
+        )
+    }
+
+    /// The species' counts, in scene order.
+    pub fn counts(&self) -> Vec<usize> {
+        self.species.iter().map(|s| s.count).collect()
     }
 
     /// The packing fraction stage `index` starts at, where it is known
@@ -501,10 +565,12 @@ impl Scene {
     /// compression's target; unknown after an NPT stage, or after a
     /// compression that may end elsewhere (to a pressure, or to the jam).
     pub fn packing_fraction_before(&self, index: usize) -> Option<f64> {
-        let (x, y, z) = self.box_lengths;
-        let mut phi = match self.start {
+        let mut phi = match &self.start {
             Start::Resume(_) => None,
-            _ => Some(self.particle_volume() / (x * y * z)),
+            Start::Crystal {
+                packing_fraction, ..
+            } => Some(*packing_fraction),
+            _ => Some(self.particle_volume() / self.periodic_box().volume()),
         };
         for stage in &self.stages[..index.min(self.stages.len())] {
             phi = match stage {
@@ -554,9 +620,19 @@ impl Scene {
         w
     }
 
-    /// The starting box, with its walls.
+    /// The starting box, with its walls (of a validated scene).
     pub fn periodic_box(&self) -> crate::space::PeriodicBox {
-        crate::space::PeriodicBox::new(self.box_vector())
+        if let Some(crystal) = self.crystal() {
+            let species = self.mc_species();
+            return (crystal
+                .expect("a validated crystal")
+                .build(&species, &self.counts()))
+            .expect("a validated crystal")
+            .0;
+        }
+        let spec = self.box_spec.expect("a validated box");
+        let v = |t: (f64, f64, f64)| nalgebra::Vector3::new(t.0, t.1, t.2);
+        crate::space::PeriodicBox::triclinic(v(spec.lengths), v(spec.tilts))
             .expect("validated edges")
             .with_walls(self.wall_axes())
     }

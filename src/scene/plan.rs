@@ -6,6 +6,8 @@
 
 use std::fmt;
 
+use crate::mc::box_moves::BoxMoves;
+
 use super::{Ensemble, Neighbours, Scene, Stage, Start};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
@@ -173,7 +175,7 @@ impl Plan {
                         .random_orientations,
                 ),
                 Start::Random => Some(true),
-                Start::Resume(_) => None,
+                Start::Resume(_) | Start::Crystal { .. } => None,
             },
             first_jam,
         }
@@ -201,15 +203,21 @@ pub struct Report<'a> {
 impl fmt::Display for Report<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let (scene, plan) = (self.scene, self.plan);
-        let (x, y, z) = scene.box_lengths;
+        let box_ = scene.periodic_box();
+        let (l, t) = (box_.lengths(), box_.tilts());
         writeln!(
             f,
-            "scene: {} particles of {} species in a box {} x {} x {} {} (packing fraction {:.4}), seed {}",
+            "scene: {} particles of {} species in a box {} x {} x {}{} {} (packing fraction {:.4}), seed {}",
             scene.particle_count(),
             scene.species.len(),
-            Num(x),
-            Num(y),
-            Num(z),
+            Num(l.x),
+            Num(l.y),
+            Num(l.z),
+            if box_.is_tilted() {
+                format!(" tilted ({}, {}, {})", Num(t.x), Num(t.y), Num(t.z))
+            } else {
+                String::new()
+            },
             match plan.walls {
                 [false, false, false] => "periodic in x, y, z".to_string(),
                 [true, true, true] => "closed by hard walls in x, y, z".to_string(),
@@ -226,7 +234,7 @@ impl fmt::Display for Report<'_> {
                     format!("periodic in {}, walled in {}", axes(false), axes(true))
                 }
             },
-            Num(scene.particle_volume() / (x * y * z)),
+            Num(scene.particle_volume() / box_.volume()),
             scene.seed
         )?;
         writeln!(f, "species:")?;
@@ -402,6 +410,20 @@ impl fmt::Display for Report<'_> {
                 Start::Layered(a) => format!(
                     "lattice filling the box, species in layers along {a:?} in scene order, {orientations}"
                 ),
+                Start::Crystal {
+                    lattice,
+                    cells,
+                    packing_fraction,
+                } => format!(
+                    "crystal: {} cells of {} at packing fraction {}, the supercell is the box",
+                    format_args!("{} x {} x {}", cells.0, cells.1, cells.2),
+                    match lattice {
+                        crate::scene::space::Lattice::Custom { basis, .. } =>
+                            format!("a custom lattice ({} sites per cell)", basis.len()),
+                        other => format!("{other:?}"),
+                    },
+                    Num(*packing_fraction)
+                ),
             }
         )?;
         writeln!(f, "stages:")?;
@@ -437,16 +459,13 @@ impl fmt::Display for Report<'_> {
                         Ensemble::Nvt => {
                             "NVT, pressure from the scale distribution function".to_string()
                         }
-                        Ensemble::Npt {
-                            pressure,
-                            anisotropic,
-                        } => format!(
+                        Ensemble::Npt { pressure, .. } => format!(
                             "NPT at betaP = {}, {} box moves",
                             Num(*pressure),
-                            if *anisotropic {
-                                "per-axis"
-                            } else {
-                                "isotropic"
+                            match ensemble.box_moves() {
+                                Some(BoxMoves::Axes) => "per-axis",
+                                Some(BoxMoves::Triclinic) => "per-axis and shear (triclinic)",
+                                _ => "isotropic",
                             }
                         ),
                     };

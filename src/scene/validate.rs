@@ -2,6 +2,8 @@
 //! every target reachable, every stage possible with the species and
 //! walls given; each refusal names its field.
 
+use crate::mc::box_moves::BoxMoves;
+
 use super::*;
 use crate::number::Num;
 
@@ -34,18 +36,61 @@ impl Scene {
 
     pub(super) fn validate(&self) -> Result<(), (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
-        let (x, y, z) = self.box_lengths;
-        let (low, high) = VALUE_RANGE;
-        if ![x, y, z].iter().all(|l| *l >= low && *l <= high) {
-            return bad(
-                "box",
-                format!(
-                    "edges must lie in [{low:e}, {high:e}], got ({}, {}, {})",
-                    Num(x),
-                    Num(y),
-                    Num(z)
-                ),
-            );
+        let crystal = matches!(self.start, Start::Crystal { .. });
+        match (crystal, self.box_spec) {
+            (true, Some(_)) => {
+                return bad(
+                    "box",
+                    "a Crystal start makes the box (its supercell): leave `box` out".into(),
+                );
+            }
+            (true, None) => {
+                if !self.walls.is_empty() {
+                    return bad(
+                        "walls",
+                        "a crystal's box is periodic along every lattice vector: walls go with a box given by `box`".into(),
+                    );
+                }
+            }
+            (false, None) => {
+                return bad(
+                    "box",
+                    "missing: give `box: (Lx, Ly, Lz)` or `box: Triclinic(lengths: (Lx, Ly, Lz), tilts: (xy, xz, yz))` (only a Crystal start leaves it out)".into(),
+                );
+            }
+            (false, Some(spec)) => {
+                let (x, y, z) = spec.lengths;
+                let (low, high) = VALUE_RANGE;
+                if ![x, y, z].iter().all(|l| *l >= low && *l <= high) {
+                    return bad(
+                        "box",
+                        format!(
+                            "edges must lie in [{low:e}, {high:e}], got ({}, {}, {})",
+                            Num(x),
+                            Num(y),
+                            Num(z)
+                        ),
+                    );
+                }
+                let (xy, xz, yz) = spec.tilts;
+                if ![xy, xz, yz].iter().all(|t| t.is_finite() && t.abs() <= 1e6) {
+                    return bad(
+                        "box",
+                        format!(
+                            "tilts must be finite numbers (at most 1e6 in size), got ({}, {}, {})",
+                            Num(xy),
+                            Num(xz),
+                            Num(yz)
+                        ),
+                    );
+                }
+                if spec.is_tilted() && !self.walls.is_empty() {
+                    return bad(
+                        "walls",
+                        "walls close an orthorhombic box only: a tilted box has none".into(),
+                    );
+                }
+            }
         }
         for (i, a) in self.walls.iter().enumerate() {
             if self.walls[..i].contains(a) {
@@ -100,19 +145,32 @@ impl Scene {
                 "at least 2 particles are needed in all (counts sum to 1)".into(),
             );
         }
+        if let Some(crystal) = self.crystal() {
+            let built = crystal.and_then(|c| c.build(&self.mc_species(), &self.counts()));
+            if let Err(e) = built {
+                return bad("start", e.to_string());
+            }
+        }
         let diameter = 2.0 * self.largest_bounding_radius();
-        let shortest = x.min(y).min(z);
+        let box_ = self.periodic_box();
+        let shortest = box_.heights().min();
         if shortest < 2.0 * diameter {
+            let (what, field) = match (crystal, box_.is_tilted()) {
+                (true, _) => ("the supercell's smallest height", "start"),
+                (false, true) => ("the box's smallest height", "box"),
+                (false, false) => ("the shortest edge", "box"),
+            };
             return bad(
-                "box",
+                field,
                 format!(
-                    "the shortest edge {} must be at least twice the largest bounding diameter {} (minimum image)",
+                    "{what} {} must be at least twice the largest bounding diameter {} (minimum image){}",
                     Num(shortest),
-                    Num(diameter)
+                    Num(diameter),
+                    if crystal { ": take more cells" } else { "" }
                 ),
             );
         }
-        let phi0 = self.particle_volume() / (x * y * z);
+        let phi0 = self.particle_volume() / box_.volume();
         match &self.start {
             Start::Lattice | Start::Layered(_) => {
                 let plan =
@@ -143,24 +201,51 @@ impl Scene {
                     return bad("start", "Resume needs the path of a log".into());
                 }
             }
+            Start::Crystal { .. } => {}
         }
-        if self.stages.iter().any(|st| {
-            matches!(
-                st,
-                Stage::MonteCarlo {
-                    ensemble: Ensemble::Npt {
+        let mut tilted = box_.is_tilted();
+        for (i, st) in self.stages.iter().enumerate() {
+            match st {
+                Stage::MonteCarlo { ensemble, .. } => {
+                    if let Ensemble::Npt {
                         anisotropic: true,
+                        box_moves: Some(moves),
                         ..
-                    },
-                    ..
+                    } = ensemble
+                        && *moves != BoxMoves::Axes
+                    {
+                        return bad(
+                            &format!("stages[{i}].ensemble.box_moves"),
+                            format!(
+                                "{moves:?} contradicts `anisotropic: true` (which is Axes): give one of them"
+                            ),
+                        );
+                    }
+                    match ensemble.box_moves() {
+                        Some(BoxMoves::Axes) if self.walls.len() == 3 => {
+                            return bad(
+                                "walls",
+                                "a box closed by walls on every axis has no periodic direction for per-axis box moves".into(),
+                            );
+                        }
+                        Some(BoxMoves::Triclinic) if !self.walls.is_empty() => {
+                            return bad(
+                                &format!("stages[{i}].ensemble.box_moves"),
+                                "Triclinic box moves shear the box, and walls close an orthorhombic box only: use Axes or Isotropic with walls".into(),
+                            );
+                        }
+                        Some(BoxMoves::Triclinic) => tilted = true,
+                        _ => {}
+                    }
                 }
-            )
-        }) && self.walls.len() == 3
-        {
-            return bad(
-                "walls",
-                "a box closed by walls on every axis has no periodic direction for per-axis box moves".into(),
-            );
+                Stage::Dynamics { .. } | Stage::Jam { .. } if tilted => {
+                    return bad(
+                        &format!("stages[{i}]"),
+                        "the dynamics (and a jam by growth) runs in orthorhombic boxes only, and the box here is tilted (a tilted box or crystal cell, or Triclinic box moves before): run Monte Carlo, or use an orthorhombic cell".into(),
+                    );
+                }
+                _ => {}
+            }
         }
         if self.stages.is_empty() {
             return bad("stages", "at least one stage is needed".into());

@@ -109,10 +109,14 @@ impl CellList {
         let mut idx = [0usize; 3];
         for k in 0..3 {
             let mut f = u[k] / lengths[k] + 0.5;
-            // One shift suffices for positions within a box of it.
-            if f < 0.0 {
+            // One shift for positions within a box of the box. A position in
+            // it whose quotient rounds to just outside [0, 1) (the sheared
+            // coordinates of a wrapped position, or a crystal site on a face)
+            // stays in the cell at that face, not the one across the box.
+            const ROUNDING: f64 = 1e-12;
+            if f < -ROUNDING {
                 f += 1.0;
-            } else if f >= 1.0 {
+            } else if f >= 1.0 + ROUNDING {
                 f -= 1.0;
             }
             idx[k] = ((f * self.dims[k] as f64) as usize).min(self.dims[k] - 1);
@@ -397,7 +401,7 @@ mod tests {
     use super::*;
 
     /// Only cells out of reach are left out: from centres anywhere,
-    /// also one that rounding puts in the cell across the boundary, every
+    /// also one just below the upper face (kept in the last cell), every
     /// neighbour cell whose box (its nearest image) comes within the limit
     /// is kept; and some are skipped.
     #[test]
@@ -412,7 +416,12 @@ mod tests {
         centres.push(Vector3::repeat(-6.0));
         let cells = CellList::new(&PeriodicBox::new(l).unwrap(), 2.5, &centres);
         let (cl, dims) = (cells.cell_lengths(), cells.dims());
-        assert_eq!(cells.coords_of(cells.cell_of(2000)), [0, 0, 0], "wrapped");
+        let last = dims.map(|n| n - 1);
+        assert_eq!(
+            cells.coords_of(cells.cell_of(2000)),
+            last,
+            "kept at its face"
+        );
         let mut skipped = 0;
         for (i, centre) in centres.iter().enumerate() {
             let cell = cells.cell_of(i);

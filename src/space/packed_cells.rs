@@ -218,9 +218,14 @@ impl PackedCells {
         let mut idx = [0usize; 3];
         for k in 0..3 {
             let mut f = u[k] / lengths[k] + 0.5;
-            if f < 0.0 {
+            // One shift for positions within a box of the box. A position in
+            // it whose quotient rounds to just outside [0, 1) (the sheared
+            // coordinates of a wrapped position, or a crystal site on a face)
+            // stays in the cell at that face, not the one across the box.
+            const ROUNDING: f64 = 1e-12;
+            if f < -ROUNDING {
                 f += 1.0;
-            } else if f >= 1.0 {
+            } else if f >= 1.0 + ROUNDING {
                 f -= 1.0;
             }
             idx[k] = ((f * self.dims[k] as f64) as usize).min(self.dims[k] - 1);

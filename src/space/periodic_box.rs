@@ -87,6 +87,22 @@ impl PeriodicBox {
         Ok(Self::triclinic(lengths, self.tilts)?.with_walls(self.walls))
     }
 
+    /// This box stretched by `factor` along lab axis `axis` (H ↦ D·H, D
+    /// diagonal with `factor` at `axis`): edge `axis` scales, and the tilt
+    /// factors follow so that the same lattice of any cell of this box is
+    /// stretched the same way (the stretch commutes with reduction).
+    pub fn stretched_along(&self, axis: usize, factor: f64) -> Result<Self, BoxError> {
+        let mut lengths = self.lengths;
+        lengths[axis] *= factor;
+        let t = self.tilts;
+        let tilts = match axis {
+            0 => V3::new(t.x * factor, t.y * factor, t.z),
+            1 => V3::new(t.x / factor, t.y, t.z * factor),
+            _ => V3::new(t.x, t.y / factor, t.z / factor),
+        };
+        Ok(Self::triclinic(lengths, tilts)?.with_walls(self.walls))
+    }
+
     /// The same walls and edges with other tilt factors.
     pub fn with_tilts(&self, tilts: V3) -> Result<Self, BoxError> {
         Ok(Self::triclinic(self.lengths, tilts)?.with_walls(self.walls))
@@ -526,7 +542,26 @@ mod tests {
         }
     }
 
-    /// A box change keeps fractional coordinates.
+    /// A stretch along a lab axis is D·H for any cell of the lattice: the
+    /// stretched box and the stretched reduced box are the same lattice.
+    #[test]
+    fn stretches_commute_with_reduction() {
+        let b = PeriodicBox::triclinic(Vector3::new(5.0, 6.0, 7.0), Vector3::new(1.3, -0.8, 0.9))
+            .unwrap();
+        for axis in 0..3 {
+            let stretch = nalgebra::Matrix3::from_diagonal(&Vector3::from_fn(|k, _| {
+                if k == axis { 1.3 } else { 1.0 }
+            }));
+            let s = b.stretched_along(axis, 1.3).unwrap();
+            assert!((s.matrix() - stretch * b.matrix()).norm() < 1e-12);
+            let r = b.reduced().stretched_along(axis, 1.3).unwrap();
+            let m = s.matrix().try_inverse().unwrap() * r.matrix();
+            assert!(m.iter().all(|x| (x - x.round()).abs() < 1e-9), "{m}");
+        }
+    }
+
+    /// A box change keeps fractional coordinates, and no separation
+    /// shrinks by more than the smallest stretch (some by just that).
     #[test]
     fn map_from_keeps_fractional_coordinates() {
         let b = tilted();
@@ -537,5 +572,22 @@ mod tests {
             .unwrap();
         let r = Vector3::new(1.0, -2.0, 3.0);
         assert!((c.fractional(&c.map_from(&b, &r)) - b.fractional(&r)).norm() < 1e-12);
+        let stretch = c.smallest_stretch_from(&b);
+        let mut u = crate::test_support::uniform(2);
+        let mut least = f64::INFINITY;
+        for _ in 0..20_000 {
+            let d = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+            let moved = c.map_from(&b, &d) - c.map_from(&b, &Vector3::zeros());
+            let ratio = moved.norm() / d.norm();
+            assert!(ratio >= stretch * (1.0 - 1e-12));
+            least = least.min(ratio);
+        }
+        assert!(least < stretch * 1.01, "{least} vs {stretch}");
+        let plain = PeriodicBox::new(Vector3::new(2.0, 3.0, 4.0)).unwrap();
+        let scaled = plain.with_lengths(Vector3::new(2.2, 2.7, 4.0)).unwrap();
+        assert_eq!(scaled.smallest_stretch_from(&plain), 0.9);
+        assert!(!scaled.expands_uniformly_from(&plain));
+        let grown = plain.with_lengths(plain.lengths() * 1.5).unwrap();
+        assert!(grown.expands_uniformly_from(&plain));
     }
 }

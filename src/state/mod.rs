@@ -11,6 +11,7 @@
 //! - `rescale.rs`: box changes, with or without overlaps allowed;
 //! - `start.rs`: first states (lattices, random insertion).
 
+pub mod crystal;
 mod neighbours;
 mod overlap;
 mod rescale;
@@ -194,6 +195,7 @@ mod tests {
             translate: 0.05,
             rotate: 0.05,
             volume: 0.0,
+            shear: 0.01,
         };
         for (k, mut system) in systems.into_iter().enumerate() {
             let mut r1 = rand_pcg::Pcg64::seed_from_u64(k as u64);
@@ -240,6 +242,7 @@ mod tests {
             translate: 0.12,
             rotate: 0.0,
             volume: 0.0,
+            shear: 0.01,
         };
         let (mut r1, mut r2) = (
             rand_pcg::Pcg64::seed_from_u64(4),
@@ -255,7 +258,7 @@ mod tests {
         // ln V: about a third of them accepted.
         let npt = Ensemble::Npt {
             pressure: 5.7,
-            anisotropic: false,
+            moves: crate::mc::box_moves::BoxMoves::Isotropic,
         };
         let sizes_npt = MoveSizes {
             volume: 0.003,
@@ -309,11 +312,13 @@ mod tests {
             translate: 0.1,
             rotate: 0.04,
             volume: 0.0,
+            shear: 0.01,
         };
         let long = MoveSizes {
             translate: 1.5,
             rotate: 0.6,
             volume: 0.0,
+            shear: 0.01,
         };
         let (mut r1, mut r2) = (
             rand_pcg::Pcg64::seed_from_u64(4),

@@ -18,14 +18,15 @@ impl System {
         Some(new_box)
     }
 
-    /// Puts the system in `new_box`, every centre taken along with the box
-    /// (the same fractional coordinates; the neighbour structures are the
-    /// caller's to renew).
-    pub(super) fn scale_into(&mut self, new_box: PeriodicBox) {
+    /// Puts the system in `cell`, a cell of the lattice of `new_box`,
+    /// every centre taken along with the box (the same fractional
+    /// coordinates in `new_box`, then wrapped into `cell`; the neighbour
+    /// structures are the caller's to renew).
+    pub(super) fn scale_into(&mut self, new_box: PeriodicBox, cell: PeriodicBox) {
         let old_box = self.box_;
-        self.box_ = new_box;
+        self.box_ = cell;
         for (p, r) in self.particles.iter_mut().zip(&mut self.positions) {
-            p.position = new_box.wrap(&new_box.map_from(&old_box, &p.position));
+            p.position = cell.wrap(&new_box.map_from(&old_box, &p.position));
             *r = p.position;
         }
     }
@@ -39,7 +40,7 @@ impl System {
             return false;
         };
         let old_box = self.box_;
-        self.scale_into(new_box);
+        self.scale_into(new_box, new_box);
         self.capsule_lists = None;
         self.cells = self.neighbours_as_they_are();
         if let Some(mut lists) = self.sphere_lists.take()
@@ -81,6 +82,7 @@ impl System {
     /// Rescales the box to `lengths` (its tilts kept) and the positions
     /// with it, if that creates no overlap and keeps the box at least twice
     /// the interaction range; returns whether it did.
+    #[cfg(test)]
     pub(crate) fn try_rescale(&mut self, lengths: V3) -> bool {
         match self.box_with_lengths(lengths) {
             Some(new_box) => self.try_change_box(new_box),
@@ -91,12 +93,18 @@ impl System {
     /// Changes the box to `new_box` (any edges and tilts, the same walls)
     /// and the positions with it (the same fractional coordinates), if that
     /// creates no overlap and keeps the box at least twice the interaction
-    /// range across each pair of faces; returns whether it did.
+    /// range across each pair of faces; returns whether it did. A box whose
+    /// tilts pass half an edge is replaced by the same lattice's reduced
+    /// cell ([`PeriodicBox::reduced`]), which the range is checked on: what
+    /// is accepted depends on the lattice alone, not on its cell.
     pub(crate) fn try_change_box(&mut self, new_box: PeriodicBox) -> bool {
-        if Self::check_box(&new_box, self.range).is_err() {
+        let cell = new_box.reduced();
+        if Self::check_box(&cell, self.range).is_err() {
             return false;
         }
         let old_box = self.box_;
+        // Lists follow a box that keeps its cell; a new cell starts afresh.
+        let same_cell = cell == new_box;
         // Only an isotropic expansion keeps convex bodies apart whatever
         // their shape (r ∉ A⊕(−B) ⇒ s·r ∉ A⊕(−B) for s ≥ 1); a map that
         // stretches every separation keeps spheres apart; anything else
@@ -111,6 +119,7 @@ impl System {
         if may_touch
             && !self.ideal
             && !self.box_.has_walls()
+            && same_cell
             && let Some(lists) = &self.sphere_lists
         {
             self.scaled.clear();
@@ -131,7 +140,7 @@ impl System {
         let lists = self.sphere_lists.take();
         let capsule_lists = self.capsule_lists.take();
         let old_positions = self.positions.clone();
-        self.scale_into(new_box);
+        self.scale_into(new_box, cell);
         let new_cells = self.neighbours_as_they_are();
         let old_cells = std::mem::replace(&mut self.cells, new_cells);
         let overlaps =
@@ -141,7 +150,7 @@ impl System {
         if may_touch
             && !self.ideal
             && match &lists {
-                Some(lists) if !self.box_.has_walls() => (lists)
+                Some(lists) if !self.box_.has_walls() && same_cell => (lists)
                     .strays_after_rescale(&old_box, &self.box_, self.positions.as_slice())
                     .any(overlaps),
                 _ => (0..self.len()).any(overlaps),
@@ -160,6 +169,7 @@ impl System {
         // The sphere lists go with the box (scaled) while the gap they keep
         // allows; the capsule lists do not.
         if let Some(mut lists) = lists
+            && same_cell
             && lists.rescaled(&old_box, &self.box_, self.positions.as_slice())
         {
             self.sphere_lists = Some(lists);

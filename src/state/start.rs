@@ -80,6 +80,9 @@ pub enum StartError {
     /// The box or the species are unusable.
     #[error(transparent)]
     System(#[from] StateError),
+    /// A crystal that cannot be built.
+    #[error(transparent)]
+    Crystal(#[from] super::crystal::CrystalError),
 }
 
 /// A lattice for `n` particles of `species` in a box of edges `lengths`:
@@ -186,7 +189,8 @@ pub fn lattice<R: Rng>(
                 (site / (a * b)) as f64 + 0.5,
             );
             Particle {
-                position: ijk.component_mul(&step) - lengths / 2.0,
+                // Sites on the unsheared grid, sheared with the box.
+                position: box_.shear(&(ijk.component_mul(&step) - lengths / 2.0)),
                 orientation: if plan.random_orientations {
                     random_rotation(rng)
                 } else {
@@ -210,7 +214,6 @@ pub fn random_insertion<R: Rng>(
     rng: &mut R,
 ) -> Result<System, StartError> {
     use crate::geometry::{Relative, overlap};
-    let lengths = box_.lengths();
     let n: usize = counts.iter().sum();
     let mut placed: Vec<Particle> = Vec::with_capacity(n);
     let mut attempts = 0;
@@ -227,7 +230,8 @@ pub fn random_insertion<R: Rng>(
                     });
                 }
                 attempts += 1;
-                let position = Vector3::from_fn(|k, _| (rng.r#gen::<f64>() - 0.5) * lengths[k]);
+                let fractional = Vector3::from_fn(|_, _| rng.r#gen::<f64>() - 0.5);
+                let position = box_.from_fractional(&fractional);
                 let orientation = random_rotation(rng);
                 let rotation = orientation.to_rotation_matrix().into_inner();
                 let clash = box_.wall_gap(&position, &shape.lab_half_extents(&rotation)) <= 0.0

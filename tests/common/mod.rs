@@ -288,6 +288,7 @@ pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardb
         translate: 0.3,
         rotate: 0.3,
         volume: 0.0,
+        shear: 0.01,
     };
     compress(&mut system, sizes, &CompressOptions::to(phi), &mut rng).unwrap();
     system

@@ -70,6 +70,7 @@ fn ours(system: &mut System, repeats: usize, sweeps: usize) -> (f64, f64) {
         translate: 0.1,
         rotate: 0.1,
         volume: 0.0,
+        shear: 0.01,
     };
     let tuner = Tuner {
         target: TARGET,

@@ -330,6 +330,9 @@ impl Dynamics {
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
             .collect();
         let box_ = *system.periodic_box();
+        if box_.is_tilted() {
+            return Err(EdmdError::TiltedBox(box_.tilts().into()));
+        }
         if let Some(shell) = options.neighbour_shell
             && !(shell.is_finite() && shell > 0.0)
         {

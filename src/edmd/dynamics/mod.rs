@@ -40,6 +40,12 @@ type V3 = Vector3<f64>;
 /// What can go wrong setting up or running the dynamics.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EdmdError {
+    /// A tilted box: the dynamics' cells and crossing events are those of
+    /// an orthorhombic box.
+    #[error(
+        "the dynamics runs in orthorhombic boxes only, this box is tilted ({0:?}): run Monte Carlo in a tilted box, or start from an orthorhombic cell of the crystal"
+    )]
+    TiltedBox([f64; 3]),
     /// The temperature is not a positive finite number.
     #[error("temperature must be finite and > 0, got {0}")]
     BadTemperature(f64),

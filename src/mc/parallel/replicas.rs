@@ -108,14 +108,16 @@ pub(super) fn member_sweeps(
             }
             colours_done += 1;
         }
-        if let Ensemble::Npt {
-            pressure,
-            anisotropic,
-        } = *ensemble
-        {
-            let accepted = box_move(system, pressure, sizes.volume, anisotropic, &mut master);
+        if let Ensemble::Npt { pressure, moves } = *ensemble {
+            let outcome = box_move(
+                system,
+                pressure,
+                (sizes.volume, sizes.shear),
+                moves,
+                &mut master,
+            );
             if me == 0 {
-                counts.volume.record(accepted);
+                counts.record_box(outcome);
             }
         }
     }

@@ -327,13 +327,14 @@ pub(super) fn shared_member_sweeps(
             // and take a fresh copy after it.
             let system = unsafe { shared.whole() };
             pending.fold_into(system);
-            if let Ensemble::Npt {
-                pressure,
-                anisotropic,
-            } = *ensemble
-            {
-                let accepted = box_move(system, pressure, sizes.volume, anisotropic, &mut master);
-                counts.volume.record(accepted);
+            if let Ensemble::Npt { pressure, moves } = *ensemble {
+                counts.record_box(box_move(
+                    system,
+                    pressure,
+                    (sizes.volume, sizes.shear),
+                    moves,
+                    &mut master,
+                ));
             }
             if let Some(terms) = SharingTerms::of(system, slabs.axis) {
                 terms.reserve(system);
