@@ -23,7 +23,15 @@ from ._simulation import Simulation
 from ._scene import (
     Accuracy,
     Auto,
+    Bcc,
     Cells,
+    Crystal,
+    Custom,
+    Densest,
+    Fcc,
+    Hcp,
+    SimpleCubic,
+    Triclinic,
     Compress,
     Cuboid,
     Dynamics,
@@ -47,7 +55,8 @@ from ._scene import (
 __version__ = _core.__version__
 
 __all__ = [
-    "Accuracy", "Auto", "Cells", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
+    "Accuracy", "Auto", "Bcc", "Cells", "Crystal", "Custom", "Densest", "Fcc", "Hcp",
+    "SimpleCubic", "Triclinic", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
     "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere",
     "Superellipsoid", "analyze", "open_log", "resume", "run",

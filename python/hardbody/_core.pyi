@@ -42,6 +42,7 @@ class Frame:
     sweep: Optional[int]
     time: Optional[float]
     box: npt.NDArray[np.float64]
+    tilts: npt.NDArray[np.float64]
     positions: npt.NDArray[np.float64]
     orientations: npt.NDArray[np.float64]
     velocities: Optional[npt.NDArray[np.float64]]

@@ -29,6 +29,12 @@ class Frame:
         return self._core.box
 
     @property
+    def tilts(self) -> np.ndarray:
+        """Tilt factors (xy, xz, yz), HOOMD-blue's: zeros for an
+        orthorhombic box."""
+        return self._core.tilts
+
+    @property
     def positions(self) -> np.ndarray:
         return self._core.positions
 
@@ -97,7 +103,8 @@ class Frame:
         import freud
 
         lx, ly, lz = self.box
-        return freud.box.Box(Lx=lx, Ly=ly, Lz=lz)
+        xy, xz, yz = self.tilts
+        return freud.box.Box(Lx=lx, Ly=ly, Lz=lz, xy=xy, xz=xz, yz=yz)
 
     def to_gsd(self):
         """The frame as a `gsd.hoomd.Frame` (types named after the
@@ -105,7 +112,7 @@ class Frame:
         import gsd.hoomd
 
         frame = gsd.hoomd.Frame()
-        frame.configuration.box = [*map(float, self.box), 0.0, 0.0, 0.0]
+        frame.configuration.box = [*map(float, self.box), *map(float, self.tilts)]
         frame.configuration.step = int(self.log_time // 1_000_000)
         frame.particles.N = len(self)
         frame.particles.types = [s["name"] for s in json.loads(self._core.species_json)]

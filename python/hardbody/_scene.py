@@ -181,6 +181,77 @@ class Layered(_Newtype):
         return f"Layered({self.axis!r})"
 
 
+# Crystals ----------------------------------------------------------------
+
+
+@dataclass
+class Triclinic:
+    """A tilted box: edges (Lx, Ly, Lz) and tilt factors (xy, xz, yz),
+    HOOMD-blue's convention."""
+
+    lengths: Tuple[float, float, float]
+    tilts: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        self.lengths = tuple(float(x) for x in self.lengths)
+        self.tilts = tuple(float(x) for x in self.tilts)
+
+
+@_variant
+class Fcc(_Unit):
+    """Face-centred cubic, the conventional cubic cell (4 sites)."""
+
+
+@_variant
+class Bcc(_Unit):
+    """Body-centred cubic, the conventional cubic cell (2 sites)."""
+
+
+@_variant
+class Hcp(_Unit):
+    """Hexagonal close packing, its orthorhombic cell (4 sites)."""
+
+
+@_variant
+class SimpleCubic(_Unit):
+    """One site per cubic cell."""
+
+
+@_variant
+class Densest(_Unit):
+    """The densest known lattice packing of the first species' shape."""
+
+
+@_variant
+@dataclass
+class Custom:
+    """Any lattice: three right-handed vectors, sites in fractional
+    coordinates in [0, 1), optionally one quaternion (w, x, y, z) per site."""
+
+    vectors: Sequence[Tuple[float, float, float]]
+    basis: Sequence[Tuple[float, float, float]]
+    orientations: Sequence[Tuple[float, float, float, float]] = ()
+
+    def __post_init__(self):
+        rows = lambda rs: [tuple(float(x) for x in r) for r in rs]  # noqa: E731
+        self.vectors, self.basis = rows(self.vectors), rows(self.basis)
+        self.orientations = rows(self.orientations)
+
+
+@_variant
+@dataclass
+class Crystal:
+    """A crystal start: `cells` unit cells of `lattice` scaled to
+    `packing_fraction`; its supercell is the box (give no `box`)."""
+
+    lattice: Any
+    cells: Tuple[int, int, int]
+    packing_fraction: float
+
+    def __post_init__(self):
+        self.cells = tuple(self.cells)
+
+
 def _axis(axis: str) -> str:
     return axis.upper() if isinstance(axis, str) else axis
 
@@ -196,11 +267,13 @@ class Nvt(_Unit):
 @_variant
 @dataclass
 class Npt:
-    """Constant pressure betaP (1/length^3); `anisotropic` moves one box
-    axis at a time."""
+    """Constant pressure betaP (1/length^3); `box_moves` is "Isotropic"
+    (the default), "Axes" (one edge at a time; `anisotropic=True` is the
+    same) or "Triclinic" (edges and shears)."""
 
     pressure: float
     anisotropic: bool = False
+    box_moves: Optional[str] = None
 
 
 @_variant
@@ -317,6 +390,9 @@ class Scene:
     """What to simulate, in which stages, logged where: the RON scene
     (README, "Scenes") as Python objects.
 
+    A `Crystal` start makes the box; otherwise `box` is the edges
+    `(Lx, Ly, Lz)` or a `Triclinic(lengths, tilts)`.
+
     >>> scene = Scene(box=(8, 8, 8),
     ...               species=[Species("rod", Ellipsoid(1.0, 0.5, 0.5), 64)],
     ...               stages=[Compress(packing_fraction=0.4),
@@ -327,16 +403,16 @@ class Scene:
 
     def __init__(
         self,
-        box: Sequence[float],
-        species: Sequence[Species],
-        stages: Sequence[Stage],
+        box: Union[Sequence[float], Triclinic, None] = None,
+        species: Sequence[Species] = (),
+        stages: Sequence[Stage] = (),
         seed: int = 1,
         walls: Sequence[str] = (),
         start: Union[str, Lattice, Random, Resume, Layered] = "lattice",
         log: Optional[Log] = None,
         accuracy: Optional[Accuracy] = None,
     ):
-        self.box = tuple(box)
+        self.box = box if box is None or isinstance(box, Triclinic) else tuple(box)
         self.species = list(species)
         self.stages = list(stages)
         self.seed = seed
@@ -356,13 +432,14 @@ class Scene:
                 stage.ensemble = _ensemble(stage.ensemble)
         body = {
             "seed": self.seed,
-            "box": _encode(self.box),
             "walls": [_axis(w) for w in self.walls],
             "species": _encode(self.species),
             "start": _encode(_start(self.start)),
             "stages": _encode(self.stages),
             "log": _encode(self.log),
         }
+        if self.box is not None:
+            body["box"] = _encode(self.box)
         if self.accuracy is not None:
             accuracy = {k: v for k, v in _encode(self.accuracy).items() if v is not None}
             body["accuracy"] = accuracy
@@ -382,7 +459,8 @@ class Scene:
     def _from_json(cls, text: str) -> "Scene":
         d = json.loads(text)
         scene = cls.__new__(cls)
-        scene.box = tuple(d["box"])
+        box = d.get("box")
+        scene.box = Triclinic(**box) if isinstance(box, dict) else None if box is None else tuple(box)
         scene.species = [
             Species(s["name"], _decode(s["shape"]), s["count"], s["mass"], s["rotation"])
             for s in d["species"]

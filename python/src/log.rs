@@ -74,6 +74,12 @@ impl Frame {
     fn box_lengths<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         PyArray1::from_slice(py, &self.record.box_lengths)
     }
+    /// Box tilt factors (xy, xz, yz), shape (3,): zeros for an
+    /// orthorhombic box.
+    #[getter]
+    fn tilts<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.record.tilts)
+    }
     /// Centres, shape (N, 3).
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
