@@ -278,8 +278,23 @@ impl PackedCells {
     /// (the image nearest `r` for every j within range); stops early and
     /// returns true as soon as `f` does.
     #[inline]
-    pub fn any_near(&self, r: &V3, mut f: impl FnMut(usize, &V3) -> bool) -> bool {
-        let u = self.box_.unshear(r);
+    pub fn any_near(&self, r: &V3, f: impl FnMut(usize, &V3) -> bool) -> bool {
+        // Two instances, so that an untilted box's hot loop carries no
+        // shear at all (u = r, shifts along the axes).
+        if self.box_.is_tilted() {
+            self.any_near_in::<true>(r, f)
+        } else {
+            self.any_near_in::<false>(r, f)
+        }
+    }
+
+    #[inline(always)]
+    fn any_near_in<const TILTED: bool>(
+        &self,
+        r: &V3,
+        mut f: impl FnMut(usize, &V3) -> bool,
+    ) -> bool {
+        let u = if TILTED { self.box_.unshear(r) } else { *r };
         let at = self.coords(&u);
         if !self.shifted {
             return self.repeated_cells(&at).iter().any(|&n| {
@@ -291,7 +306,7 @@ impl PackedCells {
                 })
             });
         }
-        self.any_shifted_cell(&at, &u, |slots, members, shift| {
+        self.any_shifted_cell::<TILTED>(&at, &u, |slots, members, shift| {
             slots.iter().zip(members).any(|(e, &j)| {
                 let d = (position(e) - r) + shift;
                 f(j as usize, &d)
@@ -311,7 +326,21 @@ impl PackedCells {
     /// with `keep(j)` only (asked only of those within reach).
     #[inline]
     pub fn sphere_overlaps_where(&self, r: &V3, radius: f64, keep: impl Fn(u32) -> bool) -> bool {
-        let u = self.box_.unshear(r);
+        if self.box_.is_tilted() {
+            self.sphere_overlaps_in::<true>(r, radius, keep)
+        } else {
+            self.sphere_overlaps_in::<false>(r, radius, keep)
+        }
+    }
+
+    #[inline(always)]
+    fn sphere_overlaps_in<const TILTED: bool>(
+        &self,
+        r: &V3,
+        radius: f64,
+        keep: impl Fn(u32) -> bool,
+    ) -> bool {
+        let u = if TILTED { self.box_.unshear(r) } else { *r };
         let at = self.coords(&u);
         if !self.shifted {
             return self.any_near(r, |j, d| {
@@ -319,7 +348,7 @@ impl PackedCells {
                 d.norm_squared() <= reach * reach && keep(j as u32)
             });
         }
-        self.any_shifted_cell(&at, &u, |slots, members, shift| {
+        self.any_shifted_cell::<TILTED>(&at, &u, |slots, members, shift| {
             slots.iter().zip(members).any(|(e, &j)| {
                 let d = (position(e) - r) + shift;
                 let reach = radius + e[3];
@@ -330,12 +359,13 @@ impl PackedCells {
 
     /// Calls `visit(slots, members, shift)` with the occupied slots of each
     /// distinct cell around a position (unsheared coordinates `u`, at cell
-    /// coordinates `at`) and the cell's image shift, the eight cells of the 2×2×2 block nearest `r` first (an
+    /// coordinates `at`) and the cell's image shift (sheared with the box
+    /// when `TILTED`), the eight cells of the 2×2×2 block nearest it first (an
     /// overlap, when there is one, is most likely there, and a rejected move
     /// stops at it); stops early and returns true as soon as `visit` does.
     /// Only when every periodic axis is at least three cells wide.
     #[inline(always)]
-    fn any_shifted_cell(
+    fn any_shifted_cell<const TILTED: bool>(
         &self,
         at: &[usize; 3],
         u: &V3,
@@ -374,7 +404,11 @@ impl PackedCells {
             if visit(
                 &self.slots[range.clone()],
                 &self.members[range],
-                &self.box_.shear(&V3::new(xt[a], yt[b], zt[c])),
+                &if TILTED {
+                    self.box_.shear(&V3::new(xt[a], yt[b], zt[c]))
+                } else {
+                    V3::new(xt[a], yt[b], zt[c])
+                },
             ) {
                 return true;
             }

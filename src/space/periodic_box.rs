@@ -7,9 +7,10 @@
 //! Everything periodic is done in the box's unsheared coordinates
 //! u = T⁻¹r, where T is the unit upper-triangular tilt matrix: in u the
 //! box is the orthorhombic [−L/2, L/2)³ and every image shift is whole
-//! edges Lₖ along axis k. A zero-tilt box is the identity map, the same
-//! arithmetic with zero products (and the same bits, up to the sign of a
-//! zero).
+//! edges Lₖ along axis k. In a zero-tilt box the map is the identity,
+//! which `shear` and `unshear` return without the zero products (the same
+//! values; a predictable branch in the hot loops instead of six
+//! multiply-adds).
 
 use nalgebra::Vector3;
 
@@ -22,6 +23,9 @@ pub struct PeriodicBox {
     lengths: V3,
     /// Tilt factors (xy, xz, yz).
     tilts: V3,
+    /// Whether any tilt is not zero (the shear maps are then the
+    /// identity, and skipped).
+    tilted: bool,
     /// Per axis: hard walls at ±L/2 (true) or periodic (false).
     walls: [bool; 3],
     /// Per axis: L/2 where periodic, ∞ where walled (image thresholds).
@@ -62,6 +66,7 @@ impl PeriodicBox {
         Self {
             lengths,
             tilts,
+            tilted: tilts != V3::zeros(),
             walls,
             half: V3::from_fn(|k, _| {
                 if walls[k] {
@@ -130,7 +135,7 @@ impl PeriodicBox {
 
     /// Whether any tilt factor is not zero.
     pub fn is_tilted(&self) -> bool {
-        self.tilts != V3::zeros()
+        self.tilted
     }
 
     /// The lattice vectors a₁, a₂, a₃ as columns.
@@ -172,6 +177,9 @@ impl PeriodicBox {
     /// them).
     #[inline(always)]
     pub fn unshear(&self, r: &V3) -> V3 {
+        if !self.tilted {
+            return *r;
+        }
         let (xy, xz, yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
         let uy = r.y - yz * r.z;
         V3::new(r.x - xy * uy - xz * r.z, uy, r.z)
@@ -194,6 +202,9 @@ impl PeriodicBox {
     /// The position T·u of unsheared coordinates `u`.
     #[inline(always)]
     pub fn shear(&self, u: &V3) -> V3 {
+        if !self.tilted {
+            return *u;
+        }
         let (xy, xz, yz) = (self.tilts.x, self.tilts.y, self.tilts.z);
         V3::new(u.x + xy * u.y + xz * u.z, u.y + yz * u.z, u.z)
     }
@@ -287,8 +298,26 @@ impl PeriodicBox {
     /// rounding call.
     #[inline]
     pub fn minimum_image_near(&self, d: &V3) -> V3 {
+        if self.tilted {
+            return self.minimum_image_near_tilted(d);
+        }
         // Branch-free: the shifts are selected, not jumped to (separations
         // are random, so branches would mispredict).
+        let mut r = *d;
+        for k in 0..3 {
+            let (l, h) = (self.lengths[k], self.half[k]);
+            let up = if r[k] < -h { l } else { 0.0 };
+            let down = if r[k] > h { l } else { 0.0 };
+            r[k] += up - down;
+        }
+        r
+    }
+
+    /// [`PeriodicBox::minimum_image_near`] in a tilted box: the shifts
+    /// chosen in unsheared coordinates (kept out of line, so that the
+    /// untilted form stays small enough to inline in the hot loops).
+    #[inline(never)]
+    fn minimum_image_near_tilted(&self, d: &V3) -> V3 {
         let u = self.unshear(d);
         let mut shift = V3::zeros();
         for k in 0..3 {
@@ -304,42 +333,63 @@ impl PeriodicBox {
     /// particle just moved): one compare-and-shift per axis.
     #[inline]
     pub fn wrap_near(&self, r: &V3) -> V3 {
-        let u = self.unshear(r);
-        let mut shift = V3::zeros();
+        if self.tilted {
+            return self.wrap_near_tilted(r);
+        }
+        let mut w = *r;
         for k in 0..3 {
             let (l, h) = (self.lengths[k], self.half[k]);
-            if u[k] >= h {
-                shift[k] = -l;
-            } else if u[k] < -h {
-                shift[k] = l;
-            }
-        }
-        if shift == V3::zeros() {
-            *r
-        } else {
-            r + self.shear(&shift)
-        }
-    }
-
-    /// `r` wrapped into the box (unsheared coordinates in [−L/2, L/2)).
-    #[inline]
-    pub fn wrap(&self, r: &V3) -> V3 {
-        let mut w = self.minimum_image(r);
-        let u = self.unshear(&w);
-        for k in (0..3).rev() {
-            if u[k] >= self.half[k] {
-                w -= self.lattice_vector(k);
+            if w[k] >= h {
+                w[k] -= l;
+            } else if w[k] < -h {
+                w[k] += l;
             }
         }
         w
     }
 
+    /// [`PeriodicBox::wrap_near`] in a tilted box: whole lattice vectors
+    /// chosen in unsheared coordinates (out of line, as
+    /// `minimum_image_near_tilted`).
+    #[inline(never)]
+    fn wrap_near_tilted(&self, r: &V3) -> V3 {
+        let u = self.unshear(r);
+        let mut w = *r;
+        for k in 0..3 {
+            if u[k] >= self.half[k] {
+                w -= self.lattice_vector(k);
+            } else if u[k] < -self.half[k] {
+                w += self.lattice_vector(k);
+            }
+        }
+        w
+    }
+
+    /// `r` wrapped into the box (unsheared coordinates in [−L/2, L/2)).
+    #[inline]
+    pub fn wrap(&self, r: &V3) -> V3 {
+        let w = self.minimum_image(r);
+        let u = self.unshear(&w);
+        let mut shift = V3::zeros();
+        let mut any = false;
+        for k in 0..3 {
+            if u[k] >= self.half[k] {
+                shift[k] = -self.lengths[k];
+                any = true;
+            }
+        }
+        if any { w + self.shear(&shift) } else { w }
+    }
+
     /// Lattice vector aₖ.
     #[inline]
     pub fn lattice_vector(&self, k: usize) -> V3 {
-        let mut e = V3::zeros();
-        e[k] = self.lengths[k];
-        self.shear(&e)
+        let (l, t) = (self.lengths, self.tilts);
+        match k {
+            0 => V3::new(l.x, 0.0, 0.0),
+            1 => V3::new(t.x * l.y, l.y, 0.0),
+            _ => V3::new(t.y * l.z, t.z * l.z, l.z),
+        }
     }
 
     /// The same lattice with the shortest tilts: each lattice vector
