@@ -274,6 +274,13 @@ impl PeriodicBox {
     /// instruction; the hot loop of the hard-sphere dynamics calls this).
     #[inline]
     pub fn image_shift(&self, d: &V3) -> V3 {
+        if !self.tilted {
+            return V3::new(
+                self.image_shift_along(0, d.x),
+                self.image_shift_along(1, d.y),
+                self.image_shift_along(2, d.z),
+            );
+        }
         let u = self.unshear(d);
         self.shear(&V3::new(
             self.image_shift_along(0, u.x),
@@ -368,17 +375,31 @@ impl PeriodicBox {
     /// `r` wrapped into the box (unsheared coordinates in [−L/2, L/2)).
     #[inline]
     pub fn wrap(&self, r: &V3) -> V3 {
+        if self.tilted {
+            return self.wrap_tilted(r);
+        }
+        let mut w = self.minimum_image(r);
+        for k in 0..3 {
+            if w[k] >= self.half[k] {
+                w[k] -= self.lengths[k];
+            }
+        }
+        w
+    }
+
+    /// [`PeriodicBox::wrap`] in a tilted box (out of line, as
+    /// `minimum_image_near_tilted`).
+    #[inline(never)]
+    fn wrap_tilted(&self, r: &V3) -> V3 {
         let w = self.minimum_image(r);
         let u = self.unshear(&w);
         let mut shift = V3::zeros();
-        let mut any = false;
         for k in 0..3 {
             if u[k] >= self.half[k] {
                 shift[k] = -self.lengths[k];
-                any = true;
             }
         }
-        if any { w + self.shear(&shift) } else { w }
+        w + self.shear(&shift)
     }
 
     /// Lattice vector aₖ.
