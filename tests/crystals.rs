@@ -189,6 +189,42 @@ fn nvt_pressure_is_the_same_in_both_cells() {
     }
 }
 
+/// The structure analysis in a tilted box: a perfect fcc crystal in its
+/// primitive cell has, like the cubic one, twelve neighbours at the
+/// nearest distance and the bond orders of fcc (Q4 = 0.19094,
+/// Q6 = 0.57452; Steinhardt, Nelson and Ronchetti, PRB 28, 784 (1983)),
+/// and g(r) peaks there.
+#[test]
+fn bond_orders_and_g_of_r_are_those_of_fcc_in_both_cells() {
+    use hardbody::analysis::structure::{neighbours, radial_distribution, steinhardt};
+    for primitive in [false, true] {
+        let system = fcc(primitive, 0.6);
+        let box_ = *system.periodic_box();
+        let centres: Vec<Vector3<f64>> = system.particles().iter().map(|p| p.position).collect();
+        let nearest = (2f64.sqrt() * std::f64::consts::PI / (6.0 * 0.6)).cbrt();
+        let bonds = neighbours(&box_, &centres, 1.2 * nearest);
+        assert!(bonds.iter().all(|b| b.len() == 12), "primitive {primitive}");
+        let q = steinhardt(&bonds, &[4, 6]);
+        for (order, known) in q.iter().zip([0.19094, 0.57452]) {
+            assert!(
+                order.per_particle.iter().all(|x| (x - known).abs() < 1e-4),
+                "primitive {primitive}: Q{} {} vs {known}",
+                order.l,
+                order.mean
+            );
+        }
+        let rdf = radial_distribution(&box_, &centres, 200, 0.45 * box_.heights().min());
+        let peak = (0..rdf.g.len())
+            .max_by(|&a, &b| rdf.g[a].total_cmp(&rdf.g[b]))
+            .unwrap();
+        assert!(
+            (rdf.r[peak] - nearest).abs() < 0.02,
+            "primitive {primitive}: {}",
+            rdf.r[peak]
+        );
+    }
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("hardbody-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

@@ -23,7 +23,7 @@ pub struct Rdf {
 }
 
 /// The radial distribution function of `centres` in `box_` (minimum
-/// image; r_max at most half the shortest edge).
+/// image; r_max at most half the box's smallest height).
 pub fn radial_distribution(box_: &PeriodicBox, centres: &[V3], bins: usize, r_max: f64) -> Rdf {
     let n = centres.len();
     let width = r_max / bins as f64;

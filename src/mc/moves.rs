@@ -170,16 +170,29 @@ pub fn sweep<R: Rng>(
         |_| true,
         |_, _, _, _| {},
     );
-    if let Ensemble::Npt { pressure, moves } = *ensemble {
-        counts.record_box(box_move(
+    if let Some(outcome) = ensemble_box_move(system, sizes, ensemble, rng) {
+        counts.record_box(outcome);
+    }
+    counts
+}
+
+/// The box move of an NPT `ensemble` with `sizes` (none in NVT).
+pub(crate) fn ensemble_box_move<R: Rng>(
+    system: &mut System,
+    sizes: &MoveSizes,
+    ensemble: &Ensemble,
+    rng: &mut R,
+) -> Option<BoxMoveOutcome> {
+    match *ensemble {
+        Ensemble::Npt { pressure, moves } => Some(box_move(
             system,
             pressure,
             (sizes.volume, sizes.shear),
             moves,
             rng,
-        ));
+        )),
+        Ensemble::Nvt => None,
     }
-    counts
 }
 
 /// The move sizes of each particle: one set for all, or one per species.

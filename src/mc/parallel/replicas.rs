@@ -6,8 +6,8 @@ use rand_pcg::Pcg64;
 use std::sync::RwLock;
 
 use super::*;
-use crate::mc::box_moves::box_move;
-use crate::mc::moves::{Counts, Ensemble, MoveSizes, particle_moves, sweep};
+use crate::mc::moves::ensemble_box_move;
+use crate::mc::moves::{Counts, MoveSizes, particle_moves, sweep};
 use crate::state::System;
 
 /// The barrier and the outboxes through which a team's members hand each
@@ -108,17 +108,10 @@ pub(super) fn member_sweeps(
             }
             colours_done += 1;
         }
-        if let Ensemble::Npt { pressure, moves } = *ensemble {
-            let outcome = box_move(
-                system,
-                pressure,
-                (sizes.volume, sizes.shear),
-                moves,
-                &mut master,
-            );
-            if me == 0 {
-                counts.record_box(outcome);
-            }
+        if let Some(outcome) = ensemble_box_move(system, sizes, ensemble, &mut master)
+            && me == 0
+        {
+            counts.record_box(outcome);
         }
     }
     counts

@@ -7,7 +7,7 @@ use rand::Rng;
 
 use super::replicas::{Scratch, colour_moves};
 use super::*;
-use crate::mc::box_moves::box_move;
+use crate::mc::moves::ensemble_box_move;
 use crate::mc::moves::{Counts, Ensemble};
 use crate::state::{Neighbours, SPHERE_LISTS_REVIEW, System};
 
@@ -327,14 +327,8 @@ pub(super) fn shared_member_sweeps(
             // and take a fresh copy after it.
             let system = unsafe { shared.whole() };
             pending.fold_into(system);
-            if let Ensemble::Npt { pressure, moves } = *ensemble {
-                counts.record_box(box_move(
-                    system,
-                    pressure,
-                    (sizes.volume, sizes.shear),
-                    moves,
-                    &mut master,
-                ));
+            if let Some(outcome) = ensemble_box_move(system, sizes, ensemble, &mut master) {
+                counts.record_box(outcome);
             }
             if let Some(terms) = SharingTerms::of(system, slabs.axis) {
                 terms.reserve(system);
