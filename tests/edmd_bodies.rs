@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::compressed_state;
+use common::{compressed_state, compressed_state_tilted};
 use hardbody::edmd::{Dynamics, DynamicsDump, DynamicsOptions};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -226,14 +226,17 @@ fn neighbour_lists_give_the_same_collisions_as_cells() {
 
 /// A dump (what a failing run writes) brings back the run it was taken
 /// from: the dynamics rebuilt from it, through JSON, makes the same
-/// collisions bit for bit, with cells and with lists.
+/// collisions bit for bit, with cells and with lists, in an orthorhombic
+/// box and a tilted one.
 #[test]
 fn a_dump_replays_the_run_bit_for_bit() {
-    for (shapes, phi, seed, shell) in [
-        (&[CUBE][..], 0.50, 4, None),
-        (&[PROLATE][..], 0.50, 1, Some(0.2)),
+    for (shapes, phi, seed, shell, tilts) in [
+        (&[CUBE][..], 0.50, 4, None, [0.0; 3]),
+        (&[PROLATE][..], 0.50, 1, Some(0.2), [0.0; 3]),
+        (&[PROLATE][..], 0.45, 2, None, [0.3, -0.2, 0.25]),
     ] {
-        let system = compressed_state(shapes, 6, phi, seed);
+        let system = compressed_state_tilted(shapes, 6, phi, seed, tilts.into());
+        assert_eq!(<[f64; 3]>::from(system.periodic_box().tilts()), tilts);
         let options = DynamicsOptions {
             neighbour_shell: shell,
             ..DynamicsOptions::default()

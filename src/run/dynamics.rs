@@ -329,6 +329,7 @@ impl StageRun for DynamicsStage {
                 packing_fraction: sample.packing_fraction,
                 pressure: sample.pressure,
                 box_lengths: self.dynamics.periodic_box().lengths().into(),
+                tilts: self.dynamics.periodic_box().tilts().into(),
                 collisions: Some(self.collisions),
                 temperature: Some(sample.temperature),
                 nematic_order: sample.nematic_order,

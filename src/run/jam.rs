@@ -193,6 +193,7 @@ impl StageRun for JamStage {
                 packing_fraction: chunk.packing_fraction,
                 pressure: Some(chunk.pressure * density),
                 box_lengths: system.periodic_box().lengths().into(),
+                tilts: system.periodic_box().tilts().into(),
                 collisions: Some(chunk.collisions),
                 temperature: Some(chunk.temperature),
                 nematic_order: runner.system_nematic_order(system),

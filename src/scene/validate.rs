@@ -203,48 +203,37 @@ impl Scene {
             }
             Start::Crystal { .. } => {}
         }
-        let mut tilted = box_.is_tilted();
         for (i, st) in self.stages.iter().enumerate() {
-            match st {
-                Stage::MonteCarlo { ensemble, .. } => {
-                    if let Ensemble::Npt {
-                        anisotropic: true,
-                        box_moves: Some(moves),
-                        ..
-                    } = ensemble
-                        && *moves != BoxMoves::Axes
-                    {
-                        return bad(
-                            &format!("stages[{i}].ensemble.box_moves"),
-                            format!(
-                                "{moves:?} contradicts `anisotropic: true` (which is Axes): give one of them"
-                            ),
-                        );
-                    }
-                    match ensemble.box_moves() {
-                        Some(BoxMoves::Axes) if self.walls.len() == 3 => {
-                            return bad(
-                                "walls",
-                                "a box closed by walls on every axis has no periodic direction for per-axis box moves".into(),
-                            );
-                        }
-                        Some(BoxMoves::Triclinic) if !self.walls.is_empty() => {
-                            return bad(
-                                &format!("stages[{i}].ensemble.box_moves"),
-                                "Triclinic box moves shear the box, and walls close an orthorhombic box only: use Axes or Isotropic with walls".into(),
-                            );
-                        }
-                        Some(BoxMoves::Triclinic) => tilted = true,
-                        _ => {}
-                    }
-                }
-                Stage::Dynamics { .. } | Stage::Jam { .. } if tilted => {
+            if let Stage::MonteCarlo { ensemble, .. } = st {
+                if let Ensemble::Npt {
+                    anisotropic: true,
+                    box_moves: Some(moves),
+                    ..
+                } = ensemble
+                    && *moves != BoxMoves::Axes
+                {
                     return bad(
-                        &format!("stages[{i}]"),
-                        "the dynamics (and a jam by growth) runs in orthorhombic boxes only, and the box here is tilted (a tilted box or crystal cell, or Triclinic box moves before): run Monte Carlo, or use an orthorhombic cell".into(),
+                        &format!("stages[{i}].ensemble.box_moves"),
+                        format!(
+                            "{moves:?} contradicts `anisotropic: true` (which is Axes): give one of them"
+                        ),
                     );
                 }
-                _ => {}
+                match ensemble.box_moves() {
+                    Some(BoxMoves::Axes) if self.walls.len() == 3 => {
+                        return bad(
+                            "walls",
+                            "a box closed by walls on every axis has no periodic direction for per-axis box moves".into(),
+                        );
+                    }
+                    Some(BoxMoves::Triclinic) if !self.walls.is_empty() => {
+                        return bad(
+                            &format!("stages[{i}].ensemble.box_moves"),
+                            "Triclinic box moves shear the box, and walls close an orthorhombic box only: use Axes or Isotropic with walls".into(),
+                        );
+                    }
+                    _ => {}
+                }
             }
         }
         if self.stages.is_empty() {

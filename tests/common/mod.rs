@@ -268,6 +268,21 @@ pub fn reference_overlap(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
 /// a dilute lattice with random orientations and compressed by MC to `phi`:
 /// the starting state of the dynamics tests.
 pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardbody::state::System {
+    compressed_state_tilted(shapes, n, phi, seed, V3::zeros())
+}
+
+/// [`compressed_state`] in a box with tilt factors `tilts`: the dilute
+/// lattice is stretched by 1.6 and sheared into the tilted box (which
+/// shortens no separation while the shear's smallest stretch is above
+/// 1/1.6), then compressed.
+#[allow(dead_code)]
+pub fn compressed_state_tilted(
+    shapes: &[&str],
+    n: usize,
+    phi: f64,
+    seed: u64,
+    tilts: V3,
+) -> hardbody::state::System {
     use hardbody::mc::compress::{CompressOptions, compress};
     use hardbody::mc::moves::MoveSizes;
     use rand::SeedableRng;
@@ -284,6 +299,21 @@ pub fn compressed_state(shapes: &[&str], n: usize, phi: f64, seed: u64) -> hardb
     let mut system =
         hardbody::state::start::dilute_lattice(n, species, |i| (i % count) as u16, &mut rng)
             .unwrap();
+    if tilts != V3::zeros() {
+        let stretch = 1.6;
+        let upright = system.periodic_box();
+        let box_ =
+            hardbody::space::PeriodicBox::triclinic(upright.lengths() * stretch, tilts).unwrap();
+        let particles = system
+            .particles()
+            .iter()
+            .map(|p| hardbody::state::Particle {
+                position: box_.wrap(&box_.shear(&(p.position * stretch))),
+                ..*p
+            })
+            .collect();
+        system = hardbody::state::System::new(box_, system.species().to_vec(), particles).unwrap();
+    }
     let sizes = MoveSizes {
         translate: 0.3,
         rotate: 0.3,

@@ -157,6 +157,7 @@ impl Dynamics {
             collisions: self.collisions,
             collisions_at_rebase: self.collisions_at_rebase,
             box_lengths: triple(&self.box_.lengths()),
+            tilts: triple(&self.box_.tilts()),
             walls: self.box_.walls(),
             bodies: self
                 .bodies
@@ -243,7 +244,13 @@ impl Dynamics {
                 horizon: f64::INFINITY,
             });
         }
-        let box_ = PeriodicBox::new(V3::from(dump.box_lengths))
+        if dump.tilts != [0.0; 3] && dump.walls.contains(&true) {
+            return Err(bad(format!(
+                "box: tilts {:?} with walls {:?} (walls close orthorhombic boxes only)",
+                dump.tilts, dump.walls
+            )));
+        }
+        let box_ = PeriodicBox::triclinic(V3::from(dump.box_lengths), V3::from(dump.tilts))
             .map_err(|e| bad(format!("box: {e}")))?
             .with_walls(dump.walls);
         if let Some(g) = dump.growth {
@@ -330,9 +337,6 @@ impl Dynamics {
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
             .collect();
         let box_ = *system.periodic_box();
-        if box_.is_tilted() {
-            return Err(EdmdError::TiltedBox(box_.tilts().into()));
-        }
         if let Some(shell) = options.neighbour_shell
             && !(shell.is_finite() && shell > 0.0)
         {
@@ -367,15 +371,14 @@ impl Dynamics {
             })
             .collect();
         let positions: Vec<V3> = poses.iter().map(|(r, _)| *r).collect();
-        // Per body: the stored position in the image of the cell it is in
-        // now (whole box lengths).
+        // Per body: what brings the stored position into the image of the
+        // cell it is in now (whole lattice vectors).
         let cell_shifts: Vec<V3> = bodies
             .iter()
             .zip(&positions)
             .map(|(b, r)| {
                 let moved = position_after(&b.position, &b.velocity, now - b.time);
-                let l = box_.lengths();
-                V3::from_fn(|k, _| ((r[k] - moved[k]) / l[k]).round() * l[k])
+                -box_.image_shift(&(r - moved))
             })
             .collect();
         let cells = CellList::new(&box_, range, &positions);
@@ -408,10 +411,16 @@ impl Dynamics {
             .iter()
             .map(|b| 0.5 * b.velocity.norm_squared() / kinds[b.species as usize].inverse_mass)
             .sum();
-        let closed_form = contact_sums.iter().all(Option::is_some);
+        // Along an axis of fewer than four cells, a pair's separation can
+        // pass from one periodic image to the next before either body
+        // leaves its cell: such pairs are searched in each image they can
+        // reach (`contact_images`), until their next crossings.
+        let narrow = cells.dims().map(|n| n < 4);
+        let closed_form = contact_sums.iter().all(Option::is_some) && !narrow.contains(&true);
         let mut dynamics = Self {
             box_,
             closed_form,
+            narrow,
             contact_sums,
             cells,
             cell_lengths,
@@ -484,8 +493,8 @@ pub(super) fn link_overlapping(
     let cell = cells.cell_of(i);
     let images = cells.neighbour_images(cell);
     let overlapping = |into: &mut [u32]| match &images {
-        // Each neighbour cell's members brought next to i's by whole box
-        // lengths, where the box is three cells wide or more.
+        // Each neighbour cell's members brought next to i's by whole
+        // lattice vectors, where the box is three cells wide or more.
         // Cells wholly out of reach are skipped.
         Some(images) => {
             let l = box_.lengths();
@@ -499,7 +508,7 @@ pub(super) fn link_overlapping(
                 .enumerate()
                 .filter(|&(k, _)| within & (1 << k) != 0)
                 .map(|(_, &(nc, wrap))| {
-                    let image = V3::from_fn(|k, _| f64::from(wrap[k]) * l[k]);
+                    let image = box_.shear(&V3::from_fn(|k, _| f64::from(wrap[k]) * l[k]));
                     (cells.members(nc as usize), image)
                 });
             overlapping_in(i, after, around, spheres, bodies, |d| d, into)

@@ -75,7 +75,8 @@ impl Dynamics {
         // search is renewed there (see `process_next`).
         // Two spheres that have just collided recede for ever on their
         // straight lines (|d + Δv t|² grows once d·Δv > 0): nothing to search.
-        if spheres {
+        // In a box narrow enough, they may meet again in another image.
+        if spheres && !self.narrow.contains(&true) {
             return Ok(());
         }
         let horizon = self.bodies[i].horizon.min(self.bodies[j].horizon);
@@ -125,9 +126,9 @@ impl Dynamics {
                 None => {
                     let l = self.box_.lengths();
                     let c = self.cells.coords_of(self.cells.cell_of(k));
-                    let centre = V3::from_fn(|a, _| {
+                    let centre = self.box_.shear(&V3::from_fn(|a, _| {
                         -0.5 * l[a] + (c[a] as f64 + 0.5) * self.cell_lengths[a]
-                    });
+                    }));
                     // The pose is now in its cell's image (only cells
                     // read the shift).
                     self.cell_shifts[k] = V3::zeros();

@@ -18,22 +18,18 @@ impl Dynamics {
         // moves `cell_shifts`, not the pose.
         let dims = self.cells.dims();
         let mut c = self.cells.coords_of(self.cells.cell_of(i));
-        let l = self.box_.lengths()[axis];
-        let mut shift = 0.0;
+        // Across the box's face: the image one lattice vector back.
         if up {
             c[axis] += 1;
             if c[axis] == dims[axis] {
                 c[axis] = 0;
-                shift = -l;
+                self.cell_shifts[i] -= self.box_.lattice_vector(axis);
             }
         } else if c[axis] == 0 {
             c[axis] = dims[axis] - 1;
-            shift = l;
+            self.cell_shifts[i] += self.box_.lattice_vector(axis);
         } else {
             c[axis] -= 1;
-        }
-        if shift != 0.0 {
-            self.cell_shifts[i][axis] += shift;
         }
         let cell = self.cells.index_of(c);
         self.cells.move_to(i, cell);
@@ -115,12 +111,17 @@ impl Dynamics {
         }
         let c = self.cells.coords_of(self.cells.cell_of(i));
         let half = self.box_.lengths() * 0.5;
+        // Cells are faces of constant unsheared coordinate: the stored
+        // position in the image of its cell (they differ when the pose is
+        // kept through a periodic crossing) and the velocity, unsheared.
+        let x = self.box_.unshear(&(b.position + self.cell_shifts[i]));
+        let velocity = self.box_.unshear(&b.velocity);
         // Without a branch on the signs of the velocity or on which face
         // comes first (coin tosses to the branch predictor): the face by
         // arithmetic, the earliest by selection.
         let mut best = (f64::INFINITY, 0u8, false);
         for k in 0..3 {
-            let v = b.velocity[k];
+            let v = velocity[k];
             if v == 0.0 {
                 continue;
             }
@@ -130,10 +131,7 @@ impl Dynamics {
             // 1 or 0 the compiler would turn back into a jump).
             let upwards = 0.5 + 0.5 * 1.0f64.copysign(v);
             let face = lower + self.cell_lengths[k] * upwards;
-            // The stored position in the image of its cell (they differ
-            // when the pose is kept through a periodic crossing).
-            let x = b.position[k] + self.cell_shifts[i][k];
-            let t = ((face - x) / v).max(0.0);
+            let t = ((face - x[k]) / v).max(0.0);
             let first = t < best.0;
             best.0 = if first { t } else { best.0 };
             best.1 = std::hint::select_unpredictable(first, k as u8, best.1);

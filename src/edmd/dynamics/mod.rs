@@ -40,12 +40,6 @@ type V3 = Vector3<f64>;
 /// What can go wrong setting up or running the dynamics.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EdmdError {
-    /// A tilted box: the dynamics' cells and crossing events are those of
-    /// an orthorhombic box.
-    #[error(
-        "the dynamics runs in orthorhombic boxes only, this box is tilted ({0:?}): run Monte Carlo in a tilted box, or start from an orthorhombic cell of the crystal"
-    )]
-    TiltedBox([f64; 3]),
     /// The temperature is not a positive finite number.
     #[error("temperature must be finite and > 0, got {0}")]
     BadTemperature(f64),
@@ -418,6 +412,10 @@ pub struct DynamicsDump {
     pub collisions_at_rebase: u64,
     /// Box edges.
     pub box_lengths: [f64; 3],
+    /// Tilt factors (xy, xz, yz); zero in an orthorhombic box (and in
+    /// dumps written before tilted boxes ran the dynamics).
+    #[serde(default)]
+    pub tilts: [f64; 3],
     /// Hard walls per axis.
     pub walls: [bool; 3],
     /// Per body.
@@ -453,6 +451,9 @@ pub struct Dynamics {
     /// trajectory, do not depend on when searches run or on the neighbour
     /// structure.
     closed_form: bool,
+    /// Per axis: fewer than four cells across the box (see
+    /// `contact_images`); never with `closed_form`.
+    narrow: [bool; 3],
     bodies: Vec<Body>,
     /// Per body: when it next leaves its cell or neighbour region (its
     /// events after that are invalidated there anyway, so none later is

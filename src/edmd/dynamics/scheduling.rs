@@ -337,17 +337,30 @@ impl Dynamics {
         // nalgebra sums from zero; d·Δv here from −0, its first term:
         // they differ only in the sign of a zero d·Δv, a pair that never
         // meets either way.
+        let now = |a: usize, k: usize| {
+            if AT_NOW {
+                d[a][k]
+            } else {
+                d[a][k] + dv[a][k] * (self.now - t0[k])
+            }
+        };
+        let shift: [[f64; LANES]; 3] = if self.box_.is_tilted() {
+            // The shifts are whole lattice vectors chosen in unsheared
+            // coordinates, not axis by axis.
+            let s: [V3; LANES] =
+                std::array::from_fn(|k| self.box_.image_shift(&V3::from_fn(|a, _| now(a, k))));
+            std::array::from_fn(|a| std::array::from_fn(|k| s[k][a]))
+        } else {
+            std::array::from_fn(|a| {
+                std::array::from_fn(|k| self.box_.image_shift_along(a, now(a, k)))
+            })
+        };
         let mut b = [-0.0; LANES];
         let mut dd = [0.0; LANES];
         let mut v2 = [0.0; LANES];
         for k in 0..LANES {
             for a in 0..3 {
-                let now = if AT_NOW {
-                    d[a][k]
-                } else {
-                    d[a][k] + dv[a][k] * (self.now - t0[k])
-                };
-                let x = d[a][k] + self.box_.image_shift_along(a, now);
+                let x = d[a][k] + shift[a][k];
                 b[k] += x * dv[a][k];
                 dd[k] += x * x;
                 v2[k] += dv[a][k] * dv[a][k];
@@ -486,57 +499,122 @@ impl Dynamics {
         let dv = bb.velocity - ba.velocity;
         // The image nearest now (as for closed-form pairs).
         let raw = rb - ra;
-        let d = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
-        let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
-        let found = if let Some(sigma) = self.contact_sums[pair] {
-            let t = match self.growth {
-                None => crate::geometry::pair::sphere_contact_time_or_never(&d, &dv, sigma),
-                Some(g) => grown_sphere_contact(&d, &dv, sigma, g, t0),
+        let nearest = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
+        let (images, count) = self.contact_images(&nearest, &dv);
+        let mut horizon = horizon;
+        let mut earliest = None;
+        // The further images first, each searched to the end; then the
+        // nearest, whose search may be put off and resumed (with its own
+        // state: the further ones are searched again then).
+        for k in (1..count).chain([0]) {
+            let mut elsewhere = None;
+            let (budget, resume, stopped) = if k == 0 {
+                (budget, resume, &mut *stopped)
+            } else {
+                (u32::MAX, None, &mut elsewhere)
             };
-            if t < f64::INFINITY {
+            let found = self
+                .search_pair_image(a, b, t0, &images[k], &dv, horizon, budget, resume, stopped)?;
+            let warm = self.predictor.take_found();
+            match found {
+                // Not before now (rounding at a contact found right now).
+                Found::Contact(t) if t0 + t < horizon => {
+                    horizon = t0 + t;
+                    earliest = Some(warm);
+                }
+                Found::Contact(_) | Found::Apart => {}
+                Found::Stopped(t) => return Ok(PairSearch::Unfinished(t0 + t)),
+            }
+        }
+        Ok(match earliest {
+            Some(warm) => PairSearch::Contact(horizon.max(self.now), warm),
+            None => PairSearch::Apart,
+        })
+    }
+
+    /// The separations `d` (the image nearest now) takes in the periodic
+    /// images where the pair can next touch, and how many: `d` alone,
+    /// unless an axis is narrower than four cells. There a pair in
+    /// neighbouring cells may be more than half a box apart, and it can
+    /// pass into the next image, or (in one or two cells) the one after,
+    /// before either body leaves its cell or neighbour region: those
+    /// images, ahead in the direction the separation moves, are added.
+    fn contact_images(&self, d: &V3, dv: &V3) -> ([V3; 27], usize) {
+        let mut images = [*d; 27];
+        let mut count = 1;
+        if !self.narrow.contains(&true) {
+            return (images, count);
+        }
+        let moving = self.box_.unshear(dv);
+        for k in (0..3).filter(|&k| self.narrow[k] && moving[k] != 0.0) {
+            let step = self.box_.lattice_vector(k) * -moving[k].signum();
+            let before = count;
+            for m in [1.0, 2.0] {
+                for c in 0..before {
+                    images[count] = images[c] + step * m;
+                    count += 1;
+                }
+            }
+        }
+        (images, count)
+    }
+
+    /// The contact of bodies `a` < `b`, at separation `d` at `t0`, within
+    /// `horizon` (see [`Dynamics::predict_pair`]).
+    #[allow(clippy::too_many_arguments)]
+    fn search_pair_image(
+        &self,
+        a: usize,
+        b: usize,
+        t0: f64,
+        d: &V3,
+        dv: &V3,
+        horizon: f64,
+        budget: u32,
+        resume: Option<&Progress>,
+        stopped: &mut Option<Progress>,
+    ) -> Result<Found, EdmdError> {
+        let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
+        let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
+        if let Some(sigma) = self.contact_sums[pair] {
+            let t = match self.growth {
+                None => crate::geometry::pair::sphere_contact_time_or_never(d, dv, sigma),
+                Some(g) => grown_sphere_contact(d, dv, sigma, g, t0),
+            };
+            return Ok(if t < f64::INFINITY {
                 Found::Contact(t)
             } else {
                 Found::Apart
-            }
-        } else {
-            let (ka, kb) = (
-                &self.kinds[ba.species as usize],
-                &self.kinds[bb.species as usize],
-            );
-            // A free rotation's two parts are constants of the motion.
-            let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
-            // The stored orientations, each turned on from its own time
-            // inside the search (one rotation per step, none to bring it
-            // to t0 first).
-            self.predictor
-                .search_into(
-                    (&ka.shape, &ba.orientation, &spin_a),
-                    (&kb.shape, &bb.orientation, &spin_b),
-                    (t0 - ba.time, t0 - bb.time),
-                    self.growth.map(|g| g.since(t0)),
-                    &d,
-                    &dv,
-                    resume,
-                    horizon - t0,
-                    budget,
-                    stopped,
-                )
-                .map_err(|why| EdmdError::Solver {
-                    i,
-                    j,
-                    time: self.time(),
-                    why,
-                })?
-        };
-        let warm = self.predictor.take_found();
-        Ok(match found {
-            // Not before now (rounding at a contact found right now).
-            Found::Contact(t) if t0 + t < horizon => {
-                PairSearch::Contact((t0 + t).max(self.now), warm)
-            }
-            Found::Contact(_) | Found::Apart => PairSearch::Apart,
-            Found::Stopped(t) => PairSearch::Unfinished(t0 + t),
-        })
+            });
+        }
+        let (ka, kb) = (
+            &self.kinds[ba.species as usize],
+            &self.kinds[bb.species as usize],
+        );
+        // A free rotation's two parts are constants of the motion.
+        let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
+        // The stored orientations, each turned on from its own time
+        // inside the search (one rotation per step, none to bring it to
+        // t0 first).
+        self.predictor
+            .search_into(
+                (&ka.shape, &ba.orientation, &spin_a),
+                (&kb.shape, &bb.orientation, &spin_b),
+                (t0 - ba.time, t0 - bb.time),
+                self.growth.map(|g| g.since(t0)),
+                d,
+                dv,
+                resume,
+                horizon - t0,
+                budget,
+                stopped,
+            )
+            .map_err(|why| EdmdError::Solver {
+                i: a,
+                j: b,
+                time: self.time(),
+                why,
+            })
     }
 }
 
