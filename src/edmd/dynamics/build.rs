@@ -414,8 +414,15 @@ impl Dynamics {
         // Along an axis of fewer than four cells, a pair's separation can
         // pass from one periodic image to the next before either body
         // leaves its cell: such pairs are searched in each image they can
-        // reach (`contact_images`), until their next crossings.
-        let narrow = cells.dims().map(|n| n < 4);
+        // reach (`image_steps`), until their next crossings. Neighbour
+        // regions (at most `range` across, the cells at least as wide)
+        // overlap in one image only unless the axis holds a single cell.
+        let fewest = if options.neighbour_shell.is_some() {
+            2
+        } else {
+            4
+        };
+        let narrow = cells.dims().map(|n| n < fewest);
         let closed_form = contact_sums.iter().all(Option::is_some) && !narrow.contains(&true);
         let mut dynamics = Self {
             box_,

@@ -451,8 +451,9 @@ pub struct Dynamics {
     /// trajectory, do not depend on when searches run or on the neighbour
     /// structure.
     closed_form: bool,
-    /// Per axis: fewer than four cells across the box (see
-    /// `contact_images`); never with `closed_form`.
+    /// Per axis: a pair can touch in more than one periodic image before
+    /// its next crossing (fewer than four cells across the box, or one
+    /// with neighbour lists; see `image_steps`); never with `closed_form`.
     narrow: [bool; 3],
     bodies: Vec<Body>,
     /// Per body: when it next leaves its cell or neighbour region (its
@@ -711,7 +712,7 @@ mod tests {
             if i == j {
                 continue;
             }
-            let products = md.lane_products::<false>(i, &[j; LANES], |j| md.sigma(i, j));
+            let products = md.lane_products::<false, false>(i, &[j; LANES], |j| md.sigma(i, j));
             let [t, ..] = md.lane_times(&products);
             if !t.is_finite() {
                 continue;
@@ -795,7 +796,7 @@ mod tests {
             let list = md.neighbours.as_ref().unwrap().lists.of(i);
             for lanes in list.chunks_exact(LANES) {
                 let lanes: [usize; LANES] = std::array::from_fn(|k| lanes[k] as usize);
-                let products = md.lane_products::<true>(i, &lanes, |j| md.sigma(i, j));
+                let products = md.lane_products::<true, false>(i, &lanes, |j| md.sigma(i, j));
                 for (t, &j) in md.lane_times(&products).iter().zip(&lanes) {
                     let pairwise = md.closed_form_contact(i, j);
                     assert_eq!(t.to_bits(), pairwise.to_bits(), "{i} {j}: {t} {pairwise}");

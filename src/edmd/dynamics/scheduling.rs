@@ -206,17 +206,23 @@ impl Dynamics {
         let lanes = lanes.chain(padded.as_ref().map(|p| &p[..]));
         // The common cases apart, each with its constants out of the loop:
         // a body just moved to now (after a collision) and one species.
+        // A tilted box takes the general case (moving `i` by zero gives
+        // the same bits).
         let at_now = self.bodies[i].time == self.now;
-        match (at_now, self.kinds.len() == 1) {
-            (true, true) => {
+        let sigma = |j| self.sigma(i, j);
+        match (at_now, self.kinds.len() == 1, self.box_.is_tilted()) {
+            (_, _, true) => {
+                self.earliest_in_lanes::<false, true>(i, lanes, &keep, &mut horizon, sigma)
+            }
+            (true, true, false) => {
                 let sigma = self.contact_sums[0].unwrap_or(f64::NAN);
-                self.earliest_in_lanes::<true>(i, lanes, &keep, &mut horizon, |_| sigma)
+                self.earliest_in_lanes::<true, false>(i, lanes, &keep, &mut horizon, |_| sigma)
             }
-            (true, false) => {
-                self.earliest_in_lanes::<true>(i, lanes, &keep, &mut horizon, |j| self.sigma(i, j))
+            (true, false, false) => {
+                self.earliest_in_lanes::<true, false>(i, lanes, &keep, &mut horizon, sigma)
             }
-            (false, _) => {
-                self.earliest_in_lanes::<false>(i, lanes, &keep, &mut horizon, |j| self.sigma(i, j))
+            (false, _, false) => {
+                self.earliest_in_lanes::<false, false>(i, lanes, &keep, &mut horizon, sigma)
             }
         }
     }
@@ -225,7 +231,7 @@ impl Dynamics {
     /// earliest contact before `horizon`, which it lowers to it. `AT_NOW`:
     /// body `i` is at the current time.
     #[inline(always)]
-    fn earliest_in_lanes<'a, const AT_NOW: bool>(
+    fn earliest_in_lanes<'a, const AT_NOW: bool, const TILTED: bool>(
         &self,
         i: usize,
         lanes: impl Iterator<Item = &'a [u32]>,
@@ -236,7 +242,7 @@ impl Dynamics {
         let mut partner = usize::MAX;
         for lanes in lanes {
             let lanes: [usize; LANES] = std::array::from_fn(|k| lanes[k] as usize);
-            let products = self.lane_products::<AT_NOW>(i, &lanes, &sigma);
+            let products = self.lane_products::<AT_NOW, TILTED>(i, &lanes, &sigma);
             // Most batches have no partner closing in time: no square
             // roots, no divisions for them.
             let before = lanes.map(|j| earlier(*horizon, self.bodies[j].horizon));
@@ -293,15 +299,22 @@ impl Dynamics {
     /// to the bit, computed side by side.
     #[cfg(test)]
     pub(super) fn closed_form_contacts(&self, i: usize, others: &[usize; LANES]) -> [f64; LANES] {
-        self.lane_times(&self.lane_products::<false>(i, others, |j| self.sigma(i, j)))
+        let sigma = |j| self.sigma(i, j);
+        self.lane_times(&if self.box_.is_tilted() {
+            self.lane_products::<false, true>(i, others, sigma)
+        } else {
+            self.lane_products::<false, false>(i, others, sigma)
+        })
     }
 
     /// What [`Dynamics::closed_form_contacts`] needs of each pair: the
     /// later of the two stored times, d·Δv, |d|², |Δv|² and σ there.
     /// `AT_NOW`: body `i` is at the current time, which is then the later
     /// time of every pair (the same bits, without moving `i` by zero).
+    /// `TILTED`: the box is (a constant, so that the orthorhombic loop
+    /// stays as tight as it is without tilts).
     #[inline(always)]
-    pub(super) fn lane_products<const AT_NOW: bool>(
+    pub(super) fn lane_products<const AT_NOW: bool, const TILTED: bool>(
         &self,
         i: usize,
         others: &[usize; LANES],
@@ -337,30 +350,31 @@ impl Dynamics {
         // nalgebra sums from zero; d·Δv here from −0, its first term:
         // they differ only in the sign of a zero d·Δv, a pair that never
         // meets either way.
-        let now = |a: usize, k: usize| {
-            if AT_NOW {
-                d[a][k]
-            } else {
-                d[a][k] + dv[a][k] * (self.now - t0[k])
-            }
-        };
-        let shift: [[f64; LANES]; 3] = if self.box_.is_tilted() {
-            // The shifts are whole lattice vectors chosen in unsheared
-            // coordinates, not axis by axis.
-            let s: [V3; LANES] =
-                std::array::from_fn(|k| self.box_.image_shift(&V3::from_fn(|a, _| now(a, k))));
-            std::array::from_fn(|a| std::array::from_fn(|k| s[k][a]))
-        } else {
-            std::array::from_fn(|a| {
-                std::array::from_fn(|k| self.box_.image_shift_along(a, now(a, k)))
-            })
-        };
         let mut b = [-0.0; LANES];
         let mut dd = [0.0; LANES];
         let mut v2 = [0.0; LANES];
         for k in 0..LANES {
+            let now = |a: usize| {
+                if AT_NOW {
+                    d[a][k]
+                } else {
+                    d[a][k] + dv[a][k] * (self.now - t0[k])
+                }
+            };
+            // In a tilted box the shifts are whole lattice vectors chosen
+            // in unsheared coordinates, not axis by axis.
+            let tilted_shift = if TILTED {
+                self.box_.image_shift(&V3::from_fn(|a, _| now(a)))
+            } else {
+                V3::zeros()
+            };
             for a in 0..3 {
-                let x = d[a][k] + shift[a][k];
+                let shift = if TILTED {
+                    tilted_shift[a]
+                } else {
+                    self.box_.image_shift_along(a, now(a))
+                };
+                let x = d[a][k] + shift;
                 b[k] += x * dv[a][k];
                 dd[k] += x * x;
                 v2[k] += dv[a][k] * dv[a][k];
@@ -500,68 +514,80 @@ impl Dynamics {
         // The image nearest now (as for closed-form pairs).
         let raw = rb - ra;
         let nearest = raw + self.box_.image_shift(&(raw + dv * (self.now - t0)));
-        let (images, count) = self.contact_images(&nearest, &dv);
+        // In a box narrow enough, the images ahead first, each searched to
+        // the end (they only lower the horizon); then the nearest, whose
+        // search may be put off and resumed with its own state.
+        let (steps, axes) = self.image_steps(&dv);
         let mut horizon = horizon;
-        let mut earliest = None;
-        // The further images first, each searched to the end; then the
-        // nearest, whose search may be put off and resumed (with its own
-        // state: the further ones are searched again then).
-        for k in (1..count).chain([0]) {
-            let mut elsewhere = None;
-            let (budget, resume, stopped) = if k == 0 {
-                (budget, resume, &mut *stopped)
-            } else {
-                (u32::MAX, None, &mut elsewhere)
-            };
-            let found = self
-                .search_pair_image(a, b, t0, &images[k], &dv, horizon, budget, resume, stopped)?;
+        let mut further = None;
+        for k in 1..3usize.pow(axes as u32) {
+            // Image k: digit m of k (base 3) steps along narrow axis m.
+            let mut image = nearest;
+            let mut digits = k;
+            for step in &steps[..axes] {
+                image += step * (digits % 3) as f64;
+                digits /= 3;
+            }
+            let mut unused = None;
+            let found = self.search_pair_image(
+                a,
+                b,
+                t0,
+                &image,
+                &dv,
+                horizon,
+                u32::MAX,
+                None,
+                &mut unused,
+            )?;
             let warm = self.predictor.take_found();
-            match found {
-                // Not before now (rounding at a contact found right now).
-                Found::Contact(t) if t0 + t < horizon => {
-                    horizon = t0 + t;
-                    earliest = Some(warm);
-                }
-                Found::Contact(_) | Found::Apart => {}
-                Found::Stopped(t) => return Ok(PairSearch::Unfinished(t0 + t)),
+            if let Found::Contact(t) = found
+                && t0 + t < horizon
+            {
+                horizon = t0 + t;
+                further = Some(warm);
             }
         }
-        Ok(match earliest {
-            Some(warm) => PairSearch::Contact(horizon.max(self.now), warm),
-            None => PairSearch::Apart,
+        let found =
+            self.search_pair_image(a, b, t0, &nearest, &dv, horizon, budget, resume, stopped)?;
+        let warm = self.predictor.take_found();
+        Ok(match (found, further) {
+            // Not before now (rounding at a contact found right now).
+            (Found::Contact(t), _) if t0 + t < horizon => {
+                PairSearch::Contact((t0 + t).max(self.now), warm)
+            }
+            (Found::Stopped(t), _) => PairSearch::Unfinished(t0 + t),
+            (_, Some(warm)) => PairSearch::Contact(horizon.max(self.now), warm),
+            (Found::Contact(_) | Found::Apart, None) => PairSearch::Apart,
         })
     }
 
-    /// The separations `d` (the image nearest now) takes in the periodic
-    /// images where the pair can next touch, and how many: `d` alone,
-    /// unless an axis is narrower than four cells. There a pair in
-    /// neighbouring cells may be more than half a box apart, and it can
-    /// pass into the next image, or (in one or two cells) the one after,
-    /// before either body leaves its cell or neighbour region: those
-    /// images, ahead in the direction the separation moves, are added.
-    fn contact_images(&self, d: &V3, dv: &V3) -> ([V3; 27], usize) {
-        let mut images = [*d; 27];
-        let mut count = 1;
+    /// Where else than in the image nearest now a pair moving apart at
+    /// `dv` can next touch: none, unless an axis is narrower than four
+    /// cells. There a pair in neighbouring cells may be more than half a
+    /// box apart, and it can pass into the next image, or (in one or two
+    /// cells) the one after, before either body leaves its cell or
+    /// neighbour region. Returns the step to the next image ahead (in the
+    /// direction the separation moves) along each such axis, and how many
+    /// axes; the images are the nearest plus 0, 1 or 2 steps along each.
+    fn image_steps(&self, dv: &V3) -> ([V3; 3], usize) {
+        let mut steps = [V3::zeros(); 3];
+        let mut axes = 0;
         if !self.narrow.contains(&true) {
-            return (images, count);
+            return (steps, axes);
         }
         let moving = self.box_.unshear(dv);
         for k in (0..3).filter(|&k| self.narrow[k] && moving[k] != 0.0) {
-            let step = self.box_.lattice_vector(k) * -moving[k].signum();
-            let before = count;
-            for m in [1.0, 2.0] {
-                for c in 0..before {
-                    images[count] = images[c] + step * m;
-                    count += 1;
-                }
-            }
+            steps[axes] = self.box_.lattice_vector(k) * -moving[k].signum();
+            axes += 1;
         }
-        (images, count)
+        (steps, axes)
     }
 
     /// The contact of bodies `a` < `b`, at separation `d` at `t0`, within
     /// `horizon` (see [`Dynamics::predict_pair`]).
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn search_pair_image(
         &self,
         a: usize,
