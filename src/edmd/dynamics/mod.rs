@@ -17,11 +17,14 @@ mod build;
 mod collisions;
 mod crossings;
 mod events;
+mod lanes;
 mod observables;
 mod scheduling;
 
 pub use build::top_moments;
 use build::*;
+#[cfg(test)]
+use lanes::*;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use observables::*;
 use scheduling::*;
