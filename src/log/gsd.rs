@@ -76,11 +76,22 @@ pub fn type_shape(shape: &Shape) -> String {
     }
 }
 
+/// A text longer than a GSD row holds (with its terminating zero).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("{bytes} bytes do not fit a GSD row of {row}")]
+struct RowTooLong {
+    bytes: usize,
+    row: usize,
+}
+
 /// Zero-padded bytes of `text` in a row of `N`.
-fn row<const N: usize>(text: &str) -> Result<[u8; N], String> {
+fn row<const N: usize>(text: &str) -> Result<[u8; N], RowTooLong> {
     let bytes = text.as_bytes();
     if bytes.len() >= N {
-        return Err(format!("{} bytes do not fit a GSD row of {N}", bytes.len()));
+        return Err(RowTooLong {
+            bytes: bytes.len(),
+            row: N,
+        });
     }
     Ok(std::array::from_fn(|i| bytes.get(i).copied().unwrap_or(0)))
 }
@@ -321,4 +332,20 @@ fn write_gsd(contents: &LogContents, out: &Path, partial: &Path) -> Result<usize
         source,
     })?;
     Ok(frames.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row holds its text and a terminating zero: 63 bytes fit a row of
+    /// 64, zero-padded; 64 are refused, naming both sizes.
+    #[test]
+    fn a_row_holds_its_text_and_a_zero() {
+        let fits: [u8; NAME_BYTES] = row(&"a".repeat(63)).unwrap();
+        assert_eq!((fits[62], fits[63]), (b'a', 0));
+        let err = row::<NAME_BYTES>(&"a".repeat(64)).unwrap_err();
+        assert_eq!(err, RowTooLong { bytes: 64, row: 64 });
+        assert_eq!(err.to_string(), "64 bytes do not fit a GSD row of 64");
+    }
 }

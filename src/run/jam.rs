@@ -98,12 +98,20 @@ impl JamStage {
     }
 }
 
-/// The contact network of a packing the jam ended: `Ok` with its
-/// backbone where the contacts hold at least half the bodies at the gap
-/// the packing shows, `Err` with why it is not jammed otherwise (a
-/// pressure made by growth faster than the packing could settle into
-/// its cages, which relaxes once the growth stops).
-fn certify(system: &System, reduced_pressure: Option<f64>) -> Result<String, String> {
+/// What the contact network says of a packing the jam ended.
+enum Certificate {
+    /// The contacts hold at least half the bodies at the gap the packing
+    /// shows: its backbone, in words.
+    Jammed(String),
+    /// Not jammed, and why (a pressure made by growth faster than the
+    /// packing could settle into its cages, which relaxes once the growth
+    /// stops): a note for the user.
+    NotJammed(String),
+}
+
+/// The contact network of a packing the jam ended, read at the gap the
+/// packing shows.
+fn certify(system: &System, reduced_pressure: Option<f64>) -> Certificate {
     let (choice, network) = system.read_contact_network(reduced_pressure);
     let held = network.bodies - network.rattlers.len();
     let certified = choice.warning.is_none() && 2 * held >= network.bodies;
@@ -119,9 +127,9 @@ fn certify(system: &System, reduced_pressure: Option<f64>) -> Result<String, Str
         )
     };
     if certified {
-        Ok(reading)
+        Certificate::Jammed(reading)
     } else {
-        Err(format!(
+        Certificate::NotJammed(format!(
             "the packing is NOT certified jammed ({reading}; {}): betaPV/N passed its bound while the bodies grew faster than they could settle into their cages; grow slower (a smaller growth_rate) and check with `hardbody analyze LOG --packing`",
             choice
                 .warning
@@ -271,20 +279,17 @@ impl StageRun for JamStage {
             })
             .unwrap_or_default();
         let line = match self.run.end() {
-            Some(JamEnd::Jammed) => {
-                let certificate = certify(system, self.last.map(|c| c.pressure));
-                if let Err(why) = &certificate {
+            Some(JamEnd::Jammed) => match certify(system, self.last.map(|c| c.pressure)) {
+                Certificate::Jammed(reading) => {
+                    format!("jammed at packing fraction {phi:.4}{figures}; {reading}")
+                }
+                Certificate::NotJammed(why) => {
                     runner.notes.push(format!("stage {index} (jam): {why}"));
-                }
-                match certificate {
-                    Ok(reading) => {
-                        format!("jammed at packing fraction {phi:.4}{figures}; {reading}")
-                    }
-                    Err(_) => format!(
+                    format!(
                         "betaPV/N passed its bound at packing fraction {phi:.4}{figures}, but NOT certified jammed (see below)"
-                    ),
+                    )
                 }
-            }
+            },
             Some(JamEnd::GrowthFloor) => format!(
                 "growth rate lowered to its floor at packing fraction {phi:.4}{figures}: not jammed ({})",
                 self.run.last_failure().unwrap_or("-")
