@@ -285,7 +285,18 @@ fn a_tilted_crystal_runs_logs_its_tilts_and_resumes() {
         assert!(s.collisions.unwrap() > 0);
         let p = s.pressure.unwrap();
         assert!((p / 20.0 - 1.0).abs() < 0.1, "dynamics betaP {p}");
+        let t = s
+            .pressure_tensor
+            .expect("the dynamics logs its pressure tensor");
+        assert!(((t[0] + t[3] + t[5]) / (3.0 * p) - 1.0).abs() < 1e-12);
     }
+    // Monte Carlo stages log no tensor.
+    assert!(
+        contents
+            .stats
+            .iter()
+            .all(|(_, s)| s.stage_index == 2 || s.pressure_tensor.is_none())
+    );
     let (_, last) = contents.last_state.clone().unwrap();
     // Cut after the fourth frame, then resumed: the same last state.
     let bytes = std::fs::read(&log).unwrap();
@@ -461,9 +472,29 @@ fn edmd_fcc_pressure(
     md.run_collisions(200 * n as u64).unwrap();
     md.sample();
     let mut blocks = Vec::new();
+    let mut tensors = Vec::new();
     for _ in 0..12 {
         md.run_collisions(per_block * n as u64).unwrap();
-        blocks.push(md.sample().pressure.unwrap());
+        let sample = md.sample();
+        blocks.push(sample.pressure.unwrap());
+        tensors.push(sample.pressure_tensor.unwrap().0);
+    }
+    // βP is a third of the tensor's trace; the unstrained crystal's
+    // tensor is isotropic within its errors.
+    for (p, t) in blocks.iter().zip(&tensors) {
+        let third = (t[0] + t[3] + t[5]) / 3.0;
+        assert!((third / p - 1.0).abs() < 1e-12, "trace/3 {third} vs {p}");
+    }
+    let (p, se) = blocked(&blocks, 12);
+    for (k, name) in ["xx", "xy", "xz", "yy", "yz", "zz"].iter().enumerate() {
+        let component: Vec<f64> = tensors.iter().map(|t| t[k]).collect();
+        let (mean, error) = blocked(&component, 12);
+        let expected = if [0, 3, 5].contains(&k) { p } else { 0.0 };
+        eprintln!("  betaP_{name} {mean:.4} ± {error:.4}");
+        assert!(
+            (mean - expected).abs() < 4.5 * error.hypot(se),
+            "betaP_{name} {mean} ± {error}, expected {expected}"
+        );
     }
     md.to_system().expect("no overlap at the end");
     let lost = (md.kinetic_energy() / energy - 1.0).abs();
@@ -477,7 +508,6 @@ fn edmd_fcc_pressure(
         lost < drift && momentum < drift,
         "drift {lost:e}, momentum {momentum:e}"
     );
-    let (p, se) = blocked(&blocks, 12);
     (p, se, n)
 }
 
@@ -538,6 +568,53 @@ fn edmd_pressure_is_the_same_in_both_cells() {
 #[ignore = "soak: about two minutes in release mode"]
 fn soak_the_dynamics_in_a_tilted_box() {
     fcc_pressure_agrees(4000, 1e-10, 0.001);
+}
+
+/// The shear stress of a strained crystal: fcc (108 spheres, φ = 0.6)
+/// sheared by x → x + γy (a box tilted by xy = γ) pushes back, βP_xy of
+/// the sign opposite to γ's (the free energy grows with |γ|:
+/// P_xy = −(1/V) ∂F/∂γ), the same size for ±γ, and zero for γ = 0; the
+/// other off-diagonal components stay zero.
+#[test]
+fn a_sheared_crystal_carries_the_shear_stress_it_should() {
+    let shear_stress = |gamma: f64| {
+        let mut cell = UnitCell::fcc();
+        cell.vectors = Matrix3::new(1.0, gamma, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        let spec = CrystalSpec {
+            cell,
+            cells: [3; 3],
+            packing_fraction: 0.6,
+        };
+        let system = crystal(&spec, spheres(), &[108]).unwrap();
+        assert!((system.periodic_box().tilts()[0] - gamma).abs() < 1e-12);
+        let mut rng = Pcg64::seed_from_u64(11);
+        let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+        md.run_collisions(200 * 108).unwrap();
+        md.sample();
+        let tensors: Vec<[f64; 6]> = (0..10)
+            .map(|_| {
+                md.run_collisions(300 * 108).unwrap();
+                md.sample().pressure_tensor.unwrap().0
+            })
+            .collect();
+        let component = |k: usize| blocked(&tensors.iter().map(|t| t[k]).collect::<Vec<_>>(), 10);
+        let [(xy, xy_se), (xz, xz_se), (yz, yz_se)] = [1, 2, 4].map(component);
+        eprintln!(
+            "gamma {gamma}: betaP_xy {xy:.4} ± {xy_se:.4}, xz {xz:.4} ± {xz_se:.4}, yz {yz:.4} ± {yz_se:.4}"
+        );
+        assert!(xz.abs() < 4.5 * xz_se && yz.abs() < 4.5 * yz_se);
+        (xy, xy_se)
+    };
+    let (plus, plus_se) = shear_stress(0.03);
+    let (minus, minus_se) = shear_stress(-0.03);
+    let (zero, zero_se) = shear_stress(0.0);
+    assert!(plus < -8.0 * plus_se, "γ > 0: βP_xy {plus} ± {plus_se}");
+    assert!(minus > 8.0 * minus_se, "γ < 0: βP_xy {minus} ± {minus_se}");
+    assert!((plus + minus).abs() < 4.5 * plus_se.hypot(minus_se));
+    assert!(
+        zero.abs() < 4.5 * zero_se,
+        "γ = 0: βP_xy {zero} ± {zero_se}"
+    );
 }
 
 /// Growth in a tilted box: an fcc crystal grown by the event-driven jam

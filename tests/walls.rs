@@ -197,6 +197,8 @@ fn wall_pressure_of_a_dilute_gas_is_the_ideal_one_between_the_walls() {
         n / l.powi(3)
     );
     assert!((p / ideal - 1.0).abs() < 0.015, "{p} vs {ideal}");
+    // The collision virial is not the pressure between walls.
+    assert_eq!(s.pressure_tensor, None);
 }
 
 #[test]

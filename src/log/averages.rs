@@ -58,10 +58,17 @@ pub struct StageAverages {
 /// The observables of a `/stats` message that averages are taken of
 /// (not the box, which follows φ, nor MSD and C₂, which are functions of
 /// time, not stationary values).
-fn observables(s: &Stats) -> [(&'static str, Option<f64>); 7] {
+fn observables(s: &Stats) -> [(&'static str, Option<f64>); 13] {
+    let tensor = |k: usize| s.pressure_tensor.map(|t| t[k]);
     [
         ("packing_fraction", Some(s.packing_fraction)),
         ("pressure", s.pressure),
+        ("pressure_xx", tensor(0)),
+        ("pressure_xy", tensor(1)),
+        ("pressure_xz", tensor(2)),
+        ("pressure_yy", tensor(3)),
+        ("pressure_yz", tensor(4)),
+        ("pressure_zz", tensor(5)),
         ("temperature", s.temperature),
         ("nematic_order", s.nematic_order),
         ("acceptance_translate", s.acceptance_translate),

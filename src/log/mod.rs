@@ -67,6 +67,12 @@ pub struct Stats {
     /// βP: imposed (NPT), from the scale distribution function (NVT), from
     /// the collision virial over the interval (dynamics); null otherwise.
     pub pressure: Option<f64>,
+    /// βP_αβ, the symmetric pressure tensor as HOOMD-blue orders it
+    /// (xx, xy, xz, yy, yz, zz), from the collision virial over the
+    /// interval (dynamics in a periodic box; `pressure` is a third of its
+    /// trace); left out otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure_tensor: Option<[f64; 6]>,
     /// Box edges.
     #[serde(rename = "box")]
     pub box_lengths: [f64; 3],
@@ -358,10 +364,13 @@ const STATS_SCHEMA: &str = r#"{
     "time": {"type": ["number", "null"]},
     "packing_fraction": {"type": "number"},
     "pressure": {"type": ["number", "null"]},
+    "pressure_tensor": {"type": "array", "items": {"type": "number"}, "description": "dynamics in a periodic box: betaP_ab as (xx, xy, xz, yy, yz, zz) from the collision virial over the interval; absent otherwise"},
     "box": {"type": "array", "items": {"type": "number"}},
+    "tilts": {"type": "array", "items": {"type": "number"}, "description": "box tilt factors (xy, xz, yz); absent when all are zero"},
     "acceptance_translate": {"type": ["number", "null"]},
     "acceptance_rotate": {"type": ["number", "null"]},
     "acceptance_volume": {"type": ["number", "null"]},
+    "acceptance_shear": {"type": "number", "description": "NPT with triclinic box moves; absent otherwise"},
     "collisions": {"type": ["integer", "null"]},
     "temperature": {"type": ["number", "null"]},
     "nematic_order": {"type": ["number", "null"]},

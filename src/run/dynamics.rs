@@ -328,6 +328,7 @@ impl StageRun for DynamicsStage {
                 time: Some(self.next),
                 packing_fraction: sample.packing_fraction,
                 pressure: sample.pressure,
+                pressure_tensor: sample.pressure_tensor.map(|t| t.0),
                 box_lengths: self.dynamics.periodic_box().lengths().into(),
                 tilts: self.dynamics.periodic_box().tilts().into(),
                 collisions: Some(self.collisions),

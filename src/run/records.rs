@@ -135,6 +135,7 @@ impl Runner {
             time: interval.time,
             packing_fraction: interval.packing_fraction,
             pressure: interval.pressure,
+            pressure_tensor: interval.pressure_tensor,
             box_lengths: interval.box_lengths,
             tilts: interval.tilts,
             acceptance_translate,
@@ -163,6 +164,8 @@ pub(super) struct Interval {
     pub(super) packing_fraction: f64,
     /// βP over the interval.
     pub(super) pressure: Option<f64>,
+    /// βP_αβ over the interval (dynamics).
+    pub(super) pressure_tensor: Option<[f64; 6]>,
     pub(super) box_lengths: [f64; 3],
     pub(super) tilts: [f64; 3],
     /// Translation, rotation and volume acceptance (Monte Carlo).

@@ -407,10 +407,7 @@ impl Dynamics {
             }
             None => None,
         };
-        let kinetic_translational = bodies
-            .iter()
-            .map(|b| 0.5 * b.velocity.norm_squared() / kinds[b.species as usize].inverse_mass)
-            .sum();
+        let kinetic = kinetic_tensor(&bodies, &kinds);
         // Along an axis of fewer than four cells, a pair's separation can
         // pass from one periodic image to the next before either body
         // leaves its cell: such pairs are searched in each image they can
@@ -442,7 +439,7 @@ impl Dynamics {
             collisions_at_rebase: 0,
             collisions: 0,
             interval: Interval::default(),
-            kinetic_translational,
+            kinetic,
             degrees_of_freedom: dof,
             // At the species' sizes.
             packing_fraction: system.packing_fraction() / growth.map_or(1.0, |g| g.at(now)).powi(3),

@@ -51,7 +51,7 @@ impl Dynamics {
             });
             self.count_futile(i, j, unchanged)?;
         }
-        self.interval.virial += impulse;
+        self.add_virial(&impulse.0, &impulse.1);
         self.interval.collisions += 1;
         self.collisions += 1;
         if let Some(trace) = self.trace.as_mut() {
@@ -90,9 +90,10 @@ impl Dynamics {
     }
 
     /// Advances bodies `i` < `j` to now, where they touch, and applies the
-    /// impulse; returns (r_B − r_A)·J n̂ for the virial. Changes nothing
-    /// but the two bodies, and their velocities only if it succeeds.
-    pub(super) fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<f64, EdmdError> {
+    /// impulse; returns r_B − r_A and the impulse on B, for the virial.
+    /// Changes nothing but the two bodies, and their velocities only if it
+    /// succeeds.
+    pub(super) fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<(V3, V3), EdmdError> {
         let (si, sj) = (self.species_of(i), self.species_of(j));
         let sphere_contact = self.contact_sums[self.pair_index(i, j)];
         // The separation now, from the positions `advance` will store (to
@@ -142,15 +143,13 @@ impl Dynamics {
             let len = d.norm();
             let normal = d / len;
             let (mi, mj) = (self.kinds[si].inverse_mass, self.kinds[sj].inverse_mass);
-            let (a, b) = pair_mut(&mut self.bodies, i, j);
-            let ke_before = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
+            let (mut vi, mut vj) = (self.bodies[i].velocity, self.bodies[j].velocity);
             // The radii's sum grows at σ ṡ/s.
             let growth = self.growth.map_or(0.0, |g| g.rate / scale * len);
-            let jn = collide_spheres(&mut a.velocity, &mut b.velocity, mi, mj, &normal, growth);
-            let ke_after = 0.5 * (a.velocity.norm_squared() / mi + b.velocity.norm_squared() / mj);
-            self.accumulate_kinetic();
-            self.kinetic_translational += ke_after - ke_before;
-            jn * len
+            let jn = collide_spheres(&mut vi, &mut vj, mi, mj, &normal, growth);
+            self.change_velocity(i, vi);
+            self.change_velocity(j, vj);
+            (d, normal * jn)
         } else {
             self.collide_bodies(i, j, &d)?
         };
@@ -159,8 +158,13 @@ impl Dynamics {
 
     /// The collision of two bodies with at least one non-sphere: contact
     /// point and normal from the distance kernel, impulse from
-    /// [`collide`]. Returns (r_B − r_A)·J n̂ for the virial.
-    pub(super) fn collide_bodies(&mut self, i: usize, j: usize, d: &V3) -> Result<f64, EdmdError> {
+    /// [`collide`]. Returns r_B − r_A and the impulse on B, for the virial.
+    pub(super) fn collide_bodies(
+        &mut self,
+        i: usize,
+        j: usize,
+        d: &V3,
+    ) -> Result<(V3, V3), EdmdError> {
         let (bi, bj) = (self.bodies[i], self.bodies[j]);
         let (ki, kj) = (
             &self.kinds[bi.species as usize],
@@ -245,7 +249,7 @@ impl Dynamics {
             // face while another edge comes down 1e-13 off it), found
             // below as for a single contact point.
             if jn != 0.0 {
-                return Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)));
+                return Ok(self.apply_impulse(i, j, ka, kb, (*d, normal * jn)));
             }
         }
         let (mut normal, mut arm_a, closing) = lab(&contact);
@@ -301,7 +305,7 @@ impl Dynamics {
             &normal,
             growth_along(&normal),
         );
-        Ok(self.apply_impulse(i, j, ka, kb, jn * d.dot(&normal)))
+        Ok(self.apply_impulse(i, j, ka, kb, (*d, normal * jn)))
     }
 
     /// Counts collisions of one pair in a row that changed no velocity: a
@@ -337,26 +341,17 @@ impl Dynamics {
     }
 
     /// Stores bodies `i` and `j`'s velocities after a collision (`ka`,
-    /// `kb`) and the change of the translational kinetic energy; passes
-    /// the virial term through.
+    /// `kb`); passes the virial terms through.
     pub(super) fn apply_impulse(
         &mut self,
         i: usize,
         j: usize,
         ka: Kinetics,
         kb: Kinetics,
-        virial: f64,
-    ) -> f64 {
-        let ke_before = 0.5
-            * (self.bodies[i].velocity.norm_squared() / ka.inverse_mass
-                + self.bodies[j].velocity.norm_squared() / kb.inverse_mass);
-        let ke_after = 0.5
-            * (ka.velocity.norm_squared() / ka.inverse_mass
-                + kb.velocity.norm_squared() / kb.inverse_mass);
-        self.accumulate_kinetic();
-        self.kinetic_translational += ke_after - ke_before;
+        virial: (V3, V3),
+    ) -> (V3, V3) {
         for (idx, k) in [(i, ka), (j, kb)] {
-            self.bodies[idx].velocity = k.velocity;
+            self.change_velocity(idx, k.velocity);
             self.bodies[idx].angular_velocity = k.angular_velocity;
         }
         virial
@@ -376,16 +371,4 @@ fn scaled_contact(mut contact: crate::geometry::Contact, scale: f64) -> crate::g
         contact.point_b *= scale;
     }
     contact
-}
-
-/// Two distinct elements of a slice, mutably.
-pub(super) fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
-    debug_assert_ne!(i, j);
-    if i < j {
-        let (lo, hi) = s.split_at_mut(j);
-        (&mut lo[i], &mut hi[0])
-    } else {
-        let (lo, hi) = s.split_at_mut(i);
-        (&mut hi[0], &mut lo[j])
-    }
 }

@@ -388,17 +388,13 @@ impl Dynamics {
             inverse_mass: 0.0,
             inverse_inertia: Matrix3::zeros(),
         };
-        let ke_before = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
         // The growth moves the touching point outward at (ṡ/s) n·arm.
         let growth = self
             .growth
             .map_or(0.0, |g| g.rate / scale * normal.dot(&arm));
         let j = collide(&mut body, &mut wall, &arm, &V3::zeros(), &normal, growth);
-        let ke_after = 0.5 * body.velocity.norm_squared() / kind.inverse_mass;
-        self.accumulate_kinetic();
-        self.kinetic_translational += ke_after - ke_before;
         self.interval.wall_impulse[axis] += j;
-        self.bodies[i].velocity = body.velocity;
+        self.change_velocity(i, body.velocity);
         self.bodies[i].angular_velocity = body.angular_velocity;
         self.calendar.invalidate(i);
         self.schedule_crossing(i);

@@ -27,6 +27,7 @@ use build::*;
 use lanes::*;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use observables::*;
+pub use observables::{Interval, Sample, StressSums, SymmetricTensor};
 use scheduling::*;
 
 use crate::edmd::calendar::Calendar;
@@ -337,46 +338,6 @@ impl Kind {
     }
 }
 
-/// Counters and sums over the interval since the last sample (times on
-/// the dynamics' own clock): what a frame records so that a resumed run's
-/// first sample covers the same interval as the uninterrupted run's.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Interval {
-    /// When the interval began.
-    pub start: f64,
-    /// Collisions in it.
-    pub collisions: u64,
-    /// Σ (r_B − r_A)·J n̂ over collisions.
-    pub virial: f64,
-    /// ∫ (translational kinetic energy) dt, up to `ke_since`.
-    pub ke_integral: f64,
-    /// See `ke_integral`.
-    pub ke_since: f64,
-    /// Impulse taken by the two walls of each axis.
-    pub wall_impulse: [f64; 3],
-}
-
-/// Observables over the interval since the previous sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample {
-    /// Simulated time.
-    pub time: f64,
-    /// Collisions since the start of the run.
-    pub collisions: u64,
-    /// Collisions in the interval.
-    pub interval_collisions: u64,
-    /// βP from the collision virial over the interval:
-    /// P V = ⅔⟨K_trans⟩ + Σ r_AB·J / (3 Δt), β = 1/kT.
-    pub pressure: Option<f64>,
-    /// kT = 2K / dof.
-    pub temperature: f64,
-    /// φ.
-    pub packing_fraction: f64,
-    /// S₂ of the molecular axes of the rotating anisotropic bodies; `None`
-    /// if there are none.
-    pub nematic_order: Option<f64>,
-}
-
 /// One body as the dynamics stores it: the pose at its own time (not the
 /// common time), and its velocities.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -490,8 +451,9 @@ pub struct Dynamics {
     collisions_at_rebase: u64,
     collisions: u64,
     interval: Interval,
-    /// Translational kinetic energy (changes only at collisions).
-    kinetic_translational: f64,
+    /// Σ m v⊗v, twice the translational kinetic energy in its trace
+    /// (changes only at collisions).
+    kinetic: SymmetricTensor,
     degrees_of_freedom: f64,
     packing_fraction: f64,
     /// Whether any body rotates (else orientations are never touched).

@@ -1,8 +1,9 @@
 //! What the dynamics reports: time, energies, momentum, the state, the
 //! displacements and orientational correlations, and the interval
-//! sums of the collision virial.
+//! sums of the collision virial and the pressure tensor.
 
 use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::order::{legendre_p2, nematic_order};
 use crate::edmd::motion::position_after;
@@ -12,6 +13,120 @@ use crate::state::{Particle, StateError, System};
 type V3 = Vector3<f64>;
 
 use super::*;
+
+/// A symmetric 3×3 tensor in the order HOOMD-blue gives its pressure
+/// tensor: (xx, xy, xz, yy, yz, zz).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct SymmetricTensor(pub [f64; 6]);
+
+impl SymmetricTensor {
+    /// Adds `scale` times the symmetric part of a ⊗ b.
+    #[inline]
+    pub fn add_outer(&mut self, a: &V3, b: &V3, scale: f64) {
+        let t = &mut self.0;
+        t[0] += scale * a.x * b.x;
+        t[1] += scale * 0.5 * (a.x * b.y + a.y * b.x);
+        t[2] += scale * 0.5 * (a.x * b.z + a.z * b.x);
+        t[3] += scale * a.y * b.y;
+        t[4] += scale * 0.5 * (a.y * b.z + a.z * b.y);
+        t[5] += scale * a.z * b.z;
+    }
+
+    /// Adds `scale` times `other`.
+    #[inline]
+    pub fn add_scaled(&mut self, other: &Self, scale: f64) {
+        for (t, o) in self.0.iter_mut().zip(&other.0) {
+            *t += scale * o;
+        }
+    }
+
+    /// xx + yy + zz.
+    #[inline]
+    pub fn trace(&self) -> f64 {
+        self.0[0] + self.0[3] + self.0[5]
+    }
+}
+
+/// Counters and sums over the interval since the last sample (times on
+/// the dynamics' own clock): what a frame records so that a resumed run's
+/// first sample covers the same interval as the uninterrupted run's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Interval {
+    /// When the interval began.
+    pub start: f64,
+    /// Collisions in it.
+    pub collisions: u64,
+    /// Σ (r_B − r_A)·J over collisions, J the impulse on B.
+    pub virial: f64,
+    /// ∫ (translational kinetic energy) dt, up to `ke_since`.
+    pub ke_integral: f64,
+    /// See `ke_integral`.
+    pub ke_since: f64,
+    /// Impulse taken by the two walls of each axis.
+    pub wall_impulse: [f64; 3],
+    /// The sums the pressure tensor is made of; `None` in an interval
+    /// resumed from a frame written before they were recorded (that
+    /// interval reports no tensor).
+    #[serde(default)]
+    pub stress: Option<StressSums>,
+}
+
+impl Interval {
+    /// An empty interval beginning at `start`.
+    pub fn starting(start: f64) -> Self {
+        Self {
+            start,
+            collisions: 0,
+            virial: 0.0,
+            ke_integral: 0.0,
+            ke_since: start,
+            wall_impulse: [0.0; 3],
+            stress: Some(StressSums::default()),
+        }
+    }
+}
+
+impl Default for Interval {
+    fn default() -> Self {
+        Self::starting(0.0)
+    }
+}
+
+/// The interval's sums of the pressure tensor
+/// P V = ⟨Σ m v⊗v⟩ + Σ (r_B − r_A) ⊗ J / Δt (symmetric part).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct StressSums {
+    /// ∫ Σ m v⊗v dt, up to the interval's `ke_since`.
+    pub kinetic: SymmetricTensor,
+    /// Σ over collisions of the symmetric part of (r_B − r_A) ⊗ J.
+    pub virial: SymmetricTensor,
+}
+
+/// Observables over the interval since the previous sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Simulated time.
+    pub time: f64,
+    /// Collisions since the start of the run.
+    pub collisions: u64,
+    /// Collisions in the interval.
+    pub interval_collisions: u64,
+    /// βP from the collision virial over the interval:
+    /// P V = ⅔⟨K_trans⟩ + Σ r_AB·J / (3 Δt), β = 1/kT.
+    pub pressure: Option<f64>,
+    /// βP_αβ from the same sums (`pressure` is a third of its trace);
+    /// `None` with walls, or over an interval resumed from a frame that
+    /// did not record the tensor's sums.
+    pub pressure_tensor: Option<SymmetricTensor>,
+    /// kT = 2K / dof.
+    pub temperature: f64,
+    /// φ.
+    pub packing_fraction: f64,
+    /// S₂ of the molecular axes of the rotating anisotropic bodies; `None`
+    /// if there are none.
+    pub nematic_order: Option<f64>,
+}
 
 impl Dynamics {
     /// Simulated time.
@@ -81,11 +196,7 @@ impl Dynamics {
             b.velocity = *v;
             b.angular_velocity = *w;
         }
-        self.kinetic_translational = self
-            .bodies
-            .iter()
-            .map(|b| 0.5 * b.velocity.norm_squared() / self.kinds[b.species as usize].inverse_mass)
-            .sum();
+        self.kinetic = kinetic_tensor(&self.bodies, &self.kinds);
         for i in 0..self.bodies.len() {
             self.calendar.invalidate(i);
         }
@@ -94,7 +205,7 @@ impl Dynamics {
 
     /// Translational kinetic energy.
     pub fn translational_kinetic_energy(&self) -> f64 {
-        self.kinetic_translational
+        0.5 * self.kinetic.trace()
     }
 
     /// Total momentum.
@@ -241,6 +352,16 @@ impl Dynamics {
         let iv = self.interval;
         let dt = self.now - iv.start;
         let kt = 2.0 * self.kinetic_energy() / self.degrees_of_freedom;
+        let pressure_tensor = iv
+            .stress
+            .filter(|_| dt > 0.0 && !self.box_.has_walls())
+            .map(|sums| {
+                let mut p = SymmetricTensor::default();
+                let to_beta_p = 1.0 / (dt * self.box_.volume() * kt);
+                p.add_scaled(&sums.kinetic, to_beta_p);
+                p.add_scaled(&sums.virial, to_beta_p);
+                p
+            });
         let pressure = (dt > 0.0).then(|| {
             if self.box_.has_walls() {
                 // The force per area the walls take, over the walled axes.
@@ -256,16 +377,13 @@ impl Dynamics {
                 pv / (self.box_.volume() * kt)
             }
         });
-        self.interval = Interval {
-            start: self.now,
-            ke_since: self.now,
-            ..Interval::default()
-        };
+        self.interval = Interval::starting(self.now);
         Sample {
             time: self.time(),
             collisions: self.collisions,
             interval_collisions: iv.collisions,
             pressure,
+            pressure_tensor,
             temperature: kt,
             packing_fraction: self.packing_fraction * self.scale_now().powi(3),
             nematic_order: self.nematic_order(),
@@ -274,9 +392,47 @@ impl Dynamics {
 
     pub(super) fn accumulate_kinetic(&mut self) {
         let iv = &mut self.interval;
-        iv.ke_integral += self.kinetic_translational * (self.now - iv.ke_since);
+        let dt = self.now - iv.ke_since;
+        iv.ke_integral += 0.5 * self.kinetic.trace() * dt;
+        if let Some(sums) = &mut iv.stress {
+            sums.kinetic.add_scaled(&self.kinetic, dt);
+        }
         iv.ke_since = self.now;
     }
+
+    /// Body `k`'s velocity becomes `velocity` (at the current time): the
+    /// kinetic tensor follows, its integral brought up to now first.
+    pub(super) fn change_velocity(&mut self, k: usize, velocity: V3) {
+        self.accumulate_kinetic();
+        let b = &mut self.bodies[k];
+        let mass = 1.0 / self.kinds[b.species as usize].inverse_mass;
+        self.kinetic.add_outer(&b.velocity, &b.velocity, -mass);
+        self.kinetic.add_outer(&velocity, &velocity, mass);
+        b.velocity = velocity;
+    }
+
+    /// A collision's contribution to the virial: `separation` = r_B − r_A
+    /// (the image in which they touch), `impulse` the impulse on B.
+    pub(super) fn add_virial(&mut self, separation: &V3, impulse: &V3) {
+        let iv = &mut self.interval;
+        iv.virial += separation.dot(impulse);
+        if let Some(sums) = &mut iv.stress {
+            sums.virial.add_outer(separation, impulse, 1.0);
+        }
+    }
+}
+
+/// Σ m v⊗v over the bodies.
+pub(super) fn kinetic_tensor(bodies: &[Body], kinds: &[Kind]) -> SymmetricTensor {
+    let mut t = SymmetricTensor::default();
+    for b in bodies {
+        t.add_outer(
+            &b.velocity,
+            &b.velocity,
+            1.0 / kinds[b.species as usize].inverse_mass,
+        );
+    }
+    t
 }
 
 /// The bodies as particles at time `now`, centres wrapped into the box.
@@ -312,4 +468,27 @@ pub(super) fn body_energy(b: &Body, kinds: &[Kind]) -> f64 {
     let k = &kinds[b.species as usize];
     let rot = k.rotational_energy(&b.orientation, &b.angular_velocity);
     0.5 * b.velocity.norm_squared() / k.inverse_mass + rot
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_interval_from_an_older_frame_reports_no_tensor() {
+        let old = r#"{"start":0.0,"collisions":3,"virial":1.5,"ke_integral":2.0,"ke_since":1.0,"wall_impulse":[0.0,0.0,0.0]}"#;
+        let interval: Interval = serde_json::from_str(old).unwrap();
+        assert_eq!(interval.stress, None);
+        assert!(Interval::starting(1.0).stress.is_some());
+    }
+
+    #[test]
+    fn the_outer_product_is_symmetrized_with_the_dot_product_as_trace() {
+        let (a, b) = (V3::new(1.0, 2.0, 3.0), V3::new(-0.5, 0.25, 4.0));
+        let mut t = SymmetricTensor::default();
+        t.add_outer(&a, &b, 2.0);
+        assert_eq!(t.trace(), 2.0 * a.dot(&b));
+        assert_eq!(t.0[1], a.x * b.y + a.y * b.x);
+        assert_eq!(t.0[4], a.y * b.z + a.z * b.y);
+    }
 }
