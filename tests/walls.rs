@@ -199,6 +199,14 @@ fn wall_pressure_of_a_dilute_gas_is_the_ideal_one_between_the_walls() {
     assert!((p / ideal - 1.0).abs() < 0.015, "{p} vs {ideal}");
     // The collision virial is not the pressure between walls.
     assert_eq!(s.pressure_tensor, None);
+    // The translational energy kept through wall and pair collisions
+    // (from their impulses) is the spheres' energy.
+    let kept = md.translational_kinetic_energy();
+    assert!(
+        (kept / md.kinetic_energy() - 1.0).abs() < 1e-10,
+        "{kept} vs {}",
+        md.kinetic_energy()
+    );
 }
 
 #[test]

@@ -143,13 +143,14 @@ impl Dynamics {
             let len = d.norm();
             let normal = d / len;
             let (mi, mj) = (self.kinds[si].inverse_mass, self.kinds[sj].inverse_mass);
-            let (mut vi, mut vj) = (self.bodies[i].velocity, self.bodies[j].velocity);
+            let (a, b) = pair_mut(&mut self.bodies, i, j);
+            let gap = b.velocity - a.velocity;
             // The radii's sum grows at σ ṡ/s.
             let growth = self.growth.map_or(0.0, |g| g.rate / scale * len);
-            let jn = collide_spheres(&mut vi, &mut vj, mi, mj, &normal, growth);
-            self.change_velocity(i, vi);
-            self.change_velocity(j, vj);
-            (d, normal * jn)
+            let jn = collide_spheres(&mut a.velocity, &mut b.velocity, mi, mj, &normal, growth);
+            let impulse = normal * jn;
+            self.kinetic_impulse(&gap, &impulse, mi + mj);
+            (d, impulse)
         } else {
             self.collide_bodies(i, j, &d)?
         };
@@ -350,8 +351,10 @@ impl Dynamics {
         kb: Kinetics,
         virial: (V3, V3),
     ) -> (V3, V3) {
+        let gap = self.bodies[j].velocity - self.bodies[i].velocity;
+        self.kinetic_impulse(&gap, &virial.1, ka.inverse_mass + kb.inverse_mass);
         for (idx, k) in [(i, ka), (j, kb)] {
-            self.change_velocity(idx, k.velocity);
+            self.bodies[idx].velocity = k.velocity;
             self.bodies[idx].angular_velocity = k.angular_velocity;
         }
         virial
@@ -371,4 +374,17 @@ fn scaled_contact(mut contact: crate::geometry::Contact, scale: f64) -> crate::g
         contact.point_b *= scale;
     }
     contact
+}
+
+/// Two distinct elements of a slice, mutably.
+#[inline]
+pub(super) fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
+    debug_assert_ne!(i, j);
+    if i < j {
+        let (lo, hi) = s.split_at_mut(j);
+        (&mut lo[i], &mut hi[0])
+    } else {
+        let (lo, hi) = s.split_at_mut(i);
+        (&mut hi[0], &mut lo[j])
+    }
 }

@@ -394,7 +394,10 @@ impl Dynamics {
             .map_or(0.0, |g| g.rate / scale * normal.dot(&arm));
         let j = collide(&mut body, &mut wall, &arm, &V3::zeros(), &normal, growth);
         self.interval.wall_impulse[axis] += j;
-        self.change_velocity(i, body.velocity);
+        // The impulse on the body is −j n̂ (the wall is B).
+        let before = self.bodies[i].velocity;
+        self.kinetic_impulse(&before, &(-normal * j), kind.inverse_mass);
+        self.bodies[i].velocity = body.velocity;
         self.bodies[i].angular_velocity = body.angular_velocity;
         self.calendar.invalidate(i);
         self.schedule_crossing(i);

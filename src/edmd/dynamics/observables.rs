@@ -390,6 +390,7 @@ impl Dynamics {
         }
     }
 
+    #[inline(always)]
     pub(super) fn accumulate_kinetic(&mut self) {
         let iv = &mut self.interval;
         let dt = self.now - iv.ke_since;
@@ -400,15 +401,17 @@ impl Dynamics {
         iv.ke_since = self.now;
     }
 
-    /// Body `k`'s velocity becomes `velocity` (at the current time): the
-    /// kinetic tensor follows, its integral brought up to now first.
-    pub(super) fn change_velocity(&mut self, k: usize, velocity: V3) {
+    /// An impulse changes velocities: `impulse` on one body (B) of
+    /// velocity `velocity_gap` before, or on B and its opposite on A with
+    /// `velocity_gap` = v_B − v_A before; `inverse_masses` = Σ 1/m of the
+    /// bodies it acts on. Σ m v⊗v changes by 2 sym(w ⊗ J) with
+    /// w = velocity_gap + ½ J Σ 1/m (momentum conservation; no velocity
+    /// read back). Brings the kinetic integral up to now first.
+    #[inline(always)]
+    pub(super) fn kinetic_impulse(&mut self, velocity_gap: &V3, impulse: &V3, inverse_masses: f64) {
         self.accumulate_kinetic();
-        let b = &mut self.bodies[k];
-        let mass = 1.0 / self.kinds[b.species as usize].inverse_mass;
-        self.kinetic.add_outer(&b.velocity, &b.velocity, -mass);
-        self.kinetic.add_outer(&velocity, &velocity, mass);
-        b.velocity = velocity;
+        let w = velocity_gap + impulse * (0.5 * inverse_masses);
+        self.kinetic.add_outer(&w, impulse, 2.0);
     }
 
     /// A collision's contribution to the virial: `separation` = r_B − r_A
