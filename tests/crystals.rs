@@ -574,7 +574,9 @@ fn soak_the_dynamics_in_a_tilted_box() {
 /// sheared by x → x + γy (a box tilted by xy = γ) pushes back, βP_xy of
 /// the sign opposite to γ's (the free energy grows with |γ|:
 /// P_xy = −(1/V) ∂F/∂γ), the same size for ±γ, and zero for γ = 0; the
-/// other off-diagonal components stay zero.
+/// other off-diagonal components stay zero. Two routes: the dynamics'
+/// collision virial and Monte Carlo's two-sided scale distribution of a
+/// shear agree (within their errors and 2 %).
 #[test]
 fn a_sheared_crystal_carries_the_shear_stress_it_should() {
     let shear_stress = |gamma: f64| {
@@ -603,6 +605,34 @@ fn a_sheared_crystal_carries_the_shear_stress_it_should() {
             "gamma {gamma}: betaP_xy {xy:.4} ± {xy_se:.4}, xz {xz:.4} ± {xz_se:.4}, yz {yz:.4} ± {yz_se:.4}"
         );
         assert!(xz.abs() < 4.5 * xz_se && yz.abs() < 4.5 * yz_se);
+        // The same stress by Monte Carlo: the scale distribution of a
+        // shear x → x − εy and of its opposite, over 8 blocks.
+        let mut mc = system.clone();
+        let sizes = MoveSizes {
+            translate: 0.04,
+            rotate: 0.0,
+            volume: 0.0,
+            shear: 0.0,
+        };
+        for _ in 0..200 {
+            sweep(&mut mc, &sizes, &Ensemble::Nvt, &mut rng);
+        }
+        let blocks: Vec<f64> = (0..8)
+            .map(|_| {
+                let mut sdf = Sdf::sheared(0, 1, 0.02, 200);
+                for _ in 0..400 {
+                    sweep(&mut mc, &sizes, &Ensemble::Nvt, &mut rng);
+                    sdf.add(&mc);
+                }
+                sdf.pressure().unwrap()
+            })
+            .collect();
+        let (sdf, sdf_se) = blocked(&blocks, 8);
+        eprintln!("  by the shear's scale distribution: {sdf:.4} ± {sdf_se:.4}");
+        assert!(
+            (sdf - xy).abs() < 4.5 * sdf_se.hypot(xy_se) + 0.02 * xy.abs(),
+            "βP_xy: dynamics {xy} ± {xy_se}, scale distribution {sdf} ± {sdf_se}"
+        );
         (xy, xy_se)
     };
     let (plus, plus_se) = shear_stress(0.03);

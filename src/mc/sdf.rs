@@ -16,12 +16,26 @@
 //!
 //! For spheres this is the contact theorem: xᵢⱼ = 1 − σ/rᵢⱼ, so
 //! s(0⁺) = 4πρσ³g(σ) and βP/ρ = 1 + (2π/3)ρσ³g(σ).
+//!
+//! Any deformation of the centres r → (I − xA) r gives the component
+//! P:A of the pressure tensor the same way, from both sides: it changes
+//! ln Z by −x N tr A, by −x N s₊(0⁺)/2 for the pairs it makes overlap,
+//! and by +x N s₋(0⁺)/2 for the overlapping pairs it parts (s₋ counted
+//! as the overlaps the opposite deformation r → (I + xA) r makes), and
+//! by −x βV P:A, so βP:A = ρ (tr A + (s₊ − s₋)/2) (HOOMD-blue's SDF
+//! compute keeps both sides for the same reason). A shrink of all
+//! centres alike never parts a pair of convex bodies (s₋ = 0), hence
+//! the 1/6; a shrink along one lab axis (A = e_k e_kᵀ) gives P_kk, and a
+//! shear (A = e_i e_jᵀ) P_ij, where for bodies other than spheres both
+//! sides count.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::geometry::{Relative, overlap};
 use crate::space::CellList;
 use crate::state::System;
+
+type V3 = Vector3<f64>;
 
 /// Refits of the window at most: each narrows it about a hundredfold
 /// while the fit spans many decay lengths, so a jam's 10⁻¹² is reached in
@@ -33,10 +47,15 @@ const MAX_WINDOW_STEPS: usize = 64;
 pub struct Sdf {
     /// The widest window, and the farthest shrink looked for.
     x_max: f64,
+    /// A of the deformation r → (I − xA) r, or `None` for A = I.
+    deformation: Option<Matrix3<f64>>,
     bins: usize,
     /// Every particle's smallest shrink below `x_max`, of every
     /// configuration added (the window is chosen from them).
     shrinks: Vec<f64>,
+    /// With a deformation: every particle's smallest x below `x_max` of
+    /// the opposite deformation at which it overlaps.
+    expansions: Vec<f64>,
     /// Particle-configurations accumulated (Σ N over configurations).
     particles: u64,
     /// Σ N/V over configurations.
@@ -50,11 +69,55 @@ impl Sdf {
     pub fn new(x_max: f64, bins: usize) -> Self {
         Self {
             x_max,
+            deformation: None,
             bins: bins.max(3),
             shrinks: Vec::new(),
+            expansions: Vec::new(),
             particles: 0,
             density_sum: 0.0,
             configurations: 0,
+        }
+    }
+
+    /// An empty accumulator of the deformation r → (I − xA) r and its
+    /// opposite: its [`Sdf::pressure`] is βP:A. (|A d| ≤ |d|, so that
+    /// the pairs within reach/(1 − x_max) are all that can meet.)
+    fn deformed(a: Matrix3<f64>, x_max: f64, bins: usize) -> Self {
+        Self {
+            deformation: Some(a),
+            ..Self::new(x_max, bins)
+        }
+    }
+
+    /// βP_kk: centres shrunk along lab axis `k` (0, 1, 2) only.
+    pub fn along(k: usize, x_max: f64, bins: usize) -> Self {
+        let mut a = Matrix3::zeros();
+        a[(k, k)] = 1.0;
+        Self::deformed(a, x_max, bins)
+    }
+
+    /// βP_ij (i ≠ j): centres sheared by r_i → r_i − x r_j.
+    pub fn sheared(i: usize, j: usize, x_max: f64, bins: usize) -> Self {
+        let mut a = Matrix3::zeros();
+        a[(i, j)] = 1.0;
+        Self::deformed(a, x_max, bins)
+    }
+
+    /// How a separation `d` moves with x: d(x) = d − x·velocity.
+    #[inline]
+    fn velocity(&self, d: &V3, side: f64) -> V3 {
+        match &self.deformation {
+            None => *d,
+            Some(a) => side * (a * d),
+        }
+    }
+
+    /// The separation `d` deformed by `x`, moving at `velocity`.
+    #[inline]
+    fn deformed_separation(&self, d: &V3, velocity: &V3, x: f64) -> V3 {
+        match &self.deformation {
+            None => d * (1.0 - x),
+            Some(_) => d - velocity * x,
         }
     }
 
@@ -97,49 +160,71 @@ impl Sdf {
         &self,
         system: &System,
         pairs: impl Iterator<Item = (usize, usize)>,
-    ) -> Vec<f64> {
-        let mut x_min = vec![f64::INFINITY; system.len()];
+    ) -> [Vec<f64>; 2] {
+        let mut x_min = [vec![f64::INFINITY; system.len()], Vec::new()];
+        if self.deformation.is_some() {
+            x_min[1] = x_min[0].clone();
+        }
         for (i, j) in pairs {
-            if let Some(x) = self.pair_shrink(system, i, j) {
-                x_min[i] = x_min[i].min(x);
-                x_min[j] = x_min[j].min(x);
+            for (side, x_min) in [1.0, -1.0].into_iter().zip(&mut x_min) {
+                if x_min.is_empty() {
+                    continue;
+                }
+                if let Some(x) = self.pair_shrink(system, i, j, side) {
+                    x_min[i] = x_min[i].min(x);
+                    x_min[j] = x_min[j].min(x);
+                }
             }
         }
         x_min
     }
 
-    /// The smallest shrink in [0, x_max) at which particles `i` and `j`
-    /// overlap, if any (their centres farther than reach/(1 − x_max)
-    /// never do).
-    fn pair_shrink(&self, system: &System, i: usize, j: usize) -> Option<f64> {
-        let shrink = 1.0 - self.x_max;
+    /// The smallest x in [0, x_max) at which particles `i` and `j`
+    /// overlap under the deformation (`side` 1) or its opposite (−1), if
+    /// any (pairs that stay beyond reach never do).
+    fn pair_shrink(&self, system: &System, i: usize, j: usize, side: f64) -> Option<f64> {
         let (pi, pj) = (&system.particles[i], &system.particles[j]);
         let (si, sj) = (pi.species as usize, pj.species as usize);
         let d = system.box_.minimum_image(&(pj.position - pi.position));
         let reach = system.radii[si] + system.radii[sj];
-        // Beyond reach even after the largest shrink considered.
-        if (d * shrink).norm_squared() > reach * reach {
+        // The closest the centres come on [0, x_max].
+        let u = self.velocity(&d, side);
+        let uu = u.norm_squared();
+        let closest = if uu > 0.0 {
+            (d.dot(&u) / uu).clamp(0.0, self.x_max)
+        } else {
+            0.0
+        };
+        if self.deformed_separation(&d, &u, closest).norm_squared() > reach * reach {
             return None;
         }
         let (shape_i, shape_j) = (&system.species[si].shape, &system.species[sj].shape);
         if shape_i.is_sphere() && shape_j.is_sphere() {
-            return Some(1.0 - reach / d.norm());
+            if self.deformation.is_none() {
+                return Some(1.0 - reach / d.norm());
+            }
+            // The smaller root of |d − x u|² = σ².
+            let du = d.dot(&u);
+            let root = (du * du - uu * (d.norm_squared() - reach * reach)).max(0.0);
+            return Some((du - root.sqrt()) / uu);
         }
         let (ri, rj): (&Matrix3<f64>, &Matrix3<f64>) = (&system.rotations[i], &system.rotations[j]);
         let overlaps_at = |x: f64| {
             let rel = Relative {
-                translation: ri.tr_mul(&(d * (1.0 - x))),
+                translation: ri.tr_mul(&self.deformed_separation(&d, &u, x)),
                 rotation: ri.tr_mul(rj),
             };
             overlap(shape_i, shape_j, &rel)
         };
-        if !overlaps_at(self.x_max) {
-            return None;
-        }
-        // Overlap is monotone in the shrink for convex bodies: bisect to a
-        // relative 10⁻⁵, far below a bin width of any window that holds
-        // the shrink (the window may narrow to the shrinks of a jam).
-        let (mut lo, mut hi) = (0.0, self.x_max);
+        // The segment of the path inside the overlap region (convex for
+        // convex bodies) holds the closest approach or reaches x_max.
+        let hi = [self.x_max, closest]
+            .into_iter()
+            .find(|&x| overlaps_at(x))?;
+        // Bisect to a relative 10⁻⁵, far below a bin width of any window
+        // that holds the shrink (the window may narrow to the shrinks of a
+        // jam).
+        let (mut lo, mut hi) = (0.0, hi);
         while hi - lo > 1e-5 * hi && hi > f64::MIN_POSITIVE {
             let mid = 0.5 * (lo + hi);
             if overlaps_at(mid) {
@@ -152,24 +237,41 @@ impl Sdf {
     }
 
     /// Keeps each particle's smallest shrink `x_min` of one configuration.
-    fn add_shrinks(&mut self, system: &System, x_min: Vec<f64>) {
+    fn add_shrinks(&mut self, system: &System, [x_min, expansions]: [Vec<f64>; 2]) {
         let n = system.len();
+        let window = 0.0..self.x_max;
         self.shrinks
-            .extend(x_min.into_iter().filter(|x| (0.0..self.x_max).contains(x)));
+            .extend(x_min.into_iter().filter(|x| window.contains(x)));
+        self.expansions
+            .extend(expansions.into_iter().filter(|x| window.contains(x)));
         self.particles += n as u64;
         self.density_sum += n as f64 / system.box_.volume();
         self.configurations += 1;
     }
 
-    /// βP from the configurations added so far, fitted on a window of
-    /// one decay length of s(x) (at most x_max); `None` before any.
+    /// βP (βP:A with a deformation) from the configurations added so
+    /// far, each side fitted on a window of one decay length of its s(x)
+    /// (at most x_max); `None` before any.
     pub fn pressure(&self) -> Option<f64> {
         if self.configurations == 0 {
             return None;
         }
+        let density = self.density_sum / self.configurations as f64;
+        let s_plus = self.fitted_intercept(&self.shrinks)?;
+        Some(match &self.deformation {
+            None => density * (1.0 + s_plus / 6.0),
+            Some(a) => {
+                let s_minus = self.fitted_intercept(&self.expansions)?;
+                density * (a.trace() + 0.5 * (s_plus - s_minus))
+            }
+        })
+    }
+
+    /// s(0⁺) of `shrinks`, the window narrowed to about one decay length.
+    fn fitted_intercept(&self, shrinks: &[f64]) -> Option<f64> {
         let mut counts = vec![0u64; self.bins];
         let mut window = self.x_max;
-        let mut s0 = self.intercept(window, &mut counts)?;
+        let mut s0 = self.intercept(shrinks, window, &mut counts)?;
         for _ in 0..MAX_WINDOW_STEPS {
             let next = if s0 > 0.0 {
                 (1.0 / s0).min(self.x_max)
@@ -180,20 +282,19 @@ impl Sdf {
                 break;
             }
             window = next;
-            s0 = self.intercept(window, &mut counts)?;
+            s0 = self.intercept(shrinks, window, &mut counts)?;
         }
-        let density = self.density_sum / self.configurations as f64;
-        Some(density * (1.0 + s0 / 6.0))
+        Some(s0)
     }
 
     /// s(0⁺) per particle from a quadratic least-squares fit
     /// s ≈ c₀ + c₁x + c₂x² to the histogram of the shrinks on [0, window)
     /// (`counts` is its scratch space).
-    fn intercept(&self, window: f64, counts: &mut [u64]) -> Option<f64> {
+    fn intercept(&self, shrinks: &[f64], window: f64, counts: &mut [u64]) -> Option<f64> {
         let bins = counts.len();
         let width = window / bins as f64;
         counts.fill(0);
-        for &x in &self.shrinks {
+        for &x in shrinks {
             if x < window {
                 counts[((x / width) as usize).min(bins - 1)] += 1;
             }
@@ -320,7 +421,59 @@ mod tests {
             "betaP/rho {measured} against Speedy's {speedy}"
         );
         let mut counts = vec![0; 200];
-        let fixed = 1.0 + sdf.intercept(0.02, &mut counts).unwrap() / 6.0;
+        let fixed = 1.0 + sdf.intercept(&sdf.shrinks, 0.02, &mut counts).unwrap() / 6.0;
         assert!(fixed < 0.9 * speedy, "the fixed window gave {fixed}");
+    }
+
+    /// In a fluid the pressure is isotropic: each axis's scale
+    /// distribution gives the pressure the shrink of all three gives, for
+    /// spheres (and Carnahan–Starling's) and for prolate ellipsoids, the
+    /// three axes' shrinks of each configuration counted apart.
+    #[test]
+    fn each_axis_of_a_fluid_gives_its_pressure() {
+        let cases = [
+            ("Sphere(radius: 0.5)", 0.40, 0.02),
+            ("Ellipsoid(a: 1.0, b: 0.5, c: 0.5)", 0.35, 0.03),
+        ];
+        for (text, phi, tolerance) in cases {
+            let shape: Shape = text.parse().unwrap();
+            let mut system = dense_start(&shape, 216, phi).unwrap();
+            let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
+            let sizes = MoveSizes {
+                translate: 0.15,
+                rotate: 0.2,
+                volume: 0.0,
+                shear: 0.0,
+            };
+            for _ in 0..300 {
+                sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+            }
+            let mut all = Sdf::new(0.02, 200);
+            let mut axes = [0, 1, 2].map(|k| Sdf::along(k, 0.02, 200));
+            for _ in 0..4000 {
+                for _ in 0..2 {
+                    sweep(&mut system, &sizes, &Ensemble::Nvt, &mut rng);
+                }
+                all.add(&system);
+                for sdf in &mut axes {
+                    sdf.add(&system);
+                }
+            }
+            let isotropic = all.pressure().unwrap();
+            let per_axis = axes.map(|s| s.pressure().unwrap());
+            eprintln!("{text}: betaP {isotropic:.4}, per axis {per_axis:.4?}");
+            for p in per_axis {
+                assert!(
+                    (p / isotropic - 1.0).abs() < tolerance,
+                    "{per_axis:?} vs {isotropic}"
+                );
+            }
+            if shape.is_sphere() {
+                let density = system.len() as f64 / system.box_.volume();
+                let cs = (1.0 + phi + phi * phi - phi.powi(3)) / (1.0 - phi).powi(3);
+                let mean = per_axis.iter().sum::<f64>() / 3.0 / density;
+                assert!((mean / cs - 1.0).abs() < 0.025, "Z {mean} vs {cs}");
+            }
+        }
     }
 }
