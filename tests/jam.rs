@@ -32,7 +32,8 @@ fn dilute(shape: &str, n: usize, phi: f64, walls: [bool; 3]) -> System {
     let volume = n as f64 * species[0].shape.volume() / phi;
     let box_ = PeriodicBox::new(Vector3::repeat(volume.cbrt()))
         .unwrap()
-        .with_walls(walls);
+        .with_walls(walls)
+        .unwrap();
     let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
     hardbody::state::start::lattice(box_, species, &[n], &mut rng).unwrap()
 }

@@ -25,6 +25,7 @@ fn walled(l: f64, walls: [bool; 3]) -> PeriodicBox {
     PeriodicBox::new(Vector3::repeat(l))
         .unwrap()
         .with_walls(walls)
+        .unwrap()
 }
 
 #[test]

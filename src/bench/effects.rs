@@ -54,7 +54,7 @@ fn state(n: usize, walls: bool, rotation: bool) -> Result<System, BenchError> {
         rotation,
     }];
     let side = (n as f64 * shape.volume() / PHI).cbrt();
-    let box_ = PeriodicBox::new(Vector3::repeat(side))?.with_walls([false, false, walls]);
+    let box_ = PeriodicBox::new(Vector3::repeat(side))?.with_walls([false, false, walls])?;
     let mut rng = Pcg64::seed_from_u64(9);
     let mut system = crate::state::start::lattice(box_, species, &[n], &mut rng)?;
     let sizes = MoveSizes {

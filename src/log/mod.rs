@@ -232,7 +232,7 @@ impl StateRecord {
         &self,
         walls: [bool; 3],
     ) -> Result<PeriodicBox, crate::space::periodic_box::BoxError> {
-        Ok(PeriodicBox::triclinic(self.box_lengths.into(), self.tilts.into())?.with_walls(walls))
+        PeriodicBox::triclinic(self.box_lengths.into(), self.tilts.into())?.with_walls(walls)
     }
 
     /// The box, species, positions and orientations (no velocities), as

@@ -10,6 +10,7 @@ use crate::log::StateRecord;
 use crate::log::read::read_log;
 use crate::scene::plan::Plan;
 use crate::scene::{Scene, Start};
+use crate::space::periodic_box::BoxError;
 use crate::state::start::{lattice, random_insertion};
 use crate::state::{Particle, StateError, System};
 
@@ -151,7 +152,7 @@ pub enum RecordError {
     },
     /// A box that cannot be.
     #[error("logged box: {0}")]
-    Box(#[from] crate::space::periodic_box::BoxError),
+    Box(#[from] BoxError),
     /// The particles overlap, or lie outside the walls.
     #[error("logged state: {0}")]
     State(#[from] StateError),
@@ -242,10 +243,10 @@ fn system_from_logged(
             particles: n,
         });
     }
-    if record.tilts != [0.0; 3] && plan.walls.contains(&true) {
-        return Err(RecordError::TiltedWithWalls(record.tilts));
-    }
-    let box_ = record.periodic_box(plan.walls)?;
+    let box_ = record.periodic_box(plan.walls).map_err(|e| match e {
+        BoxError::TiltedWithWalls { tilts, .. } => RecordError::TiltedWithWalls(tilts),
+        e => e.into(),
+    })?;
     let particles = record
         .positions
         .iter()

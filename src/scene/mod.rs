@@ -633,8 +633,8 @@ impl Scene {
         let spec = self.box_spec.expect("a validated box");
         let v = |t: (f64, f64, f64)| nalgebra::Vector3::new(t.0, t.1, t.2);
         crate::space::PeriodicBox::triclinic(v(spec.lengths), v(spec.tilts))
-            .expect("validated edges")
-            .with_walls(self.wall_axes())
+            .and_then(|b| b.with_walls(self.wall_axes()))
+            .expect("a validated box and walls")
     }
 }
 

@@ -82,7 +82,8 @@ mod tests {
         ] {
             let box_ = PeriodicBox::new(Vector3::from(edges))
                 .unwrap()
-                .with_walls(walls);
+                .with_walls(walls)
+                .unwrap();
             let centres: Vec<Vector3<f64>> = (0..300)
                 .map(|_| Vector3::from(edges.map(|l| l * (rng.r#gen::<f64>() - 0.5))))
                 .collect();

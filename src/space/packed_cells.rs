@@ -591,7 +591,8 @@ mod tests {
         ] {
             let box_ = PeriodicBox::triclinic(Vector3::new(9.0, 10.0, 11.0), tilts)
                 .unwrap()
-                .with_walls(walls);
+                .with_walls(walls)
+                .unwrap();
             let pos: Vec<V3> = (0..3000)
                 .map(|_| box_.from_fractional(&Vector3::new(u(), u(), u())))
                 .collect();
@@ -652,7 +653,8 @@ mod tests {
         ] {
             let box_ = PeriodicBox::triclinic(Vector3::new(len, len * 1.1, len * 0.95), tilts)
                 .unwrap()
-                .with_walls(walls);
+                .with_walls(walls)
+                .unwrap();
             let mut pos: Vec<V3> = (0..150)
                 .map(|_| box_.from_fractional(&Vector3::new(u(), u(), u())))
                 .collect();

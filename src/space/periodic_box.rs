@@ -43,6 +43,14 @@ pub enum BoxError {
     /// A non-finite tilt factor.
     #[error("box tilt factors (xy, xz, yz) must be finite, got {0:?}")]
     Tilts([f64; 3]),
+    /// Walls on a tilted box.
+    #[error("walls close an orthorhombic box only: tilts {tilts:?} with walls {walls:?}")]
+    TiltedWithWalls {
+        /// Tilt factors (xy, xz, yz).
+        tilts: [f64; 3],
+        /// Walled axes.
+        walls: [bool; 3],
+    },
 }
 
 impl PeriodicBox {
@@ -80,16 +88,21 @@ impl PeriodicBox {
     }
 
     /// The same box with hard walls at ±L/2 along the axes marked true.
-    /// Walls belong to orthorhombic boxes: the scene refuses a tilted box
-    /// with walls before one is built.
-    pub fn with_walls(self, walls: [bool; 3]) -> Self {
-        debug_assert!(!walls.contains(&true) || !self.is_tilted());
-        Self::build(self.lengths, self.tilts, walls)
+    /// Walls close orthorhombic boxes only: a tilted box with walls is
+    /// refused.
+    pub fn with_walls(self, walls: [bool; 3]) -> Result<Self, BoxError> {
+        if walls.contains(&true) && self.is_tilted() {
+            return Err(BoxError::TiltedWithWalls {
+                tilts: self.tilts.into(),
+                walls,
+            });
+        }
+        Ok(Self::build(self.lengths, self.tilts, walls))
     }
 
     /// The same walls and tilt factors with other edge lengths.
     pub fn with_lengths(&self, lengths: V3) -> Result<Self, BoxError> {
-        Ok(Self::triclinic(lengths, self.tilts)?.with_walls(self.walls))
+        Self::triclinic(lengths, self.tilts)?.with_walls(self.walls)
     }
 
     /// This box stretched by `factor` along lab axis `axis` (H ↦ D·H, D
@@ -105,12 +118,12 @@ impl PeriodicBox {
             1 => V3::new(t.x / factor, t.y, t.z * factor),
             _ => V3::new(t.x, t.y / factor, t.z / factor),
         };
-        Ok(Self::triclinic(lengths, tilts)?.with_walls(self.walls))
+        Self::triclinic(lengths, tilts)?.with_walls(self.walls)
     }
 
     /// The same walls and edges with other tilt factors.
     pub fn with_tilts(&self, tilts: V3) -> Result<Self, BoxError> {
-        Ok(Self::triclinic(self.lengths, tilts)?.with_walls(self.walls))
+        Self::triclinic(self.lengths, tilts)?.with_walls(self.walls)
     }
 
     /// Per axis: whether hard walls close it.
@@ -487,10 +500,30 @@ mod tests {
     }
 
     #[test]
+    fn walls_on_a_tilted_box_are_refused() {
+        let tilted =
+            PeriodicBox::triclinic(Vector3::repeat(8.0), Vector3::new(0.2, 0.0, 0.0)).unwrap();
+        assert_eq!(
+            tilted.with_walls([false, false, true]),
+            Err(BoxError::TiltedWithWalls {
+                tilts: [0.2, 0.0, 0.0],
+                walls: [false, false, true]
+            })
+        );
+        assert!(tilted.with_walls([false; 3]).is_ok());
+        let walled = PeriodicBox::new(Vector3::repeat(8.0))
+            .unwrap()
+            .with_walls([true; 3])
+            .unwrap();
+        assert!(walled.with_tilts(Vector3::new(0.0, 0.1, 0.0)).is_err());
+    }
+
+    #[test]
     fn walled_axes_take_no_image() {
         let b = PeriodicBox::new(Vector3::new(10.0, 8.0, 6.0))
             .unwrap()
-            .with_walls([false, false, true]);
+            .with_walls([false, false, true])
+            .unwrap();
         let d = Vector3::new(9.0, -7.0, 5.5);
         assert_eq!(b.minimum_image(&d), Vector3::new(-1.0, 1.0, 5.5));
         assert_eq!(b.minimum_image_near(&d), Vector3::new(-1.0, 1.0, 5.5));

@@ -308,7 +308,7 @@ mod tests {
         // 400 unit cubes in 512: impossible by random insertion.
         let err = random_insertion(b, cubes.clone(), &[400], 20_000, &mut rng).unwrap_err();
         // Between walls: nothing touches them.
-        let walled = b.with_walls([true, false, true]);
+        let walled = b.with_walls([true, false, true]).unwrap();
         let system = random_insertion(walled, cubes, &[60], 100_000, &mut rng).unwrap();
         assert_eq!(system.first_wall_overlap(), None);
         assert!(

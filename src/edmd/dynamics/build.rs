@@ -244,15 +244,9 @@ impl Dynamics {
                 horizon: f64::INFINITY,
             });
         }
-        if dump.tilts != [0.0; 3] && dump.walls.contains(&true) {
-            return Err(bad(format!(
-                "box: tilts {:?} with walls {:?} (walls close orthorhombic boxes only)",
-                dump.tilts, dump.walls
-            )));
-        }
         let box_ = PeriodicBox::triclinic(V3::from(dump.box_lengths), V3::from(dump.tilts))
-            .map_err(|e| bad(format!("box: {e}")))?
-            .with_walls(dump.walls);
+            .and_then(|b| b.with_walls(dump.walls))
+            .map_err(|e| bad(format!("box: {e}")))?;
         if let Some(g) = dump.growth {
             let scale = g.at(dump.now);
             if !(g.rate.is_finite() && g.rate > 0.0 && scale > 0.0 && scale <= 1.0) {
