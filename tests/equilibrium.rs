@@ -158,6 +158,26 @@ fn analyze_gives_two_pressure_routes_that_agree_within_their_errors() {
     }
     // The dynamics conserves the temperature: reported as constant.
     assert!(stage(&averages, 2).observables["temperature"].constant);
+    // The fluid's pressure tensor, averaged component by component, is
+    // the pressure times the unit tensor; Monte Carlo stages have none.
+    let dynamics = stage(&averages, 2);
+    for (name, expected) in [
+        ("pressure_xx", virial.mean),
+        ("pressure_yy", virial.mean),
+        ("pressure_zz", virial.mean),
+        ("pressure_xy", 0.0),
+        ("pressure_xz", 0.0),
+        ("pressure_yz", 0.0),
+    ] {
+        let c = dynamics.observables[name].estimate;
+        assert!(
+            c.error > 0.0 && (c.mean - expected).abs() < 4.0 * c.error.hypot(virial.error),
+            "{name}: {} ± {} against {expected}",
+            c.mean,
+            c.error
+        );
+    }
+    assert!(!stage(&averages, 1).observables.contains_key("pressure_xx"));
 }
 
 /// The hard-sphere equation of state scene, one log, through `analyze`,
