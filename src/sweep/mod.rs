@@ -24,22 +24,22 @@ pub enum SweepError {
     #[error("--set {0:?}: expected KEY=V1,V2,... (e.g. stages[1].ensemble.pressure=1,2,4)")]
     Syntax(String),
     /// A key that names no field of the scene.
-    #[error("--set {key}: {message}")]
+    #[error("--set {key}: {reason}")]
     Key {
         /// The key given.
         key: String,
         /// What is wrong.
-        message: String,
+        reason: KeyError,
     },
     /// A value the scene refuses.
-    #[error("--set {key}={value}: {message}")]
+    #[error("--set {key}={value}: {reason}")]
     Value {
         /// The key.
         key: String,
         /// The value.
         value: String,
         /// The scene's refusal.
-        message: String,
+        reason: ValueError,
     },
     /// Replicas and seeds both given, or none of either.
     #[error("{0}")]
@@ -58,6 +58,86 @@ pub enum SweepError {
     Output(#[from] crate::log::file::OutputError),
 }
 
+/// Why a `--set` key names no field of the scene.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KeyError {
+    /// A part of the path that is no field name.
+    #[error("{0:?} is not a field name")]
+    NotAFieldName(String),
+    /// `[` without its `]`.
+    #[error("{0:?}: an unclosed [")]
+    Unclosed(String),
+    /// Brackets around something other than an index.
+    #[error("{part:?}: {index:?} is not an index")]
+    NotAnIndex {
+        /// The part of the path.
+        part: String,
+        /// Between the brackets.
+        index: String,
+    },
+    /// Text after a part's last `]`.
+    #[error("{part:?}: unexpected {rest:?}")]
+    Trailing {
+        /// The part of the path.
+        part: String,
+        /// What follows.
+        rest: String,
+    },
+    /// A table without the field named.
+    #[error("{within} has no field {name:?} (its fields: {fields})")]
+    NoField {
+        /// The table (`the scene` at the top).
+        within: String,
+        /// The field asked for.
+        name: String,
+        /// The fields it has.
+        fields: String,
+    },
+    /// An index past a list's end.
+    #[error("{within} has {entries} entries, no [{index}]")]
+    NoEntry {
+        /// The list.
+        within: String,
+        /// Its length.
+        entries: usize,
+        /// The index asked for.
+        index: usize,
+    },
+    /// A field asked of a value.
+    #[error("{within} is a value, not a table with {name:?}")]
+    NotATable {
+        /// The value.
+        within: String,
+        /// The field asked for.
+        name: String,
+    },
+    /// An index taken of something that is no list.
+    #[error("{within} is not a list to take [{index}] of")]
+    NotAList {
+        /// What was indexed.
+        within: String,
+        /// The index.
+        index: usize,
+    },
+    /// The same key twice.
+    #[error("given twice")]
+    GivenTwice,
+}
+
+/// Why the scene refuses a swept value.
+#[derive(Debug, thiserror::Error)]
+pub enum ValueError {
+    /// The value does not fit the field's type.
+    #[error("{0}")]
+    Type(#[from] serde_json::Error),
+    /// The scene it makes does not pass its check.
+    #[error("{0}")]
+    Scene(#[from] crate::scene::SceneError),
+    /// The same value twice for one key.
+    #[error("given twice")]
+    GivenTwice,
+}
+
 impl crate::log::StorageFailure for SweepError {
     fn is_storage_failure(&self) -> bool {
         matches!(self, SweepError::Output(e) if e.is_storage_failure())
@@ -71,7 +151,7 @@ enum Segment {
     Index(usize),
 }
 
-fn parse_path(key: &str) -> Result<Vec<Segment>, String> {
+fn parse_path(key: &str) -> Result<Vec<Segment>, KeyError> {
     let mut segments = Vec::new();
     for part in key.split('.') {
         let (name, mut rest) = match part.find('[') {
@@ -79,21 +159,27 @@ fn parse_path(key: &str) -> Result<Vec<Segment>, String> {
             None => (part, ""),
         };
         if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            return Err(format!("{part:?} is not a field name"));
+            return Err(KeyError::NotAFieldName(part.into()));
         }
         segments.push(Segment::Field(name.to_string()));
         while let Some(stripped) = rest.strip_prefix('[') {
             let close = stripped
                 .find(']')
-                .ok_or_else(|| format!("{part:?}: an unclosed ["))?;
+                .ok_or_else(|| KeyError::Unclosed(part.into()))?;
             let index = stripped[..close]
                 .parse()
-                .map_err(|_| format!("{part:?}: {:?} is not an index", &stripped[..close]))?;
+                .map_err(|_| KeyError::NotAnIndex {
+                    part: part.into(),
+                    index: stripped[..close].into(),
+                })?;
             segments.push(Segment::Index(index));
             rest = &stripped[close + 1..];
         }
         if !rest.is_empty() {
-            return Err(format!("{part:?}: unexpected {rest:?}"));
+            return Err(KeyError::Trailing {
+                part: part.into(),
+                rest: rest.into(),
+            });
         }
     }
     Ok(segments)
@@ -102,7 +188,7 @@ fn parse_path(key: &str) -> Result<Vec<Segment>, String> {
 /// The value at `path` in the JSON of a scene, looking through the tags
 /// of enum variants (`stages[1].ensemble.pressure` in `{"MonteCarlo":
 /// {"ensemble": {"Npt": {"pressure": ...}}}}`).
-fn field_mut<'v>(root: &'v mut Value, path: &[Segment]) -> Result<&'v mut Value, String> {
+fn field_mut<'v>(root: &'v mut Value, path: &[Segment]) -> Result<&'v mut Value, KeyError> {
     let mut here = root;
     let mut walked = String::new();
     for segment in path {
@@ -124,29 +210,35 @@ fn field_mut<'v>(root: &'v mut Value, path: &[Segment]) -> Result<&'v mut Value,
         here = match (segment, here) {
             (Segment::Field(name), Value::Object(map)) => {
                 let fields: Vec<String> = map.keys().cloned().collect();
-                map.get_mut(name).ok_or_else(|| {
-                    format!(
-                        "{} has no field {name:?} (its fields: {})",
-                        if walked.is_empty() {
-                            "the scene"
-                        } else {
-                            &walked
-                        },
-                        fields.join(", ")
-                    )
+                map.get_mut(name).ok_or_else(|| KeyError::NoField {
+                    within: if walked.is_empty() {
+                        "the scene".into()
+                    } else {
+                        walked.clone()
+                    },
+                    name: name.clone(),
+                    fields: fields.join(", "),
                 })?
             }
             (Segment::Index(i), Value::Array(items)) => {
                 let n = items.len();
-                items
-                    .get_mut(*i)
-                    .ok_or_else(|| format!("{walked} has {n} entries, no [{i}]"))?
+                items.get_mut(*i).ok_or_else(|| KeyError::NoEntry {
+                    within: walked.clone(),
+                    entries: n,
+                    index: *i,
+                })?
             }
             (Segment::Field(name), _) => {
-                return Err(format!("{walked} is a value, not a table with {name:?}"));
+                return Err(KeyError::NotATable {
+                    within: walked,
+                    name: name.clone(),
+                });
             }
             (Segment::Index(i), _) => {
-                return Err(format!("{walked} is not a list to take [{i}] of"));
+                return Err(KeyError::NotAList {
+                    within: walked,
+                    index: *i,
+                });
             }
         };
         match segment {
@@ -207,34 +299,34 @@ pub fn parse_sets(template: &Scene, sets: &[String]) -> Result<Vec<Swept>, Sweep
         if key.is_empty() || values.iter().any(|v| v.is_empty()) {
             return Err(SweepError::Syntax(set.clone()));
         }
-        let path = parse_path(key).map_err(|message| SweepError::Key {
+        let path = parse_path(key).map_err(|reason| SweepError::Key {
             key: key.into(),
-            message,
+            reason,
         })?;
         if swept.iter().any(|s| s.key == key) {
             return Err(SweepError::Key {
                 key: key.into(),
-                message: "given twice".into(),
+                reason: KeyError::GivenTwice,
             });
         }
         let mut parsed = Vec::with_capacity(values.len());
         for value in values {
             let v = parse_value(value);
             let mut scene = base.clone();
-            *field_mut(&mut scene, &path).map_err(|message| SweepError::Key {
+            *field_mut(&mut scene, &path).map_err(|reason| SweepError::Key {
                 key: key.into(),
-                message,
+                reason,
             })? = v.clone();
-            scene_of(scene).map_err(|message| SweepError::Value {
+            scene_of(scene).map_err(|reason| SweepError::Value {
                 key: key.into(),
                 value: value.into(),
-                message,
+                reason,
             })?;
             if parsed.contains(&v) {
                 return Err(SweepError::Value {
                     key: key.into(),
                     value: value.into(),
-                    message: "given twice".into(),
+                    reason: ValueError::GivenTwice,
                 });
             }
             parsed.push(v);
@@ -287,9 +379,9 @@ fn name_swept(swept: &mut [Swept]) {
     }
 }
 
-fn scene_of(value: Value) -> Result<Scene, String> {
-    let scene: Scene = serde_json::from_value(value).map_err(|e| e.to_string())?;
-    scene.check().map_err(|e| e.to_string())?;
+fn scene_of(value: Value) -> Result<Scene, ValueError> {
+    let scene: Scene = serde_json::from_value(value)?;
+    scene.check()?;
     Ok(scene)
 }
 
@@ -366,7 +458,7 @@ pub fn jobs(template: &Scene, swept: &[Swept], replicas: u64) -> Result<Vec<Job>
                 statepoint.insert("seed".into(), Value::from(seed));
             }
             value["log"]["path"] = Value::from(JOB_LOG);
-            let scene = scene_of(value).map_err(|message| SweepError::Value {
+            let scene = scene_of(value).map_err(|reason| SweepError::Value {
                 key: swept
                     .iter()
                     .map(|s| s.key.as_str())
@@ -377,7 +469,7 @@ pub fn jobs(template: &Scene, swept: &[Swept], replicas: u64) -> Result<Vec<Job>
                     .map(|v| v.to_string())
                     .collect::<Vec<_>>()
                     .join(", "),
-                message,
+                reason,
             })?;
             let statepoint = Value::Object(statepoint);
             out.push(Job {
@@ -612,6 +704,40 @@ mod tests {
         assert!(refuse("stages[1].sweeps").contains("KEY=V1,V2"));
         assert!(refuse("stages[1].sweeps=1,,2").contains("KEY=V1,V2"));
         assert!(refuse("stages[1].sweeps=5,5").contains("given twice"));
+        // The reasons are types a caller can match.
+        let reason = |set: &str| parse_sets(&template, &[set.to_string()]).unwrap_err();
+        assert!(matches!(
+            reason("stages[5].sweeps=1"),
+            SweepError::Key {
+                reason: KeyError::NoEntry {
+                    entries: 2,
+                    index: 5,
+                    ..
+                },
+                ..
+            }
+        ));
+        assert!(matches!(
+            reason("stages[1.sweeps=1"),
+            SweepError::Key {
+                reason: KeyError::Unclosed(_),
+                ..
+            }
+        ));
+        assert!(matches!(
+            reason("stages[1].ensemble.pressure=-1"),
+            SweepError::Value {
+                reason: ValueError::Scene(_),
+                ..
+            }
+        ));
+        assert!(matches!(
+            reason("stages[1].sweeps=many"),
+            SweepError::Value {
+                reason: ValueError::Type(_),
+                ..
+            }
+        ));
         let swept = parse_sets(&template, &["seed=1,2".to_string()]).unwrap();
         assert!(jobs(&template, &swept, 2).is_err());
     }
