@@ -216,8 +216,11 @@ impl Sdf {
             };
             overlap(shape_i, shape_j, &rel)
         };
-        // The segment of the path inside the overlap region (convex for
-        // convex bodies) holds the closest approach or reaches x_max.
+        // Overlap is looked for at x_max and where the centres come
+        // closest: a path that enters and leaves the overlap region
+        // (convex for convex bodies) between the two, a graze within a
+        // shrink of x_max, is missed. A uniform shrink runs towards the
+        // origin, inside the region, and misses nothing.
         let hi = [self.x_max, closest]
             .into_iter()
             .find(|&x| overlaps_at(x))?;
