@@ -78,6 +78,18 @@ fn run_from(
         let drift = (md.kinetic_energy() / e0 - 1.0).abs();
         worst = worst.max(drift);
         assert!(drift < 1e-9, "{shapes:?}: energy drift {drift:e}");
+        // The translational energy kept through the impulses (one point
+        // or a patch of them) is the bodies' own (unit masses).
+        let kept = md.translational_kinetic_energy();
+        let bodies: f64 = md
+            .velocities()
+            .iter()
+            .map(|(v, _)| 0.5 * v.norm_squared())
+            .sum();
+        assert!(
+            (kept / bodies - 1.0).abs() < 1e-9,
+            "{shapes:?}: kept {kept}, bodies {bodies}"
+        );
         assert!(
             md.momentum().norm() < 1e-10 * momentum_scale,
             "{shapes:?}: momentum {}",
