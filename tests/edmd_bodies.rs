@@ -36,6 +36,17 @@ fn run_with(
     run_from(&system, shapes, phi, collisions, frame, seed, shell)
 }
 
+/// The translational kinetic energy the dynamics keeps through its
+/// impulses, and the one its bodies' velocities give (unit masses).
+fn kept_and_bodies_energy(md: &Dynamics) -> (f64, f64) {
+    let bodies = md
+        .velocities()
+        .iter()
+        .map(|(v, _)| 0.5 * v.norm_squared())
+        .sum();
+    (md.translational_kinetic_energy(), bodies)
+}
+
 /// [`run_with`] from a given state.
 fn run_from(
     system: &hardbody::state::System,
@@ -79,13 +90,8 @@ fn run_from(
         worst = worst.max(drift);
         assert!(drift < 1e-9, "{shapes:?}: energy drift {drift:e}");
         // The translational energy kept through the impulses (one point
-        // or a patch of them) is the bodies' own (unit masses).
-        let kept = md.translational_kinetic_energy();
-        let bodies: f64 = md
-            .velocities()
-            .iter()
-            .map(|(v, _)| 0.5 * v.norm_squared())
-            .sum();
+        // or a patch of them) is the bodies' own.
+        let (kept, bodies) = kept_and_bodies_energy(&md);
         assert!(
             (kept / bodies - 1.0).abs() < 1e-9,
             "{shapes:?}: kept {kept}, bodies {bodies}"
@@ -472,13 +478,8 @@ fn symmetric_tops_keep_their_spin_and_reach_equipartition() {
     }
     md.to_system().expect("no overlap");
     // The translational energy kept through the collisions (from their
-    // impulses) is the bodies' (unit masses).
-    let kept = md.translational_kinetic_energy();
-    let bodies: f64 = md
-        .velocities()
-        .iter()
-        .map(|(v, _)| 0.5 * v.norm_squared())
-        .sum();
+    // impulses) is the bodies'.
+    let (kept, bodies) = kept_and_bodies_energy(&md);
     assert!((kept / bodies - 1.0).abs() < 1e-10, "{kept} vs {bodies}");
     let spin = md
         .particles()
