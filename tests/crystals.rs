@@ -385,6 +385,13 @@ fn bad_crystal_and_box_inputs_are_refused_naming_the_field() {
         ),
         (format!("Scene({sphere} {nvt})"), "box", "missing"),
         (
+            format!(
+                r#"Scene(species: [Species(name: "s", shape: Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 6.0)), count: 125)], start: Crystal(lattice: Densest, cells: (5, 5, 5), packing_fraction: 0.5), {nvt})"#
+            ),
+            "start",
+            "exponents differ",
+        ),
+        (
             boxed(
                 "Triclinic(lengths: (9.0, 9.0, 9.0), tilts: (0.1, NaN, 0.0))",
                 "",
@@ -692,4 +699,70 @@ fn an_fcc_crystal_grows_to_close_packing_in_both_cells() {
         assert_eq!(net.contacts.len(), 6 * n, "tilted {tilted}");
         assert!(net.rattlers.is_empty());
     }
+}
+
+/// Superballs of exponent 6 (Jiao et al.'s p = 3) started on their
+/// densest lattice, C₁, just below its close packing hold it in triclinic
+/// NPT at βP = 3000: the packing fraction stays above what any other
+/// lattice of theirs reaches (C₀'s close packing), so the crystal is
+/// still C₁, and the bodies stay aligned.
+#[test]
+fn superballs_in_npt_keep_their_densest_lattice() {
+    use hardbody::state::densest::{superball_c0, superball_c1};
+    let shape: hardbody::geometry::Shape =
+        "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (6, 6, 6))"
+            .parse()
+            .unwrap();
+    let species = vec![Species {
+        name: "s".into(),
+        shape,
+        rotation: true,
+    }];
+    // The unit superball's volume over each lattice's cell volume (in
+    // units where touching centres are 2 apart, bodies of half-size 1).
+    let unit = 8.0 * shape.volume();
+    let (c0, c1) = (
+        unit / superball_c0(3.0).determinant(),
+        unit / superball_c1(3.0).determinant(),
+    );
+    let spec = CrystalSpec {
+        cell: UnitCell::densest(&shape).unwrap(),
+        cells: [5, 5, 5],
+        packing_fraction: 0.925,
+    };
+    assert!((spec.densest_packing_fraction(&species, &[125]).unwrap() - c1).abs() < 1e-6);
+    let mut system = crystal(&spec, species, &[125]).unwrap();
+    let mut rng = Pcg64::seed_from_u64(53);
+    let ensemble = Ensemble::Npt {
+        pressure: 3000.0,
+        moves: BoxMoves::Triclinic,
+    };
+    let mut sizes = MoveSizes {
+        translate: 0.005,
+        rotate: 0.005,
+        volume: 0.0005,
+        shear: 0.0005,
+    };
+    let tuner = Tuner {
+        target: 0.3,
+        max_translate: 0.5,
+    };
+    tuner.equilibrate(&mut system, &mut sizes, &ensemble, 300, 50, &mut rng);
+    let mut phis = Vec::new();
+    for _ in 0..700 {
+        sweep(&mut system, &sizes, &ensemble, &mut rng);
+        phis.push(system.packing_fraction());
+    }
+    assert_eq!(system.first_overlap_all_pairs(), None);
+    let (mean, se) = blocked(&phis[200..], 5);
+    eprintln!("phi {mean:.5} ± {se:.5}; C0 {c0:.5}, C1 {c1:.5}");
+    assert!(mean > c0 + 0.005 && mean < c1, "{mean} ({c0}, {c1})");
+    let cubatic = hardbody::analysis::order::cubatic_order(
+        system
+            .particles()
+            .iter()
+            .map(|p| *p.orientation.to_rotation_matrix().matrix()),
+    )
+    .unwrap();
+    assert!(cubatic > 0.99, "cubatic order {cubatic}");
 }

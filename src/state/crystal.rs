@@ -7,7 +7,7 @@
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use super::{Particle, Species, StateError, System};
-use crate::geometry::{Relative, Shape, overlap};
+use crate::geometry::{Relative, overlap};
 use crate::space::PeriodicBox;
 
 type V3 = Vector3<f64>;
@@ -129,24 +129,6 @@ impl UnitCell {
                 [0.0, 2.0 / 3.0, 0.5],
             ],
         )
-    }
-
-    /// The densest lattice packing known for `shape`, bodies aligned: fcc
-    /// for spheres (π/√18, Gauss); for ellipsoids the fcc stretched along
-    /// the semi-axes, an affine image with the same packing fraction (the
-    /// densest lattice packing of ellipsoids, as of spheres); for cuboids
-    /// the stacking of aligned boxes that fills space.
-    pub fn densest(shape: &Shape) -> Result<Self, CrystalError> {
-        let stretched = |cell: Self, axes: V3| Self {
-            vectors: Matrix3::from_diagonal(&axes) * cell.vectors,
-            ..cell
-        };
-        match shape {
-            Shape::Sphere(_) => Ok(Self::fcc()),
-            Shape::Ellipsoid(e) => Ok(stretched(Self::fcc(), e.semi_axes())),
-            Shape::Cuboid(c) => Ok(stretched(Self::simple_cubic(), c.half_extents())),
-            Shape::Superellipsoid(_) => Err(CrystalError::NoDensest(shape.to_string())),
-        }
     }
 
     fn cubic(sites: &[[f64; 3]]) -> Self {

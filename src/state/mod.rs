@@ -12,6 +12,7 @@
 //! - `start.rs`: first states (lattices, random insertion).
 
 pub mod crystal;
+pub mod densest;
 mod neighbours;
 mod overlap;
 mod rescale;
