@@ -247,7 +247,7 @@ const TILTED_CRYSTAL: &str = r#"Scene(
     ),
     stages: [
         MonteCarlo(ensemble: Npt(pressure: 20.0, box_moves: Triclinic), sweeps: 600),
-        MonteCarlo(ensemble: Nvt, sweeps: 200),
+        MonteCarlo(ensemble: Nvt, sweeps: 1000, tune_sweeps: 100, pressure_tensor: true),
         Dynamics(duration: 1.0, stats_every: 0.25, frames_every: 0.5),
     ],
     log: Log(path: "crystal.mcap", stats_every: 50, frames_every: 100),
@@ -290,13 +290,45 @@ fn a_tilted_crystal_runs_logs_its_tilts_and_resumes() {
             .expect("the dynamics logs its pressure tensor");
         assert!(((t[0] + t[3] + t[5]) / (3.0 * p) - 1.0).abs() < 1e-12);
     }
-    // Monte Carlo stages log no tensor.
-    assert!(
+    // NPT logs no tensor; NVT, asked to, logs the scale distribution's:
+    // over the stage its diagonal is the scalar pressure within the
+    // estimators' errors, and a crystal in its own cell carries no shear
+    // stress.
+    let stage = |k: usize| {
         contents
             .stats
             .iter()
-            .all(|(_, s)| s.stage_index == 2 || s.pressure_tensor.is_none())
-    );
+            .filter(move |(_, s)| s.stage_index == k)
+    };
+    assert!(stage(0).all(|(_, s)| s.pressure_tensor.is_none()));
+    let tensors: Vec<_> = stage(1)
+        .skip(2)
+        .map(|(_, s)| {
+            (
+                s.pressure_tensor.expect("NVT asked for the tensor"),
+                s.pressure.unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(tensors.len(), 18);
+    // Component k (less the scalar pressure when `excess`): mean and
+    // standard error over the intervals (each about ten configurations).
+    let over_intervals = |k: usize, excess: bool| {
+        let values: Vec<f64> = (tensors.iter())
+            .map(|(t, p)| t[k] - if excess { *p } else { 0.0 })
+            .collect();
+        blocked(&values, values.len())
+    };
+    let p = tensors.iter().map(|(_, p)| p).sum::<f64>() / tensors.len() as f64;
+    for (components, excess) in [([0, 3, 5], true), ([1, 2, 4], false)] {
+        for k in components {
+            let (mean, se) = over_intervals(k, excess);
+            assert!(
+                mean.abs() < 4.0 * se && se < 0.05 * p,
+                "component {k} (less P: {excess}): {mean} ± {se} (P = {p})"
+            );
+        }
+    }
     let (_, last) = contents.last_state.clone().unwrap();
     // Cut after the fourth frame, then resumed: the same last state.
     let bytes = std::fs::read(&log).unwrap();
@@ -435,6 +467,15 @@ fn bad_crystal_and_box_inputs_are_refused_naming_the_field() {
             ),
             "stages[0].ensemble.box_moves",
             "contradicts",
+        ),
+        (
+            boxed(
+                "(9.0, 9.0, 9.0)",
+                "walls: [Z],",
+                "stages: [MonteCarlo(ensemble: Nvt, sweeps: 10, pressure_tensor: true)],",
+            ),
+            "stages[0].pressure_tensor",
+            "no wall term",
         ),
     ];
     for (text, field, words) in cases {
@@ -765,4 +806,108 @@ fn superballs_in_npt_keep_their_densest_lattice() {
     )
     .unwrap();
     assert!(cubatic > 0.99, "cubatic order {cubatic}");
+}
+
+/// Prolate ellipsoids of aspect 3 on the fcc stretched threefold along a
+/// direction 0.3 rad from z in the xz plane, their long axes along it (a
+/// crystal whose cell is not orthogonal: its box is tilted), in NPT at
+/// βP = 20 with `box_moves` for `sweeps` after 1000 of tuning. The
+/// shear stresses (xy, xz, yz) by the scale distribution of each shear,
+/// the exact conjugate of the box's shear moves, in blocks of 2000 sweeps
+/// after the first `relax`: mean and standard error over 8 groups of
+/// blocks; then the same by the dynamics' collision virial from the last
+/// state; the nematic order at the end.
+fn ellipsoid_crystal_shear_stress(
+    box_moves: BoxMoves,
+    sweeps: usize,
+    relax: usize,
+) -> ([(f64, f64); 3], [f64; 3], f64) {
+    let species = vec![Species {
+        name: "e".into(),
+        shape: "Ellipsoid(a: 1.5, b: 0.5, c: 0.5)".parse().unwrap(),
+        rotation: true,
+    }];
+    let n = Vector3::new(0.3f64.sin(), 0.0, 0.3f64.cos());
+    let mut cell = UnitCell::fcc();
+    cell.vectors = (Matrix3::identity() + 2.0 * n * n.transpose()) * cell.vectors;
+    cell.orientations = vec![UnitQuaternion::rotation_between(&Vector3::x(), &n).unwrap(); 4];
+    let spec = CrystalSpec {
+        cell,
+        cells: [5, 5, 2],
+        packing_fraction: 0.662,
+    };
+    let mut system = crystal(&spec, species, &[200]).unwrap();
+    assert!(system.periodic_box().is_tilted());
+    let mut rng = Pcg64::seed_from_u64(3);
+    let ensemble = Ensemble::Npt {
+        pressure: 20.0,
+        moves: box_moves,
+    };
+    let mut sizes = MoveSizes {
+        translate: 0.02,
+        rotate: 0.02,
+        volume: 0.002,
+        shear: 0.002,
+    };
+    let tuner = Tuner {
+        target: 0.3,
+        max_translate: 0.5,
+    };
+    tuner.equilibrate(&mut system, &mut sizes, &ensemble, 1000, 100, &mut rng);
+    let mut blocks: Vec<[f64; 6]> = Vec::new();
+    for b in 0..sweeps / 2000 {
+        let mut tensor = hardbody::mc::sdf::SdfTensor::new(0.02, 200);
+        for s in 0..2000 {
+            sweep(&mut system, &sizes, &ensemble, &mut rng);
+            if b * 2000 >= relax && s % 50 == 0 {
+                tensor.add(&system);
+            }
+        }
+        if let Some(t) = tensor.pressure_tensor() {
+            blocks.push(t);
+        }
+    }
+    assert_eq!(system.first_overlap_all_pairs(), None);
+    let shears = [1, 2, 4].map(|k| blocked(&blocks.iter().map(|t| t[k]).collect::<Vec<_>>(), 8));
+    let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+    md.run_collisions(50 * 200).unwrap();
+    md.sample();
+    md.run_collisions(500 * 200).unwrap();
+    let t = md.sample().pressure_tensor.unwrap().0;
+    let nematic = hardbody::analysis::order::nematic_order(
+        system
+            .particles()
+            .iter()
+            .map(|p| p.orientation * Vector3::x()),
+    )
+    .unwrap();
+    (shears, [t[1], t[2], t[4]], nematic)
+}
+
+/// The ellipsoid crystal in triclinic NPT for 10⁵ sweeps stays a crystal
+/// (nematic order above 0.9) and carries no mean shear stress once its
+/// box has sheared into place (2 × 10⁴ sweeps); with `Axes` box moves,
+/// which cannot shear it, the same crystal keeps a shear stress βP_xz
+/// well away from zero.
+#[test]
+#[ignore = "soak: about eight minutes in release mode"]
+fn an_ellipsoid_crystal_sheds_its_shear_stress_only_in_a_box_that_shears() {
+    let runs = [BoxMoves::Triclinic, BoxMoves::Axes].map(|moves| {
+        std::thread::spawn(move || ellipsoid_crystal_shear_stress(moves, 100_000, 20_000))
+    });
+    let [triclinic, axes] = runs.map(|r| r.join().unwrap());
+    for (name, (shears, dynamics, nematic)) in [("Triclinic", triclinic), ("Axes", axes)] {
+        eprintln!(
+            "{name}: betaP xy, xz, yz by the scale distribution {shears:.3?}, by the dynamics at the end {dynamics:.3?}; nematic order {nematic:.4}"
+        );
+        assert!(nematic > 0.9, "{name}: the crystal melted ({nematic})");
+    }
+    for (mean, se) in triclinic.0 {
+        assert!(
+            mean.abs() < 3.5 * se && se < 0.3,
+            "Triclinic: {mean} ± {se}"
+        );
+    }
+    let (xz, se) = axes.0[1];
+    assert!(xz < -4.0 * se, "Axes: betaP_xz {xz} ± {se}");
 }

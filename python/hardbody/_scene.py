@@ -291,11 +291,13 @@ class Compress:
 @dataclass
 class MonteCarlo:
     """Metropolis Monte Carlo: `sweeps` sweeps in `ensemble` (`Nvt()` or
-    `Npt(pressure)`); move sizes tuned over `tune_sweeps`."""
+    `Npt(pressure)`); move sizes tuned over `tune_sweeps`; the pressure
+    tensor by the scale distribution in `/stats` with `pressure_tensor`."""
 
     ensemble: Union[Nvt, Npt]
     sweeps: int
     tune_sweeps: Optional[int] = None
+    pressure_tensor: bool = False
 
 
 @_variant

@@ -35,6 +35,25 @@ def test_a_crystal_scene_round_trips_through_ron(tmp_path):
         stages=[hb.MonteCarlo(hb.Nvt(), sweeps=10)],
     )
     assert hb.Scene.from_ron(tilted.to_ron()).box == tilted.box
+    measured = hb.Scene(
+        species=[hb.Species("s", hb.Sphere(0.5), 216)],
+        start=primitive_fcc(),
+        stages=[hb.MonteCarlo(hb.Nvt(), sweeps=10, pressure_tensor=True)],
+    )
+    assert "pressure_tensor: true" in measured.to_ron()
+    assert hb.Scene.from_ron(measured.to_ron()) == measured
+
+
+def test_densest_superballs_are_built_and_mixed_exponents_refused():
+    def superballs(exponents):
+        return hb.Scene(
+            species=[hb.Species("b", hb.Superellipsoid(0.5, 0.5, 0.5, exponents), 125)],
+            start=hb.Crystal(hb.Densest(), cells=(5, 5, 5), packing_fraction=0.9),
+            stages=[hb.MonteCarlo(hb.Nvt(), sweeps=10)],
+        )
+    superballs((6.0, 6.0, 6.0))
+    with pytest.raises(hb.SceneError, match="exponents differ"):
+        superballs((4.0, 4.0, 6.0))
 
 
 def test_a_tilted_crystal_runs_and_its_frames_carry_the_tilts(tmp_path):

@@ -364,7 +364,7 @@ const STATS_SCHEMA: &str = r#"{
     "time": {"type": ["number", "null"]},
     "packing_fraction": {"type": "number"},
     "pressure": {"type": ["number", "null"]},
-    "pressure_tensor": {"type": "array", "items": {"type": "number"}, "description": "dynamics in a periodic box: betaP_ab as (xx, xy, xz, yy, yz, zz) from the collision virial over the interval; absent otherwise"},
+    "pressure_tensor": {"type": "array", "items": {"type": "number"}, "description": "betaP_ab as (xx, xy, xz, yy, yz, zz) over the interval: dynamics in a periodic box from the collision virial; Monte Carlo stages asked for it from the scale distribution; absent otherwise"},
     "box": {"type": "array", "items": {"type": "number"}},
     "tilts": {"type": "array", "items": {"type": "number"}, "description": "box tilt factors (xy, xz, yz); absent when all are zero"},
     "acceptance_translate": {"type": ["number", "null"]},

@@ -317,6 +317,43 @@ impl Sdf {
     }
 }
 
+/// The pressure tensor by the scale distribution: βP_kk from shrinks
+/// along each axis and βP_ij from shears, each an [`Sdf`] of its own, in
+/// the order the dynamics writes (xx, xy, xz, yy, yz, zz). Each component
+/// costs about what the isotropic pressure does.
+#[derive(Debug, Clone)]
+pub struct SdfTensor([Sdf; 6]);
+
+impl SdfTensor {
+    /// Empty accumulators, each as [`Sdf::new`]'s.
+    pub fn new(x_max: f64, bins: usize) -> Self {
+        Self([
+            Sdf::along(0, x_max, bins),
+            Sdf::sheared(0, 1, x_max, bins),
+            Sdf::sheared(0, 2, x_max, bins),
+            Sdf::along(1, x_max, bins),
+            Sdf::sheared(1, 2, x_max, bins),
+            Sdf::along(2, x_max, bins),
+        ])
+    }
+
+    /// Adds one configuration to every component.
+    pub fn add(&mut self, system: &System) {
+        for component in &mut self.0 {
+            component.add(system);
+        }
+    }
+
+    /// βP_αβ from the configurations added so far; `None` before any.
+    pub fn pressure_tensor(&self) -> Option<[f64; 6]> {
+        let mut tensor = [0.0; 6];
+        for (t, component) in tensor.iter_mut().zip(&self.0) {
+            *t = component.pressure()?;
+        }
+        Some(tensor)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -506,7 +506,10 @@ impl Runner {
                 self.drive(stage, log, progress, stop)
             }
             Stage::MonteCarlo {
-                ensemble, sweeps, ..
+                ensemble,
+                sweeps,
+                pressure_tensor,
+                ..
             } => {
                 let system = self.to_system(phase)?;
                 let span = stage.tuning_span().expect("a Monte Carlo stage tunes");
@@ -514,7 +517,7 @@ impl Runner {
                     self,
                     index,
                     system,
-                    (*ensemble, *sweeps, span),
+                    (*ensemble, *sweeps, span, *pressure_tensor),
                     resume,
                     log,
                     rng,

@@ -1,5 +1,6 @@
 //! The Monte Carlo stage: NVT or NPT sweeps, serial or on slabs, with
-//! move sizes tuned while the stage settles and the SDF pressure in NVT.
+//! move sizes tuned while the stage settles, the SDF pressure in NVT and,
+//! when asked, the SDF pressure tensor.
 
 use rand::RngCore;
 use rand_pcg::Pcg64;
@@ -8,7 +9,7 @@ use crate::geometry::pair::OverlapStrains;
 use crate::log::{NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
-use crate::mc::sdf::Sdf;
+use crate::mc::sdf::{Sdf, SdfTensor};
 use crate::mc::tuning::{Tuner, TuningSpan};
 use crate::number::Num;
 use crate::scene::Ensemble;
@@ -38,6 +39,9 @@ pub(super) struct MonteCarloStage<'a> {
     /// times per stats interval (not with walls: it assumes a periodic
     /// box).
     sdf: Option<Sdf>,
+    /// βP_αβ from the scale distribution, when the scene asks for it;
+    /// sampled as `sdf` is.
+    tensor: Option<SdfTensor>,
     sdf_every: u64,
     /// Sweeps after which the SDF samples (the end of tuning).
     sampled_after: u64,
@@ -67,7 +71,7 @@ impl<'a> MonteCarloStage<'a> {
         runner: &mut Runner,
         index: usize,
         mut system: System,
-        (ensemble, sweeps, span): (Ensemble, u64, TuningSpan),
+        (ensemble, sweeps, span, pressure_tensor): (Ensemble, u64, TuningSpan, bool),
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         rng: &'a mut Pcg64,
@@ -106,6 +110,7 @@ impl<'a> MonteCarloStage<'a> {
         let stats_every = runner.scene.log.stats_every;
         let sdf = (matches!(ensemble, Ensemble::Nvt) && !system.periodic_box().has_walls())
             .then(|| Sdf::new(0.02, 200));
+        let tensor = pressure_tensor.then(|| SdfTensor::new(0.02, 200));
         let slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
         Ok(Self {
             index,
@@ -122,6 +127,7 @@ impl<'a> MonteCarloStage<'a> {
             stats_every,
             frames_every: runner.scene.log.frames_every,
             sdf,
+            tensor,
             sdf_every: (stats_every / 10).max(1),
             sampled_after: match span {
                 TuningSpan::Fixed(t) => t,
@@ -174,7 +180,7 @@ impl<'a> MonteCarloStage<'a> {
             || s.is_multiple_of(self.stats_every)
             || s.is_multiple_of(self.frames_every)
             || self.tunes_at(s, settled)
-            || (self.sdf.is_some() && self.samples_at(s))
+            || ((self.sdf.is_some() || self.tensor.is_some()) && self.samples_at(s))
     }
 }
 
@@ -212,10 +218,13 @@ impl StageRun for MonteCarloStage<'_> {
                 runner.drift.observe(self.system.packing_fraction());
             }
         }
-        if self.samples_at(s)
-            && let Some(sdf) = &mut self.sdf
-        {
-            sdf.add(&self.system);
+        if self.samples_at(s) {
+            if let Some(sdf) = &mut self.sdf {
+                sdf.add(&self.system);
+            }
+            if let Some(tensor) = &mut self.tensor {
+                tensor.add(&self.system);
+            }
         }
         let end = s == self.sweeps;
         Ok(Mark {
@@ -229,7 +238,11 @@ impl StageRun for MonteCarloStage<'_> {
     fn stats(&mut self, runner: &Runner) -> Stats {
         let s = self.sweep;
         self.pressure = runner.interval_pressure(&self.ensemble, &mut self.sdf);
-        let stats = runner.mc_stats(self.index, &self.system, s, &self.window, self.pressure);
+        let mut stats = runner.mc_stats(self.index, &self.system, s, &self.window, self.pressure);
+        if let Some(tensor) = &mut self.tensor {
+            stats.pressure_tensor = tensor.pressure_tensor();
+            *tensor = SdfTensor::new(0.02, 200);
+        }
         self.acceptance = self.window.translate.rate();
         self.strains += self.window.strains;
         // The counts restart with each interval (a stage's last, shorter

@@ -184,6 +184,11 @@ pub enum Stage {
         /// 30 % acceptance; frozen after (default: a fifth of `sweeps`).
         #[serde(default)]
         tune_sweeps: Option<u64>,
+        /// Writes βP_αβ by the scale distribution to `/stats` (each of its
+        /// six components costs about what the scalar pressure does; not
+        /// with walls, which the scale distribution has no term for).
+        #[serde(default)]
+        pressure_tensor: bool,
     },
     /// Event-driven molecular dynamics.
     Dynamics {
@@ -243,6 +248,7 @@ impl Stage {
             ensemble,
             sweeps,
             tune_sweeps,
+            ..
         } = self
         else {
             return None;

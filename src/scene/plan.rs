@@ -454,6 +454,7 @@ impl fmt::Display for Report<'_> {
                     ensemble,
                     sweeps,
                     tune_sweeps,
+                    pressure_tensor,
                 } => {
                     let e = match ensemble {
                         Ensemble::Nvt => {
@@ -478,7 +479,12 @@ impl fmt::Display for Report<'_> {
                             tune_sweeps.unwrap_or(sweeps / 5)
                         ),
                     };
-                    format!("Monte Carlo, {e}, {sweeps} sweeps ({tuned})")
+                    let tensor = if *pressure_tensor {
+                        "; the pressure tensor from the scale distribution"
+                    } else {
+                        ""
+                    };
+                    format!("Monte Carlo, {e}, {sweeps} sweeps ({tuned}){tensor}")
                 }
                 Stage::Jam {
                     growth_rate,

@@ -367,9 +367,16 @@ impl Scene {
                     ensemble,
                     sweeps,
                     tune_sweeps,
+                    pressure_tensor,
                 } => {
                     if *sweeps == 0 {
                         return bad(&f("sweeps"), "must be at least 1".into());
+                    }
+                    if *pressure_tensor && !self.walls.is_empty() {
+                        return bad(
+                            &f("pressure_tensor"),
+                            "the scale distribution has no wall term, so between walls it is not the pressure: measure the tensor in a periodic box".into(),
+                        );
                     }
                     self.check_messages(i, *sweeps)?;
                     if let Some(t) = tune_sweeps
