@@ -162,14 +162,14 @@ impl Sdf {
         pairs: impl Iterator<Item = (usize, usize)>,
     ) -> [Vec<f64>; 2] {
         let mut x_min = [vec![f64::INFINITY; system.len()], Vec::new()];
-        if self.deformation.is_some() {
+        let sides: &[f64] = if self.deformation.is_some() {
             x_min[1] = x_min[0].clone();
-        }
+            &[1.0, -1.0]
+        } else {
+            &[1.0]
+        };
         for (i, j) in pairs {
-            for (side, x_min) in [1.0, -1.0].into_iter().zip(&mut x_min) {
-                if x_min.is_empty() {
-                    continue;
-                }
+            for (&side, x_min) in sides.iter().zip(&mut x_min) {
                 if let Some(x) = self.pair_shrink(system, i, j, side) {
                     x_min[i] = x_min[i].min(x);
                     x_min[j] = x_min[j].min(x);
@@ -187,13 +187,19 @@ impl Sdf {
         let (si, sj) = (pi.species as usize, pj.species as usize);
         let d = system.box_.minimum_image(&(pj.position - pi.position));
         let reach = system.radii[si] + system.radii[sj];
-        // The closest the centres come on [0, x_max].
+        // The closest the centres come on [0, x_max]: a uniform shrink
+        // runs towards the origin, closest at x_max.
         let u = self.velocity(&d, side);
-        let uu = u.norm_squared();
-        let closest = if uu > 0.0 {
-            (d.dot(&u) / uu).clamp(0.0, self.x_max)
-        } else {
-            0.0
+        let closest = match self.deformation {
+            None => self.x_max,
+            Some(_) => {
+                let uu = u.norm_squared();
+                if uu > 0.0 {
+                    (d.dot(&u) / uu).clamp(0.0, self.x_max)
+                } else {
+                    0.0
+                }
+            }
         };
         if self.deformed_separation(&d, &u, closest).norm_squared() > reach * reach {
             return None;
@@ -204,7 +210,7 @@ impl Sdf {
                 return Some(1.0 - reach / d.norm());
             }
             // The smaller root of |d − x u|² = σ².
-            let du = d.dot(&u);
+            let (du, uu) = (d.dot(&u), u.norm_squared());
             let root = (du * du - uu * (d.norm_squared() - reach * reach)).max(0.0);
             return Some((du - root.sqrt()) / uu);
         }
