@@ -94,8 +94,8 @@ impl JamOptions {
 /// The default γ.
 pub const DEFAULT_GROWTH_RATE: f64 = 1e-3;
 /// The reduced pressure from which the bodies grow at γ (below it, at the
-/// fluid rate) and the neighbour shell is [`SETTLED_SHELL`] of the
-/// automatic one.
+/// fluid rate) and the neighbour shell is a fraction of the automatic
+/// one.
 pub const SETTLE_FROM: f64 = 1e3;
 
 /// The neighbour shell from [`SETTLE_FROM`] on, as a fraction of the

@@ -441,6 +441,22 @@ impl Scene {
     }
 
     /// Parses and validates a scene.
+    ///
+    /// ```
+    /// use hardbody::scene::{Scene, SceneError};
+    ///
+    /// let text = r#"Scene(
+    ///     box: (8.0, 8.0, 8.0),
+    ///     species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+    ///     stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
+    /// )"#;
+    /// let scene = Scene::parse(text)?;
+    /// assert_eq!(scene.stages.len(), 1);
+    /// // A refusal names the field that is wrong.
+    /// let bad = Scene::parse(&text.replace("sweeps: 10", "sweeps: 0"));
+    /// assert!(matches!(bad, Err(SceneError::Invalid { field, .. }) if field == "stages[0].sweeps"));
+    /// # Ok::<(), SceneError>(())
+    /// ```
     pub fn parse(text: &str) -> Result<Scene, SceneError> {
         // A byte-order mark some editors write is no part of the scene.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);

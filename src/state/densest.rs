@@ -21,6 +21,26 @@ impl UnitCell {
     /// with one exponent 2p along all three axes, the superball lattice of
     /// [`superball_lattice`] stretched along the semi-axes. Superellipsoids
     /// whose exponents differ have no known densest lattice.
+    ///
+    /// ```
+    /// use hardbody::geometry::Shape;
+    /// use hardbody::state::Species;
+    /// use hardbody::state::crystal::{CrystalSpec, UnitCell};
+    ///
+    /// let shape: Shape = "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4, 4, 4))"
+    ///     .parse()
+    ///     .unwrap();
+    /// let species = [Species { name: "b".into(), shape, rotation: true }];
+    /// let spec = CrystalSpec {
+    ///     cell: UnitCell::densest(&shape)?,
+    ///     cells: [5, 5, 5],
+    ///     packing_fraction: 0.8,
+    /// };
+    /// // Jiao, Stillinger and Torquato's C1 lattice at p = 2.
+    /// let limit = spec.densest_packing_fraction(&species, &[125])?;
+    /// assert!((limit - 0.8698892).abs() < 1e-6);
+    /// # Ok::<(), hardbody::state::crystal::CrystalError>(())
+    /// ```
     pub fn densest(shape: &Shape) -> Result<Self, CrystalError> {
         let stretched = |cell: Self, axes: V3| Self {
             vectors: Matrix3::from_diagonal(&axes) * cell.vectors,

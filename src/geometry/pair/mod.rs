@@ -55,6 +55,19 @@ impl Default for DistanceOptions {
 
 /// Whether bodies `a` and `b` overlap (B placed by `rel` in A's frame).
 /// Touching counts as overlap. Every test starts with the bounding spheres.
+///
+/// ```
+/// use hardbody::geometry::{Relative, Shape, overlap};
+/// use nalgebra::{UnitQuaternion, Vector3};
+///
+/// let rod: Shape = "Ellipsoid(a: 1.5, b: 0.5, c: 0.5)".parse().unwrap();
+/// let aligned = UnitQuaternion::identity();
+/// // Side by side 1.1 apart along y: clear; end to end along x: overlap.
+/// let side = Relative::new(&Vector3::new(0.0, 1.1, 0.0), &aligned, &aligned);
+/// let end = Relative::new(&Vector3::new(2.9, 0.0, 0.0), &aligned, &aligned);
+/// assert!(!overlap(&rod, &rod, &side));
+/// assert!(overlap(&rod, &rod, &end));
+/// ```
 pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
     let reach = a.bounding_radius() + b.bounding_radius();
     if rel.translation.norm_squared() > reach * reach {
