@@ -23,7 +23,121 @@ pub struct Damage {
     /// a chunk, the chunk's offset).
     pub offset: u64,
     /// What is wrong there.
-    pub what: String,
+    pub what: Fault,
+}
+
+/// What is wrong with a damaged record.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Fault {
+    /// The bytes end inside a record's 9-byte header.
+    #[error("a record header of 9 bytes, {left} bytes left")]
+    CutHeader {
+        /// Bytes left.
+        left: usize,
+    },
+    /// The bytes end inside a record's body.
+    #[error("a record of {length} bytes, {left} bytes left in the file")]
+    CutRecord {
+        /// The body's stated length.
+        length: u64,
+        /// Bytes left.
+        left: u64,
+    },
+    /// The CRC of the data section does not match its bytes.
+    #[error(
+        "the data section's CRC does not match (stored {stored:08x}, computed {computed:08x}): every chunk is intact, a record outside them (header, schema, channel, metadata, index) is damaged"
+    )]
+    DataCrc {
+        /// As stored.
+        stored: u32,
+        /// Of the bytes read.
+        computed: u32,
+    },
+    /// A data end record too short to hold its CRC.
+    #[error("a data end record without its CRC")]
+    DataEndWithoutCrc,
+    /// A chunk that cannot be opened.
+    #[error("chunk: {0}")]
+    Chunk(ChunkFault),
+    /// A chunk whose messages' times are not those its header states.
+    #[error("chunk: its header states message times {stated:?}, its messages have {found:?}")]
+    ChunkTimes {
+        /// As the header states.
+        stated: (u64, u64),
+        /// As its messages have them.
+        found: (u64, u64),
+    },
+    /// A fault of a record inside a chunk.
+    #[error("inside the chunk: {0}")]
+    InsideChunk(Box<Fault>),
+    /// A record of an opcode neither hardbody nor MCAP writes.
+    #[error("unknown record (opcode {0:#04x})")]
+    UnknownRecord(u8),
+    /// A record the MCAP parser refuses.
+    #[error("record (opcode {opcode:#04x}): {reason}")]
+    Unparsable {
+        /// The record's opcode.
+        opcode: u8,
+        /// The parser's reason.
+        reason: String,
+    },
+    /// A message on a channel no record declared.
+    #[error("message {sequence} on channel {channel}, which was never declared")]
+    UndeclaredChannel {
+        /// The message's sequence number.
+        sequence: u32,
+        /// Its channel id.
+        channel: u16,
+    },
+    /// A message whose contents cannot be a hardbody record.
+    #[error("{topic} message: {reason}")]
+    Message {
+        /// Its topic.
+        topic: String,
+        /// Why it cannot be read.
+        reason: String,
+    },
+}
+
+/// Why a chunk cannot be opened.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ChunkFault {
+    /// The MCAP parser refuses its header.
+    #[error("{0}")]
+    Unparsable(String),
+    /// Its uncompressed size is beyond what its compressed size allows.
+    #[error("states {stated} uncompressed bytes for {compressed} compressed")]
+    Oversized {
+        /// As stated.
+        stated: u64,
+        /// The compressed bytes.
+        compressed: usize,
+    },
+    /// Memory for its uncompressed bytes cannot be had.
+    #[error("cannot hold its {0} uncompressed bytes")]
+    CannotHold(usize),
+    /// Its compressed bytes do not decompress.
+    #[error("does not decompress: {0}")]
+    Decompress(String),
+    /// A compression hardbody does not read.
+    #[error("unknown compression {0:?}")]
+    UnknownCompression(String),
+    /// Its uncompressed bytes are not as many as stated.
+    #[error("holds {found} uncompressed bytes, its header says {stated}")]
+    Size {
+        /// As decompressed.
+        found: usize,
+        /// As stated.
+        stated: usize,
+    },
+    /// The CRC of its uncompressed bytes does not match.
+    #[error("CRC mismatch (stored {stored:08x}, computed {computed:08x})")]
+    Crc {
+        /// As stored.
+        stored: u32,
+        /// Of the bytes read.
+        computed: u32,
+    },
 }
 
 impl std::fmt::Display for Damage {
@@ -140,7 +254,10 @@ pub fn read_log_bytes(
             log_time,
             data,
         } => {
-            let decode_error = |e: serde_json::Error| format!("{topic} message: {e}");
+            let decode_error = |e: serde_json::Error| Fault::Message {
+                topic: topic.to_string(),
+                reason: e.to_string(),
+            };
             match topic {
                 "/stats" => {
                     let s: Stats = serde_json::from_slice(data).map_err(decode_error)?;
@@ -148,8 +265,10 @@ pub fn read_log_bytes(
                 }
                 "/state" => {
                     let s: StateRecord = serde_json::from_slice(data).map_err(decode_error)?;
-                    s.check_consistent()
-                        .map_err(|why| format!("{topic} message: {why}"))?;
+                    s.check_consistent().map_err(|why| Fault::Message {
+                        topic: topic.to_string(),
+                        reason: why.to_string(),
+                    })?;
                     if options.all_states {
                         contents.states.push((log_time, s.clone()));
                     }
@@ -212,10 +331,10 @@ const MIN_CHUNK_BOUND: u64 = 64 << 20;
 /// Stops at the footer, at the end of the bytes (a cut-off file), or at
 /// the first damaged record, or where `visit` refuses a message (its
 /// reason becomes the damage).
-fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), String>) -> ScanEnd {
+fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), Fault>) -> ScanEnd {
     let mut channels: BTreeMap<u16, String> = BTreeMap::new();
     let complete_file = buf.len() >= 2 * mcap::MAGIC.len() && buf.ends_with(mcap::MAGIC);
-    let damaged = |offset: usize, what: String| ScanEnd {
+    let damaged = |offset: usize, what: Fault| ScanEnd {
         truncated: !complete_file,
         damage: Some(Damage {
             offset: offset as u64,
@@ -259,13 +378,8 @@ fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), String>) -> Sc
                         truncated: !complete_file,
                         damage: None,
                     },
-                    Some(crc) => damaged(
-                        offset,
-                        format!(
-                            "the data section's CRC does not match (stored {crc:08x}, computed {computed:08x}): every chunk is intact, a record outside them (header, schema, channel, metadata, index) is damaged"
-                        ),
-                    ),
-                    None => damaged(offset, "a data end record without its CRC".into()),
+                    Some(stored) => damaged(offset, Fault::DataCrc { stored, computed }),
+                    None => damaged(offset, Fault::DataEndWithoutCrc),
                 };
             }
             op::FOOTER => {
@@ -277,18 +391,19 @@ fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), String>) -> Sc
             op::CHUNK => {
                 let (chunk, stated_times) = match open_chunk(record.body) {
                     Ok(c) => c,
-                    Err(what) => return damaged(offset, format!("chunk: {what}")),
+                    Err(what) => return damaged(offset, Fault::Chunk(what)),
                 };
                 // Its messages' times must be those its header states
                 // (the header is outside the CRC) before any is read.
-                if let Some(times) = message_times(&chunk)
-                    && times != stated_times
+                if let Some(found) = message_times(&chunk)
+                    && found != stated_times
                 {
                     return damaged(
                         offset,
-                        format!(
-                            "chunk: its header states message times {stated_times:?}, its messages have {times:?}"
-                        ),
+                        Fault::ChunkTimes {
+                            stated: stated_times,
+                            found,
+                        },
                     );
                 }
                 let mut inner = 0;
@@ -297,12 +412,12 @@ fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), String>) -> Sc
                         Next::Record(r) => r,
                         Next::End => break,
                         Next::CutOff(what) => {
-                            return damaged(offset, format!("inside the chunk: {what}"));
+                            return damaged(offset, Fault::InsideChunk(Box::new(what)));
                         }
                     };
                     inner = r.next;
                     if let Err(what) = visit_record(r, &mut channels, &mut visit) {
-                        return damaged(offset, format!("inside the chunk: {what}"));
+                        return damaged(offset, Fault::InsideChunk(Box::new(what)));
                     }
                 }
             }
@@ -346,7 +461,7 @@ enum Next<'a> {
     /// The buffer ends exactly here.
     End,
     /// The buffer ends inside the record that starts here.
-    CutOff(String),
+    CutOff(Fault),
 }
 
 /// The record at `at` of `buf`: an opcode, a little-endian u64 length, a
@@ -357,17 +472,12 @@ fn next_record(buf: &[u8], at: usize) -> Next<'_> {
         return Next::End;
     }
     if rest.len() < 9 {
-        return Next::CutOff(format!(
-            "a record header of 9 bytes, {} bytes left",
-            rest.len()
-        ));
+        return Next::CutOff(Fault::CutHeader { left: rest.len() });
     }
     let length = u64::from_le_bytes(rest[1..9].try_into().expect("eight bytes"));
     let room = (rest.len() - 9) as u64;
     if length > room {
-        return Next::CutOff(format!(
-            "a record of {length} bytes, {room} bytes left in the file"
-        ));
+        return Next::CutOff(Fault::CutRecord { length, left: room });
     }
     let body_end = 9 + length as usize;
     Next::Record(RawRecord {
@@ -380,21 +490,20 @@ fn next_record(buf: &[u8], at: usize) -> Next<'_> {
 /// A chunk's records, decompressed, after checking the stated sizes and
 /// the CRC of the uncompressed records.
 /// Also returns the message times the header states.
-fn open_chunk(body: &[u8]) -> Result<(Vec<u8>, (u64, u64)), String> {
-    let Record::Chunk { header, data } =
-        mcap::read::parse_record(op::CHUNK, body).map_err(|e| e.to_string())?
+fn open_chunk(body: &[u8]) -> Result<(Vec<u8>, (u64, u64)), ChunkFault> {
+    let Record::Chunk { header, data } = mcap::read::parse_record(op::CHUNK, body)
+        .map_err(|e| ChunkFault::Unparsable(e.to_string()))?
     else {
-        return Err("not a chunk".into());
+        return Err(ChunkFault::Unparsable("not a chunk".into()));
     };
     let bound = (data.len() as u64)
         .saturating_mul(MAX_CHUNK_RATIO)
         .max(MIN_CHUNK_BOUND);
     if header.uncompressed_size > bound {
-        return Err(format!(
-            "states {} uncompressed bytes for {} compressed",
-            header.uncompressed_size,
-            data.len()
-        ));
+        return Err(ChunkFault::Oversized {
+            stated: header.uncompressed_size,
+            compressed: data.len(),
+        });
     }
     let size = header.uncompressed_size as usize;
     let records = match header.compression.as_str() {
@@ -402,26 +511,26 @@ fn open_chunk(body: &[u8]) -> Result<(Vec<u8>, (u64, u64)), String> {
         "zstd" => {
             let mut out = Vec::new();
             out.try_reserve_exact(size)
-                .map_err(|_| format!("cannot hold its {size} uncompressed bytes"))?;
+                .map_err(|_| ChunkFault::CannotHold(size))?;
             zstd::bulk::Decompressor::new()
                 .and_then(|mut d| d.decompress_to_buffer(&data[..], &mut out))
-                .map_err(|e| format!("does not decompress: {e}"))?;
+                .map_err(|e| ChunkFault::Decompress(e.to_string()))?;
             out
         }
-        other => return Err(format!("unknown compression {other:?}")),
+        other => return Err(ChunkFault::UnknownCompression(other.to_string())),
     };
     if records.len() != size {
-        return Err(format!(
-            "holds {} uncompressed bytes, its header says {size}",
-            records.len()
-        ));
+        return Err(ChunkFault::Size {
+            found: records.len(),
+            stated: size,
+        });
     }
     let crc = crc32fast::hash(&records);
     if header.uncompressed_crc != 0 && crc != header.uncompressed_crc {
-        return Err(format!(
-            "CRC mismatch (stored {:08x}, computed {crc:08x})",
-            header.uncompressed_crc
-        ));
+        return Err(ChunkFault::Crc {
+            stored: header.uncompressed_crc,
+            computed: crc,
+        });
     }
     Ok((
         records,
@@ -434,9 +543,8 @@ fn open_chunk(body: &[u8]) -> Result<(Vec<u8>, (u64, u64)), String> {
 fn visit_record(
     record: RawRecord<'_>,
     channels: &mut BTreeMap<u16, String>,
-    visit: &mut impl FnMut(Item<'_>) -> Result<(), String>,
-) -> Result<(), String> {
-    let name = |op: u8| format!("record (opcode {op:#04x})");
+    visit: &mut impl FnMut(Item<'_>) -> Result<(), Fault>,
+) -> Result<(), Fault> {
     match record.opcode {
         op::CHANNEL | op::MESSAGE | op::METADATA => {}
         op::HEADER
@@ -449,10 +557,13 @@ fn visit_record(
         | op::METADATA_INDEX
         | op::SUMMARY_OFFSET => return Ok(()),
         // Not written by hardbody, nor by MCAP's current writers.
-        other => return Err(format!("unknown {}", name(other))),
+        other => return Err(Fault::UnknownRecord(other)),
     }
-    let parsed = mcap::read::parse_record(record.opcode, record.body)
-        .map_err(|e| format!("{}: {e}", name(record.opcode)))?;
+    let parsed =
+        mcap::read::parse_record(record.opcode, record.body).map_err(|e| Fault::Unparsable {
+            opcode: record.opcode,
+            reason: e.to_string(),
+        })?;
     match parsed {
         Record::Channel(c) => {
             channels.insert(c.id, c.topic);
@@ -460,12 +571,12 @@ fn visit_record(
         }
         Record::Metadata(m) => visit(Item::Metadata(m)),
         Record::Message { header, data } => {
-            let topic = channels.get(&header.channel_id).ok_or_else(|| {
-                format!(
-                    "message {} on channel {}, which was never declared",
-                    header.sequence, header.channel_id
-                )
-            })?;
+            let topic = channels
+                .get(&header.channel_id)
+                .ok_or(Fault::UndeclaredChannel {
+                    sequence: header.sequence,
+                    channel: header.channel_id,
+                })?;
             visit(Item::Message {
                 topic,
                 log_time: header.log_time,
