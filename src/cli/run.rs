@@ -17,14 +17,53 @@ use super::*;
 /// The built-in default scene.
 pub(super) const DEFAULT_SCENE: &str = include_str!("../../data/scenes/default.ron");
 
+/// Why a scene file, or a log found where a job's log goes, is refused.
+#[derive(Debug, thiserror::Error)]
+pub(super) enum Refusal {
+    /// The scene file cannot be read.
+    #[error("cannot read scene {}: {source}", .path.display())]
+    Unreadable {
+        path: PathBuf,
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The scene does not parse or validate.
+    #[error("{}: {source}", .path.display())]
+    Invalid {
+        path: PathBuf,
+        source: hardbody::scene::SceneError,
+    },
+    /// The scene is valid but cannot run as written: the message names
+    /// the file, the line and the field ([`scene_refusal`]).
+    #[error("{0}")]
+    CannotRun(String),
+    /// A log with no scene in its metadata.
+    #[error("{}: no readable scene in its metadata", .0.display())]
+    LogWithoutScene(PathBuf),
+    /// A log of another scene or seed than the job's.
+    #[error(
+        "{}: is a run of {what}; refusing to continue it or take it as this job's result (move it away to run {name} afresh)",
+        .log.display()
+    )]
+    LogOfAnotherRun {
+        log: PathBuf,
+        what: String,
+        name: String,
+    },
+}
+
 /// Reads and validates a scene file; the error names the file, the line
 /// and the field.
-pub(super) fn load_scene(path: &std::path::Path) -> Result<(Scene, String), String> {
-    hardbody::log::file::check_input(path)
-        .map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read scene {}: {e}", path.display()))?;
-    let scene = Scene::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+pub(super) fn load_scene(path: &std::path::Path) -> Result<(Scene, String), Refusal> {
+    let unreadable = |source: Box<dyn std::error::Error + Send + Sync>| Refusal::Unreadable {
+        path: path.to_path_buf(),
+        source,
+    };
+    hardbody::log::file::check_input(path).map_err(|e| unreadable(Box::new(e)))?;
+    let text = std::fs::read_to_string(path).map_err(|e| unreadable(Box::new(e)))?;
+    let scene = Scene::parse(&text).map_err(|source| Refusal::Invalid {
+        path: path.to_path_buf(),
+        source,
+    })?;
     Ok((scene, text))
 }
 
@@ -191,9 +230,9 @@ pub(super) fn preflight(
     text: &str,
     scene: &Scene,
     out_given: bool,
-) -> Result<(), String> {
+) -> Result<(), Refusal> {
     if let Err(e) = check_start(scene) {
-        return Err(scene_refusal(path, text, "start", e));
+        return Err(Refusal::CannotRun(scene_refusal(path, text, "start", e)));
     }
     let mut inputs = vec![path];
     if let hardbody::scene::Start::Resume(start) = &scene.start {
@@ -201,7 +240,7 @@ pub(super) fn preflight(
     }
     if !out_given && let Err(e) = check_output(std::path::Path::new(&scene.log.path), true, &inputs)
     {
-        return Err(scene_refusal(path, text, "log.path", e));
+        return Err(Refusal::CannotRun(scene_refusal(path, text, "log.path", e)));
     }
     Ok(())
 }
@@ -345,12 +384,12 @@ fn log_of_scene(
     contents: &hardbody::log::read::LogContents,
     scene: &Scene,
     name: &str,
-) -> Result<(), String> {
+) -> Result<(), Refusal> {
     let logged = contents
         .metadata
         .get("scene_resolved")
         .and_then(|text| Scene::parse(text).ok())
-        .ok_or_else(|| format!("{}: no readable scene in its metadata", log.display()))?;
+        .ok_or_else(|| Refusal::LogWithoutScene(log.to_path_buf()))?;
     if logged == *scene {
         return Ok(());
     }
@@ -359,9 +398,9 @@ fn log_of_scene(
     } else {
         format!("a scene other than {name}")
     };
-    Err(format!(
-        "{}: is a run of {what}; refusing to continue it or take it as this job's result \
-         (move it away to run {name} afresh)",
-        log.display()
-    ))
+    Err(Refusal::LogOfAnotherRun {
+        log: log.to_path_buf(),
+        what,
+        name: name.to_string(),
+    })
 }
