@@ -379,18 +379,23 @@ impl Dynamics {
         let cell_lengths = cells.cell_lengths();
         let neighbours = match options.neighbour_shell {
             Some(shell) => {
-                let boxes = box_regions.then(|| {
+                let regions = if box_regions {
                     let axes = poses
                         .iter()
                         .map(|(_, q)| q.to_rotation_matrix().into_inner())
                         .collect();
-                    (box_half, axes)
-                });
+                    Regions::Boxes {
+                        half: box_half,
+                        axes,
+                    }
+                } else {
+                    Regions::Spheres
+                };
                 let mut spheres = NeighbourSpheres {
                     shell,
                     reach,
                     centres: positions,
-                    boxes,
+                    regions,
                     lists: NeighbourLists::new(n, 16),
                     marks: Marks::new(n),
                 };
@@ -537,7 +542,7 @@ pub(super) fn link_overlapping(
     };
     let near = keep_box_overlaps(i, near, box_, bodies, spheres);
     if !after {
-        if spheres.boxes.is_none() {
+        if matches!(spheres.regions, Regions::Spheres) {
             spheres.lists.relink(i, near, &mut spheres.marks);
             return;
         }
@@ -619,7 +624,7 @@ fn keep_box_overlaps<'a>(
     bodies: &[Body],
     spheres: &NeighbourSpheres,
 ) -> &'a [u32] {
-    let Some((half, axes)) = &spheres.boxes else {
+    let Regions::Boxes { half, axes } = &spheres.regions else {
         return near;
     };
     let si = bodies[i].species as usize;

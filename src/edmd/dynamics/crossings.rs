@@ -55,7 +55,8 @@ impl Dynamics {
     pub(super) fn escape(&mut self, i: usize) -> Result<(), EdmdError> {
         // The stored pose stays (see `closed_form`). Boxes turn with their
         // bodies; a sphere region needs its centre alone.
-        let boxes = self.neighbours.as_ref().is_some_and(|s| s.boxes.is_some());
+        let boxes =
+            (self.neighbours.as_ref()).is_some_and(|s| matches!(s.regions, Regions::Boxes { .. }));
         let (centre, orientation) = if boxes {
             let (centre, orientation) = self.pose_at(i, self.now);
             (centre, Some(orientation))
@@ -73,7 +74,7 @@ impl Dynamics {
             .as_mut()
             .expect("escapes come with neighbour lists");
         spheres.centres[i] = wrapped;
-        if let (Some((_, axes)), Some(q)) = (&mut spheres.boxes, orientation) {
+        if let (Regions::Boxes { axes, .. }, Some(q)) = (&mut spheres.regions, orientation) {
             axes[i] = q.to_rotation_matrix().into_inner();
         }
         link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
@@ -93,8 +94,8 @@ impl Dynamics {
     pub(super) fn schedule_crossing(&mut self, i: usize) {
         let b = &self.bodies[i];
         if let Some(spheres) = &self.neighbours {
-            if spheres.boxes.is_some() {
-                let t = self.box_escape_time(i);
+            if let Regions::Boxes { half, axes } = &spheres.regions {
+                let t = self.box_escape_time(i, spheres, half, axes);
                 self.schedule_neighbourhood_event(i, t, EventKind::Escape);
                 return;
             }
@@ -183,9 +184,14 @@ impl Dynamics {
     /// The gap between body `i` at time `t` and the faces of its neighbour
     /// box: min over the box axes uₖ of Hₖ − |(r − c)·uₖ| − hₖ, with H the
     /// box's half-extents, c its centre and hₖ the body's extent along uₖ.
-    pub(super) fn box_gap_at(&self, i: usize, t: f64) -> f64 {
-        let spheres = self.neighbours.as_ref().expect("box regions");
-        let (half, axes) = spheres.boxes.as_ref().expect("box regions");
+    pub(super) fn box_gap_at(
+        &self,
+        i: usize,
+        t: f64,
+        spheres: &NeighbourSpheres,
+        half: &[V3],
+        axes: &[Matrix3<f64>],
+    ) -> f64 {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let (r, q) = self.pose_at(i, t);
@@ -205,9 +211,13 @@ impl Dynamics {
     /// of gap / rate never pass a face (conservative advancement); the
     /// search stops within [`BOX_ESCAPE_MARGIN`] of the shell, or after 64
     /// steps (an early rebuild costs a search, never a collision).
-    pub(super) fn box_escape_time(&self, i: usize) -> f64 {
-        let spheres = self.neighbours.as_ref().expect("box regions");
-        let (_, axes) = spheres.boxes.as_ref().expect("box regions");
+    pub(super) fn box_escape_time(
+        &self,
+        i: usize,
+        spheres: &NeighbourSpheres,
+        half: &[V3],
+        axes: &[Matrix3<f64>],
+    ) -> f64 {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let along = axes[i].tr_mul(&b.velocity).abs().max();
@@ -218,7 +228,7 @@ impl Dynamics {
         let margin = BOX_ESCAPE_MARGIN * spheres.shell;
         let mut t = self.now;
         for _ in 0..64 {
-            let gap = self.box_gap_at(i, t);
+            let gap = self.box_gap_at(i, t, spheres, half, axes);
             if gap <= margin {
                 break;
             }

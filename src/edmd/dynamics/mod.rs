@@ -242,13 +242,25 @@ struct NeighbourSpheres {
     /// Where each body's region is centred (its centre when it was built,
     /// wrapped into the box).
     centres: Vec<V3>,
-    /// Oriented boxes: per species the half-extents (the body's bounding
-    /// box grown by the shell), per body the box axes (the body's axes when
-    /// it was built). `None`: spheres.
-    boxes: Option<(Vec<V3>, Vec<Matrix3<f64>>)>,
+    /// Spheres, or oriented boxes and what shapes them.
+    regions: Regions,
     lists: NeighbourLists,
     /// Scratch for relinking a body's list.
     marks: Marks,
+}
+
+/// The shape of the neighbour regions.
+#[derive(Debug, Clone)]
+enum Regions {
+    /// Each body's bounding sphere grown by the shell.
+    Spheres,
+    /// Oriented boxes: per species the half-extents (the body's bounding
+    /// box grown by the shell), per body the box axes (the body's axes
+    /// when it was built).
+    Boxes {
+        half: Vec<V3>,
+        axes: Vec<Matrix3<f64>>,
+    },
 }
 
 /// A box region stops being trusted when its body is this fraction of the
