@@ -18,6 +18,11 @@ use crate::state::System;
 use super::cadence::{Mark, StageRun};
 use super::*;
 
+/// The scale distribution's widest window and its bins (HOOMD's x_max
+/// and bins of 10⁻⁴), for the pressure and the pressure tensor alike.
+const SDF_X_MAX: f64 = 0.02;
+const SDF_BINS: usize = 200;
+
 /// Sweeps between move-size updates while tuning (50: a window of 20
 /// holds only 20 box moves, too few to steer the volume step by).
 const TUNE_WINDOW: u64 = 50;
@@ -109,8 +114,8 @@ impl<'a> MonteCarloStage<'a> {
         };
         let stats_every = runner.scene.log.stats_every;
         let sdf = (matches!(ensemble, Ensemble::Nvt) && !system.periodic_box().has_walls())
-            .then(|| Sdf::new(0.02, 200));
-        let tensor = pressure_tensor.then(|| SdfTensor::new(0.02, 200));
+            .then(|| Sdf::new(SDF_X_MAX, SDF_BINS));
+        let tensor = pressure_tensor.then(|| SdfTensor::new(SDF_X_MAX, SDF_BINS));
         let slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
         Ok(Self {
             index,
@@ -241,7 +246,7 @@ impl StageRun for MonteCarloStage<'_> {
         let mut stats = runner.mc_stats(self.index, &self.system, s, &self.window, self.pressure);
         if let Some(tensor) = &mut self.tensor {
             stats.pressure_tensor = tensor.pressure_tensor();
-            *tensor = SdfTensor::new(0.02, 200);
+            *tensor = SdfTensor::new(SDF_X_MAX, SDF_BINS);
         }
         self.acceptance = self.window.translate.rate();
         self.strains += self.window.strains;
@@ -312,7 +317,7 @@ impl Runner {
             Ensemble::Nvt => {
                 let s = sdf.as_mut()?;
                 let p = s.pressure();
-                *s = Sdf::new(0.02, 200);
+                *s = Sdf::new(SDF_X_MAX, SDF_BINS);
                 p
             }
         }

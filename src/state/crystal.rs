@@ -135,7 +135,7 @@ impl UnitCell {
         Self::aligned(Matrix3::identity(), sites)
     }
 
-    fn aligned(vectors: Matrix3<f64>, sites: &[[f64; 3]]) -> Self {
+    pub(super) fn aligned(vectors: Matrix3<f64>, sites: &[[f64; 3]]) -> Self {
         Self {
             vectors,
             basis: sites.iter().map(|s| V3::from(*s)).collect(),

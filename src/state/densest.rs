@@ -57,17 +57,9 @@ impl UnitCell {
                         "{shape}, whose exponents differ (the densest lattices known are those of one exponent, the superballs)"
                     )));
                 }
-                let primitive = Self::primitive(superball_lattice(n.x / 2.0));
+                let primitive = Self::aligned(superball_lattice(n.x / 2.0), &[[0.0; 3]]);
                 Ok(stretched(primitive, s.semi_axes()))
             }
-        }
-    }
-
-    fn primitive(vectors: Matrix3<f64>) -> Self {
-        Self {
-            vectors,
-            basis: vec![V3::zeros()],
-            orientations: vec![nalgebra::UnitQuaternion::identity()],
         }
     }
 }
