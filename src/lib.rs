@@ -15,8 +15,9 @@
 //! 6. [`scene`]: the scene file and the plan it implies;
 //! 7. [`log`]: MCAP logs, their reading and their averages;
 //! 8. [`run`]: a scene run stage by stage into its log;
-//! 9. [`bench`](mod@bench): the benchmark suites;
-//! 10. [`sweep`]: parameter sweeps as signac workspaces run by row.
+//! 9. [`free_energy`]: absolute free energies of crystals (Frenkel–Ladd);
+//! 10. [`bench`](mod@bench): the benchmark suites;
+//! 11. [`sweep`]: parameter sweeps as signac workspaces run by row.
 //!
 //! The command line (`src/cli/`) is at the edge, outside the library.
 #![warn(missing_docs)]
@@ -24,6 +25,7 @@
 pub mod analysis;
 pub mod bench;
 pub mod edmd;
+pub mod free_energy;
 pub mod geometry;
 pub mod log;
 pub mod mc;

@@ -284,6 +284,7 @@ const FLOORS: &[&[&str]] = &[
     &["scene"],
     &["log"],
     &["run"],
+    &["free_energy"],
     &["bench"],
     &["sweep"],
 ];

@@ -9,12 +9,14 @@ use hardbody::log::StorageFailure;
 
 mod analyze;
 mod bench;
+mod free_energy;
 mod progress;
 mod run;
 mod sweep;
 
 use analyze::*;
 use bench::*;
+use free_energy::*;
 use run::*;
 use sweep::*;
 
@@ -73,6 +75,37 @@ enum Command {
     Check {
         /// Scene file (RON).
         scene: PathBuf,
+    },
+    /// Run a crystal scene, then find the free energy of the state it ends
+    /// in by Frenkel–Ladd integration (springs to its start lattice, the
+    /// centre of mass held): βF/N with Λ = 1 length unit, and its error.
+    FreeEnergy {
+        /// Scene file (RON) starting from a Crystal.
+        scene: PathBuf,
+        /// Log file of the scene's run (overrides the scene's log.path).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Write the path's integrand (SVG) into this directory.
+        #[arg(long, value_name = "DIR")]
+        plot: Option<PathBuf>,
+        /// Gauss–Legendre points along ln(βλ + c) (default 12).
+        #[arg(long)]
+        points: Option<usize>,
+        /// Sweeps sampled at each point (default 40000; a tenth more are
+        /// run first).
+        #[arg(long)]
+        sweeps: Option<u64>,
+        /// The strongest springs βλ_max, in 1/length² (default: chosen
+        /// from the crystal, the weakest whose Einstein crystal is
+        /// overlap-free in 90 % of samples).
+        #[arg(long)]
+        spring: Option<f64>,
+        /// Random seed of the path (default the scene's).
+        #[arg(long)]
+        seed: Option<u64>,
     },
     /// Export a log's frames to another format (GSD for OVITO, freud, HOOMD-blue).
     Export {
@@ -290,6 +323,27 @@ pub fn main() -> ExitCode {
             (many, false) => analyze_replicas(many, json, plot.as_deref()),
         },
         Command::Export { log, gsd } => export(&log, &gsd),
+        Command::FreeEnergy {
+            scene,
+            out,
+            json,
+            plot,
+            points,
+            sweeps,
+            spring,
+            seed,
+        } => free_energy(
+            &scene,
+            out,
+            PathFlags {
+                points,
+                sweeps,
+                spring,
+                seed,
+            },
+            json,
+            plot.as_deref(),
+        ),
         Command::Virial {
             shape_a,
             shape_b,

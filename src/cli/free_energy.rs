@@ -1,0 +1,149 @@
+//! `free-energy`: a crystal scene run, then its Frenkel–Ladd free energy
+//! printed (text or JSON) and its path plotted.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use hardbody::bench::plot::{Figure, Series, line_plot};
+use hardbody::free_energy::{CrystalFreeEnergy, FrenkelLadd, solid_free_energy};
+use hardbody::log::file::check_output;
+
+use super::*;
+
+/// The path's options as the flags give them.
+pub(super) struct PathFlags {
+    pub points: Option<usize>,
+    pub sweeps: Option<u64>,
+    pub spring: Option<f64>,
+    pub seed: Option<u64>,
+}
+
+pub(super) fn free_energy(
+    scene_path: &Path,
+    out: Option<PathBuf>,
+    flags: PathFlags,
+    json: bool,
+    plot: Option<&Path>,
+) -> ExitCode {
+    let (scene, text) = match load_scene(scene_path) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    if let Err(e) = preflight(scene_path, &text, &scene, out.is_some()) {
+        return bad_input(e);
+    }
+    let log_path = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));
+    if let Err(e) = check_output(&log_path, true, &[scene_path]) {
+        return bad_input(e);
+    }
+    let defaults = FrenkelLadd::default();
+    let options = FrenkelLadd {
+        points: flags.points.unwrap_or(defaults.points),
+        sweeps: flags.sweeps.unwrap_or(defaults.sweeps),
+        equilibration: flags.sweeps.map_or(defaults.equilibration, |s| s / 10),
+        spring: flags.spring,
+        seed: flags.seed.unwrap_or(scene.seed),
+        ..defaults
+    };
+    handle_ctrl_c();
+    esay(&format!(
+        "hardbody {}: running {} ({} particles, {} stages), log {}, then its Frenkel–Ladd path",
+        env!("CARGO_PKG_VERSION"),
+        scene_path.display(),
+        scene.particle_count(),
+        scene.stages.len(),
+        log_path.display()
+    ));
+    let mut progress = progress_display();
+    let result = solid_free_energy(&scene, &text, &log_path, &options, progress.as_mut(), &STOP);
+    let result = match result {
+        Ok(r) => r,
+        Err(e) if e.is_bad_input() => return bad_input(e),
+        Err(e) => {
+            esay(&format!("hardbody: {e}"));
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    if let Some(dir) = plot
+        && let Err(e) = plot_path(dir, &result)
+    {
+        return not_written(e);
+    }
+    if json {
+        print_json(&result);
+    } else {
+        print_block(&report(&result));
+    }
+    ExitCode::SUCCESS
+}
+
+/// The result as text: the free energy, its terms, the path.
+fn report(r: &CrystalFreeEnergy) -> String {
+    let mut text = format!(
+        "βF/N = {:.5} ± {:.5}  (Λ = 1 length unit; N = {}, φ = {:.5}, ρ = {:.5})\n\
+         excess over the ideal gas, βF/N − (ln ρ − 1) = {:.5}\n\
+         terms per body: −ln(V/N_c) with N_c = {} lattice translations; Einstein crystal \
+         {:.5} at βλ_max = {:.1}; overlaps {:.6} (P₀ = {:.4}); integral {:.5} ± {:.5}\n\
+         path over ln(βλ + c), c = {:.2}:\n         βλ   (λ+c)⟨Σ|u−ū|²⟩/N     ±     settled  accepted\n",
+        r.free_energy_per_particle,
+        r.error,
+        r.n,
+        r.packing_fraction,
+        r.number_density,
+        r.excess_free_energy_per_particle,
+        r.lattice_translations,
+        r.einstein,
+        r.spring_max,
+        r.overlap_term.0,
+        r.overlap_free,
+        r.integral_term.0,
+        r.integral_term.1,
+        r.spring_shift,
+    );
+    for p in &r.path {
+        text += &format!(
+            "{:12.3} {:14.5} {:10.5} {:>8} {:9.2}\n",
+            p.spring,
+            p.integrand,
+            p.integrand_error,
+            if p.spread.equilibrated { "yes" } else { "no" },
+            p.acceptance
+        );
+    }
+    text
+}
+
+/// The integrand against ln(βλ + c), with its error band, as SVG.
+fn plot_path(dir: &Path, r: &CrystalFreeEnergy) -> Result<(), hardbody::bench::plot::PlotError> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let x = |p: &hardbody::free_energy::PathPoint| (p.spring + r.spring_shift).ln();
+    let band = |sign: f64| -> Vec<(f64, f64)> {
+        (r.path.iter())
+            .map(|p| (x(p), p.integrand + sign * p.integrand_error))
+            .collect()
+    };
+    line_plot(
+        &dir.join("frenkel_ladd_path.svg"),
+        &Figure {
+            title: "Frenkel–Ladd path",
+            x_label: "ln(βλ + c)  (λ in 1/length²)",
+            y_label: "(βλ + c) ⟨Σ|u − ū|²⟩ / N",
+            log_x: false,
+            log_y: false,
+        },
+        &[
+            Series {
+                name: "integrand".into(),
+                points: band(0.0),
+            },
+            Series {
+                name: "+ standard error".into(),
+                points: band(1.0),
+            },
+            Series {
+                name: "− standard error".into(),
+                points: band(-1.0),
+            },
+        ],
+    )
+}

@@ -1,0 +1,318 @@
+//! Absolute free energies: of a crystal by Frenkel–Ladd integration on
+//! the state a scene ends in (`frenkel_ladd.rs`), with the quadrature it
+//! integrates by (`quadrature.rs`).
+//!
+//! It runs scenes (through [`crate::run`]) and Monte Carlo with springs
+//! ([`crate::mc::einstein`]); the command line and Python call it.
+
+pub mod frenkel_ladd;
+pub mod quadrature;
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use nalgebra::Vector3;
+
+pub use frenkel_ladd::{CrystalFreeEnergy, FrenkelLadd, PathPoint, crystal_free_energy};
+
+use crate::mc::einstein::TetherError;
+use crate::run::{Progress, RecordError, RunError, Simulation, system_from_record};
+use crate::scene::plan::Plan;
+use crate::scene::{Scene, Start};
+use crate::state::System;
+
+type V3 = Vector3<f64>;
+
+/// What stops a free energy from being found.
+#[derive(Debug, thiserror::Error)]
+pub enum FreeEnergyError {
+    /// The scene does not start from a crystal.
+    #[error(
+        "the scene starts from {0}: the free energy of a solid needs a lattice to tether its \
+         bodies to; start it from Crystal(lattice: ..., cells: ..., packing_fraction: ...)"
+    )]
+    NoLattice(&'static str),
+    /// The box has walls.
+    #[error("the box has walls: a crystal's free energy is computed in a periodic box only")]
+    Walls,
+    /// The state cannot be tethered to its lattice.
+    #[error("the scene's final state cannot be tethered to its start lattice: {0}")]
+    Tether(#[from] TetherError),
+    /// A body left its site while the path ran.
+    #[error(
+        "the crystal melted at βλ = {spring}: {source}; its free energy is not that of a \
+         crystal (run it denser, or check that the lattice is stable)"
+    )]
+    Melted {
+        /// βλ of the point where it happened (0: the free crystal).
+        spring: f64,
+        /// Which body and how far.
+        source: TetherError,
+    },
+    /// The ideal Einstein crystal overlaps in almost every sample.
+    #[error(
+        "springs βλ_max = {spring} are too weak for the path: only {overlap_free} of the \
+         Einstein crystal's samples are overlap-free, under 1 %; give stronger springs, or \
+         none to have them chosen"
+    )]
+    SpringsTooWeak {
+        /// βλ_max.
+        spring: f64,
+        /// The overlap-free fraction.
+        overlap_free: f64,
+    },
+    /// λ_max is outside (c, widest · c].
+    #[error(
+        "springs βλ_max = {spring} are out of the path's range ({shift}, {widest} × {shift}], \
+         set by the free crystal's spread (c = {shift}): weaker springs leave the Einstein \
+         crystal no narrower than the free one, stronger ones spread the quadrature too thin"
+    )]
+    PathOutOfRange {
+        /// βλ_max.
+        spring: f64,
+        /// c.
+        shift: f64,
+        /// The widest λ_max / c.
+        widest: f64,
+    },
+    /// An option cannot be used.
+    #[error("Frenkel–Ladd options: {0}")]
+    Options(String),
+    /// Stopped before the path was done.
+    #[error("stopped before the path was done: no free energy")]
+    Stopped,
+    /// The scene's run failed.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The scene's final state cannot be read back.
+    #[error("the scene's final state: {0}")]
+    Record(#[from] RecordError),
+}
+
+impl FreeEnergyError {
+    /// Whether the input (scene, options) is at fault rather than the
+    /// computation.
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            FreeEnergyError::Run(e) => e.is_bad_input(),
+            FreeEnergyError::Melted { .. } | FreeEnergyError::Stopped => false,
+            _ => true,
+        }
+    }
+}
+
+/// βF/N of the crystal `scene` ends in: the scene is run (its log written
+/// to `log_path`), its start lattice carried into the final box by the
+/// box's deformation, and the bodies tethered to it.
+pub fn solid_free_energy(
+    scene: &Scene,
+    scene_text: &str,
+    log_path: &Path,
+    options: &FrenkelLadd,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<CrystalFreeEnergy, FreeEnergyError> {
+    match scene.start {
+        Start::Crystal { .. } => {}
+        Start::Lattice => return Err(FreeEnergyError::NoLattice("a filled lattice")),
+        Start::Random => return Err(FreeEnergyError::NoLattice("random insertion")),
+        Start::Resume(_) => return Err(FreeEnergyError::NoLattice("another log")),
+        Start::Layered(_) => return Err(FreeEnergyError::NoLattice("layers")),
+    }
+    if !scene.walls.is_empty() {
+        return Err(FreeEnergyError::Walls);
+    }
+    let plan = Plan::of(scene);
+    let mut simulation = Simulation::new(scene, scene_text, log_path)?;
+    let start = system_from_record(&simulation.state()?, &plan)?;
+    while simulation.stage_index().is_some() {
+        let step = simulation.run_stage(progress, stop)?;
+        if step.interrupted {
+            simulation.finish()?;
+            return Err(FreeEnergyError::Stopped);
+        }
+    }
+    let end = system_from_record(&simulation.state()?, &plan)?;
+    simulation.finish()?;
+    let sites = carried_sites(&start, &end);
+    let translations = lattice_translations(&start);
+    crystal_free_energy(&end, &sites, translations, options, progress, stop)
+}
+
+/// The bodies' start positions carried into `end`'s box by the affine map
+/// between the two boxes.
+pub fn carried_sites(start: &System, end: &System) -> Vec<V3> {
+    let (from, to) = (start.periodic_box(), end.periodic_box());
+    (start.particles().iter())
+        .map(|p| to.map_from(from, &p.position))
+        .collect()
+}
+
+/// How many translations by the vector from body 0 to another body map
+/// the crystal onto itself (each body onto one of its species and
+/// orientation): N_c, the lattice translations in the box.
+pub fn lattice_translations(crystal: &System) -> usize {
+    let box_ = crystal.periodic_box();
+    let particles = crystal.particles();
+    let n = particles.len();
+    // Fractional coordinates binned on a grid about one site per cell.
+    let side = ((n as f64).cbrt().ceil() as usize).max(1);
+    let fractional: Vec<V3> = (particles.iter())
+        .map(|p| box_.fractional(&box_.wrap(&p.position)))
+        .collect();
+    let bin = |s: &V3| -> [usize; 3] {
+        std::array::from_fn(|k| ((s[k].rem_euclid(1.0) * side as f64) as usize).min(side - 1))
+    };
+    let mut grid = vec![Vec::new(); side * side * side];
+    let index = |b: [usize; 3]| (b[2] * side + b[1]) * side + b[0];
+    for (i, s) in fractional.iter().enumerate() {
+        grid[index(bin(s))].push(i);
+    }
+    let spacing = box_.volume().cbrt() / (n as f64).cbrt();
+    let tolerance = 1e-6 * spacing;
+    let same = |a: usize, b: usize| {
+        let (p, q) = (&particles[a], &particles[b]);
+        p.species == q.species && p.orientation.coords.dot(&q.orientation.coords).abs() > 1.0 - 1e-9
+    };
+    let has_site = |i: usize, s: &V3| {
+        let home = bin(s);
+        for dz in [side - 1, 0, 1] {
+            for dy in [side - 1, 0, 1] {
+                for dx in [side - 1, 0, 1] {
+                    let cell = [
+                        (home[0] + dx) % side,
+                        (home[1] + dy) % side,
+                        (home[2] + dz) % side,
+                    ];
+                    for &j in &grid[index(cell)] {
+                        let d = box_.minimum_image(&box_.from_fractional(&(fractional[j] - s)));
+                        if d.norm() < tolerance && same(i, j) {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
+    };
+    (0..n)
+        .filter(|&j| {
+            let shift = fractional[j] - fractional[0];
+            (0..n).all(|i| has_site(i, &(fractional[i] + shift)))
+        })
+        .count()
+}
+
+/// βF/N extrapolated to N → ∞ by a straight line in 1/N, as Polson et
+/// al. find it once the ln N/N terms are in (their Fig. 2): the weighted
+/// least-squares fit of values at several N.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SizeExtrapolation {
+    /// The intercept at 1/N = 0.
+    pub value: f64,
+    /// Its standard error.
+    pub error: f64,
+    /// The slope in 1/N.
+    pub slope: f64,
+    /// χ² of the fit (about the number of sizes less two if the line
+    /// fits).
+    pub chi_squared: f64,
+}
+
+/// The straight line in 1/N through `(n, value, error)` at two or more
+/// sizes (None for fewer, or errors that are not positive).
+pub fn extrapolate_in_size(values: &[(usize, f64, f64)]) -> Option<SizeExtrapolation> {
+    if values.len() < 2 || values.iter().any(|v| v.2.is_nan() || v.2 <= 0.0) {
+        return None;
+    }
+    let (mut s, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(n, y, e) in values {
+        let (x, w) = (1.0 / n as f64, 1.0 / (e * e));
+        s += w;
+        sx += w * x;
+        sy += w * y;
+        sxx += w * x * x;
+        sxy += w * x * y;
+    }
+    let det = s * sxx - sx * sx;
+    if det <= 0.0 {
+        return None;
+    }
+    let value = (sxx * sy - sx * sxy) / det;
+    let slope = (s * sxy - sx * sy) / det;
+    let chi_squared = (values.iter())
+        .map(|&(n, y, e)| ((y - value - slope / n as f64) / e).powi(2))
+        .sum();
+    Some(SizeExtrapolation {
+        value,
+        error: (sxx / det).sqrt(),
+        slope,
+        chi_squared,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::Species;
+    use crate::state::crystal::{CrystalSpec, UnitCell, crystal};
+
+    fn lattice(cell: UnitCell, per_cell: usize, species: &[&str]) -> System {
+        let species: Vec<Species> = (species.iter())
+            .map(|s| Species {
+                name: s.to_string(),
+                shape: "Sphere(radius: 0.5)".parse().unwrap(),
+                rotation: false,
+            })
+            .collect();
+        let n = per_cell * 27;
+        let counts: Vec<usize> = match species.len() {
+            1 => vec![n],
+            _ => vec![n - 1, 1],
+        };
+        let spec = CrystalSpec {
+            cell,
+            cells: [3, 3, 3],
+            packing_fraction: 0.4,
+        };
+        crystal(&spec, species, &counts).unwrap()
+    }
+
+    /// Exact values on a line in 1/N give its intercept and slope, with
+    /// the error of a two-point fit by hand; one size is not enough.
+    #[test]
+    fn extrapolation_in_size_fits_the_line() {
+        let line = |n: usize| 5.9 - 7.0 / n as f64;
+        let fit = extrapolate_in_size(&[(100, line(100), 0.01), (400, line(400), 0.01)]).unwrap();
+        assert!((fit.value - 5.9).abs() < 1e-12 && (fit.slope + 7.0).abs() < 1e-9);
+        assert!(fit.chi_squared < 1e-18);
+        // Two points x₁, x₂ of equal error e: σ(a)² = e²(x₁² + x₂²)/(x₁ − x₂)².
+        let (x1, x2) = (0.01f64, 0.0025f64);
+        let by_hand = 0.01 * (x1 * x1 + x2 * x2).sqrt() / (x1 - x2);
+        assert!((fit.error - by_hand).abs() < 1e-12);
+        assert!(extrapolate_in_size(&[(100, 1.0, 0.1)]).is_none());
+    }
+
+    /// Bravais lattices given by conventional cells map onto themselves by
+    /// every body's translation; hcp (two sites per primitive cell) by
+    /// half of them; one body of another species leaves the identity only.
+    #[test]
+    fn lattice_translations_count_the_crystals_symmetry() {
+        assert_eq!(
+            lattice_translations(&lattice(UnitCell::fcc(), 4, &["a"])),
+            108
+        );
+        assert_eq!(
+            lattice_translations(&lattice(UnitCell::bcc(), 2, &["a"])),
+            54
+        );
+        assert_eq!(
+            lattice_translations(&lattice(UnitCell::hcp(), 4, &["a"])),
+            54
+        );
+        assert_eq!(
+            lattice_translations(&lattice(UnitCell::fcc(), 4, &["a", "b"])),
+            1
+        );
+    }
+}

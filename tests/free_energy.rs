@@ -1,0 +1,248 @@
+//! Free energies of crystals against published values and against an
+//! independent route.
+
+use std::sync::atomic::AtomicBool;
+
+use hardbody::free_energy::{
+    FreeEnergyError, FrenkelLadd, crystal_free_energy, lattice_translations, solid_free_energy,
+};
+use hardbody::run::Silent;
+use hardbody::scene::Scene;
+use hardbody::state::Species;
+use hardbody::state::crystal::{CrystalSpec, UnitCell, crystal};
+
+/// Hard spheres (σ = 1) on fcc at number density `density`, `cells`³
+/// conventional cells.
+fn fcc_spheres(density: f64, cells: usize) -> hardbody::state::System {
+    let species = vec![Species {
+        name: "sphere".into(),
+        shape: "Sphere(radius: 0.5)".parse().unwrap(),
+        rotation: false,
+    }];
+    let spec = CrystalSpec {
+        cell: UnitCell::fcc(),
+        cells: [cells; 3],
+        packing_fraction: density * std::f64::consts::PI / 6.0,
+    };
+    crystal(&spec, species, &[4 * cells.pow(3)]).unwrap()
+}
+
+/// βF/N of the fcc hard-sphere crystal at `cells`³ conventional cells,
+/// ρσ³ = 1.0409, with the default path.
+fn fcc_free_energy(cells: usize) -> hardbody::free_energy::CrystalFreeEnergy {
+    let system = fcc_spheres(1.0409, cells);
+    let sites: Vec<_> = system.particles().iter().map(|p| p.position).collect();
+    let translations = lattice_translations(&system);
+    assert_eq!(translations, system.len());
+    let options = FrenkelLadd {
+        seed: cells as u64,
+        ..FrenkelLadd::default()
+    };
+    crystal_free_energy(
+        &system,
+        &sites,
+        translations,
+        &options,
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap()
+}
+
+/// The defect-free fcc hard-sphere crystal at ρσ³ = 1.0409: βF/N less
+/// the ideal gas's ln ρ − 1, at N = 108, 256 and 500, each to better than
+/// 0.003, and extrapolated linearly in 1/N, is Polson, Trizac, Pronk &
+/// Frenkel's 5.91889(4) (J. Chem. Phys. 112, 5339 (2000), abstract and
+/// Table I) within 0.005; the line fits the sizes (χ² under 3 per
+/// degree of freedom).
+#[test]
+fn hard_sphere_fcc_free_energy_is_polsons() {
+    let sizes = [3, 4, 5];
+    let values: Vec<(usize, f64, f64)> = sizes
+        .iter()
+        .map(|&cells| {
+            let r = fcc_free_energy(cells);
+            println!(
+                "N {:4}: βF/N {:.5} ± {:.5}, excess {:.5}, λ_max {:.0}, P₀ {:.4}",
+                r.n,
+                r.free_energy_per_particle,
+                r.error,
+                r.excess_free_energy_per_particle,
+                r.spring_max,
+                r.overlap_free
+            );
+            assert!(r.error < 0.003, "N {}: error {}", r.n, r.error);
+            // A point whose two halves disagree by chance (3σ) happens;
+            // more than two of twelve would be drift.
+            let unsettled = r.path.iter().filter(|p| !p.spread.equilibrated).count();
+            assert!(unsettled <= 2, "N {}: {unsettled} points drift", r.n);
+            (r.n, r.excess_free_energy_per_particle, r.error)
+        })
+        .collect();
+    let fit = hardbody::free_energy::extrapolate_in_size(&values).unwrap();
+    println!(
+        "N → ∞: {:.5} ± {:.5} (slope {:.2}, χ² {:.2})",
+        fit.value, fit.error, fit.slope, fit.chi_squared
+    );
+    assert!((fit.value - 5.91889).abs() < 0.005, "{fit:?}");
+    assert!(
+        fit.chi_squared < 3.0 * (sizes.len() - 2) as f64 + 1.0,
+        "{fit:?}"
+    );
+}
+
+/// `solid_free_energy` of a scene given as text, its log in a fresh
+/// folder; the log's path is returned with the result.
+fn scene_free_energy(
+    text: &str,
+    options: &FrenkelLadd,
+    name: &str,
+) -> (
+    Result<hardbody::free_energy::CrystalFreeEnergy, FreeEnergyError>,
+    std::path::PathBuf,
+) {
+    let dir = std::env::temp_dir().join(format!("hardbody-fe-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("run.mcap");
+    let scene = Scene::parse(text).unwrap();
+    let result = solid_free_energy(
+        &scene,
+        text,
+        &log,
+        options,
+        &mut Silent,
+        &AtomicBool::new(false),
+    );
+    (result, log)
+}
+
+/// 108 spheres of diameter 1 from `start`, a short NVT stage.
+fn spheres_scene(start: &str) -> String {
+    let box_ = if start.starts_with("Crystal") {
+        ""
+    } else {
+        "box: (8.0, 8.0, 8.0),"
+    };
+    format!(
+        r#"Scene(species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 108)],
+            start: {start}, {box_}
+            stages: [MonteCarlo(ensemble: Nvt, sweeps: 200)],
+            log: Log(path: "x.mcap", stats_every: 100, frames_every: 100))"#
+    )
+}
+
+/// What cannot give a crystal's free energy is refused with a message
+/// naming why, and nothing is printed as a result: a fluid scene (no
+/// lattice; refused before it runs, so no log is written), bodies that
+/// turn (no orientational springs yet), springs too weak for the
+/// Einstein crystal to be overlap-free, springs far stronger than the
+/// path resolves, and a crystal that melts on the path.
+#[test]
+fn what_has_no_crystal_free_energy_is_refused() {
+    let quick = FrenkelLadd {
+        sweeps: 400,
+        equilibration: 200,
+        points: 4,
+        einstein_samples: 500,
+        ..FrenkelLadd::default()
+    };
+    let (fluid, log) = scene_free_energy(&spheres_scene("Random"), &quick, "fluid");
+    let e = fluid.unwrap_err();
+    assert!(matches!(e, FreeEnergyError::NoLattice(_)), "{e}");
+    assert!(e.to_string().contains("needs a lattice"), "{e}");
+    assert!(!log.exists());
+
+    let turning = r#"Scene(species: [Species(name: "rod", shape: Ellipsoid(a: 0.5, b: 0.3, c: 0.3), count: 32)],
+        start: Crystal(lattice: Fcc, cells: (2, 2, 2), packing_fraction: 0.4),
+        stages: [MonteCarlo(ensemble: Nvt, sweeps: 50)],
+        log: Log(path: "x.mcap", stats_every: 50, frames_every: 50))"#;
+    let e = scene_free_energy(turning, &quick, "turning").0.unwrap_err();
+    assert!(e.to_string().contains("species `rod` turns"), "{e}");
+
+    let crystal = spheres_scene("Crystal(lattice: Fcc, cells: (3, 3, 3), packing_fraction: 0.545)");
+    let weak = FrenkelLadd {
+        spring: Some(5.0),
+        ..quick.clone()
+    };
+    let e = scene_free_energy(&crystal, &weak, "weak").0.unwrap_err();
+    assert!(matches!(e, FreeEnergyError::SpringsTooWeak { .. }), "{e}");
+    assert!(e.to_string().contains("too weak"), "{e}");
+    let strong = FrenkelLadd {
+        spring: Some(1e9),
+        ..quick.clone()
+    };
+    let e = scene_free_energy(&crystal, &strong, "strong")
+        .0
+        .unwrap_err();
+    assert!(matches!(e, FreeEnergyError::PathOutOfRange { .. }), "{e}");
+
+    // fcc at φ = 0.25 is far below melting: its bodies leave their sites
+    // in the free crystal's run, and a state that has already left them
+    // (after a longer stage) cannot be tethered.
+    let dilute = spheres_scene("Crystal(lattice: Fcc, cells: (3, 3, 3), packing_fraction: 0.25)");
+    let e = scene_free_energy(&dilute.replace("sweeps: 200", "sweeps: 1"), &quick, "melts")
+        .0
+        .unwrap_err();
+    assert!(
+        matches!(e, FreeEnergyError::Melted { spring: 0.0, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("melted"), "{e}");
+    let e = scene_free_energy(
+        &dilute.replace("sweeps: 200", "sweeps: 3000"),
+        &quick,
+        "melted",
+    )
+    .0
+    .unwrap_err();
+    assert!(matches!(e, FreeEnergyError::Tether(_)), "{e}");
+    assert!(e.to_string().contains("from its site"), "{e}");
+}
+
+/// The command: JSON with the fields the docs name and the path's points,
+/// the plot written; a fluid scene refused with exit code 2, its log never
+/// started.
+#[test]
+fn the_free_energy_command_prints_json_and_refuses_fluids() {
+    let dir = std::env::temp_dir().join(format!("hardbody-fe-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let hardbody = env!("CARGO_BIN_EXE_hardbody");
+    let out = std::process::Command::new(hardbody)
+        .arg("free-energy")
+        .arg(root.join("data/scenes/hard_sphere_fcc_free_energy.ron"))
+        .args(["--json", "--points", "4", "--sweeps", "400", "--out"])
+        .arg(dir.join("fcc.mcap"))
+        .arg("--plot")
+        .arg(dir.join("plots"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["n"], 256);
+    assert_eq!(json["path"].as_array().unwrap().len(), 4);
+    let f = json["free_energy_per_particle"].as_f64().unwrap();
+    let error = json["error"].as_f64().unwrap();
+    assert!(error > 0.0 && (f - 4.93).abs() < 0.1, "{f} ± {error}");
+    assert!((json["packing_fraction"].as_f64().unwrap() - 0.545019).abs() < 1e-5);
+    assert!(dir.join("fcc.mcap").exists());
+    assert!(dir.join("plots/frenkel_ladd_path.svg").exists());
+
+    let fluid = std::process::Command::new(hardbody)
+        .arg("free-energy")
+        .arg(root.join("data/scenes/default.ron"))
+        .arg("--out")
+        .arg(dir.join("fluid.mcap"))
+        .output()
+        .unwrap();
+    assert_eq!(fluid.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&fluid.stderr).contains("needs a lattice"));
+    assert!(fluid.stdout.is_empty());
+    assert!(!dir.join("fluid.mcap").exists());
+}
