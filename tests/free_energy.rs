@@ -4,7 +4,8 @@
 use std::sync::atomic::AtomicBool;
 
 use hardbody::free_energy::{
-    FreeEnergyError, FrenkelLadd, crystal_free_energy, lattice_translations, solid_free_energy,
+    EquationOfState, FreeEnergy, FreeEnergyError, FrenkelLadd, crystal_free_energy,
+    fluid_free_energy, lattice_translations, solid_free_energy,
 };
 use hardbody::run::Silent;
 use hardbody::scene::Scene;
@@ -93,7 +94,7 @@ fn hard_sphere_fcc_free_energy_is_polsons() {
 
 /// `solid_free_energy` of a scene given as text, its log in a fresh
 /// folder; the log's path is returned with the result.
-fn scene_free_energy(
+fn solid_of_scene(
     text: &str,
     options: &FrenkelLadd,
     name: &str,
@@ -111,6 +112,30 @@ fn scene_free_energy(
         text,
         &log,
         options,
+        &mut Silent,
+        &AtomicBool::new(false),
+    );
+    (result, log)
+}
+
+/// `scene_free_energy` (crystal or fluid, as the start says) of a scene
+/// given as text, its log in a fresh folder.
+fn scene_free_energy(
+    text: &str,
+    options: &FrenkelLadd,
+    name: &str,
+) -> (Result<FreeEnergy, FreeEnergyError>, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("hardbody-fe-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("run.mcap");
+    let scene = Scene::parse(text).unwrap();
+    let result = hardbody::free_energy::scene_free_energy(
+        &scene,
+        text,
+        &log,
+        options,
+        &EquationOfState::default(),
         &mut Silent,
         &AtomicBool::new(false),
     );
@@ -147,7 +172,7 @@ fn what_has_no_crystal_free_energy_is_refused() {
         einstein_samples: 500,
         ..FrenkelLadd::default()
     };
-    let (fluid, log) = scene_free_energy(&spheres_scene("Random"), &quick, "fluid");
+    let (fluid, log) = solid_of_scene(&spheres_scene("Random"), &quick, "fluid");
     let e = fluid.unwrap_err();
     assert!(matches!(e, FreeEnergyError::NoLattice(_)), "{e}");
     assert!(e.to_string().contains("needs a lattice"), "{e}");
@@ -157,7 +182,7 @@ fn what_has_no_crystal_free_energy_is_refused() {
         start: Crystal(lattice: Fcc, cells: (2, 2, 2), packing_fraction: 0.4),
         stages: [MonteCarlo(ensemble: Nvt, sweeps: 50)],
         log: Log(path: "x.mcap", stats_every: 50, frames_every: 50))"#;
-    let e = scene_free_energy(turning, &quick, "turning").0.unwrap_err();
+    let e = solid_of_scene(turning, &quick, "turning").0.unwrap_err();
     assert!(e.to_string().contains("species `rod` turns"), "{e}");
 
     let crystal = spheres_scene("Crystal(lattice: Fcc, cells: (3, 3, 3), packing_fraction: 0.545)");
@@ -165,23 +190,21 @@ fn what_has_no_crystal_free_energy_is_refused() {
         spring: Some(5.0),
         ..quick.clone()
     };
-    let e = scene_free_energy(&crystal, &weak, "weak").0.unwrap_err();
+    let e = solid_of_scene(&crystal, &weak, "weak").0.unwrap_err();
     assert!(matches!(e, FreeEnergyError::SpringsTooWeak { .. }), "{e}");
     assert!(e.to_string().contains("too weak"), "{e}");
     let strong = FrenkelLadd {
         spring: Some(1e9),
         ..quick.clone()
     };
-    let e = scene_free_energy(&crystal, &strong, "strong")
-        .0
-        .unwrap_err();
+    let e = solid_of_scene(&crystal, &strong, "strong").0.unwrap_err();
     assert!(matches!(e, FreeEnergyError::PathOutOfRange { .. }), "{e}");
 
     // fcc at φ = 0.25 is far below melting: its bodies leave their sites
     // in the free crystal's run, and a state that has already left them
     // (after a longer stage) cannot be tethered.
     let dilute = spheres_scene("Crystal(lattice: Fcc, cells: (3, 3, 3), packing_fraction: 0.25)");
-    let e = scene_free_energy(&dilute.replace("sweeps: 200", "sweeps: 1"), &quick, "melts")
+    let e = solid_of_scene(&dilute.replace("sweeps: 200", "sweeps: 1"), &quick, "melts")
         .0
         .unwrap_err();
     assert!(
@@ -189,7 +212,7 @@ fn what_has_no_crystal_free_energy_is_refused() {
         "{e}"
     );
     assert!(e.to_string().contains("melted"), "{e}");
-    let e = scene_free_energy(
+    let e = solid_of_scene(
         &dilute.replace("sweeps: 200", "sweeps: 3000"),
         &quick,
         "melted",
@@ -201,8 +224,8 @@ fn what_has_no_crystal_free_energy_is_refused() {
 }
 
 /// The command: JSON with the fields the docs name and the path's points,
-/// the plot written; a fluid scene refused with exit code 2, its log never
-/// started.
+/// the plot written; springs for a fluid scene refused with exit code 2,
+/// its log never started.
 #[test]
 fn the_free_energy_command_prints_json_and_refuses_fluids() {
     let dir = std::env::temp_dir().join(format!("hardbody-fe-cli-{}", std::process::id()));
@@ -237,12 +260,73 @@ fn the_free_energy_command_prints_json_and_refuses_fluids() {
     let fluid = std::process::Command::new(hardbody)
         .arg("free-energy")
         .arg(root.join("data/scenes/default.ron"))
-        .arg("--out")
+        .args(["--spring", "1000", "--out"])
         .arg(dir.join("fluid.mcap"))
         .output()
         .unwrap();
     assert_eq!(fluid.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&fluid.stderr).contains("needs a lattice"));
+    assert!(String::from_utf8_lossy(&fluid.stderr).contains("springs tether a crystal"));
     assert!(fluid.stdout.is_empty());
     assert!(!dir.join("fluid.mcap").exists());
+}
+
+/// Carnahan–Starling–Kolafa's excess free energy of the hard-sphere
+/// fluid, βF_ex/N = (5/3) ln(1 − η) + η(34 − 33η + 4η²)/(6(1 − η)²),
+/// the integral of its Z = (1 + η + η² − (2/3)(η³ + η⁴))/(1 − η)³
+/// (Boublík & Nezbeda, Collect. Czech. Chem. Commun. 51, 2301 (1986)),
+/// within 0.1 % of simulation to freezing.
+fn kolafa_excess(eta: f64) -> f64 {
+    5.0 / 3.0 * (1.0 - eta).ln()
+        + eta * (34.0 - 33.0 * eta + 4.0 * eta * eta) / (6.0 * (1.0 - eta).powi(2))
+}
+
+/// The hard-sphere fluid at φ = 0.40, 256 spheres: βF/N from its own
+/// equation of state, integrated from the ideal gas, is Kolafa's within
+/// three errors (the error under 0.02), as are βP and βμ at the state;
+/// an fcc crystal given as a fluid is refused, naming its order.
+#[test]
+fn hard_sphere_fluid_free_energy_is_kolafas() {
+    let (n, phi) = (256usize, 0.40);
+    let side = (n as f64 * std::f64::consts::PI / 6.0 / 0.2).cbrt();
+    let text = format!(
+        r#"Scene(species: [Species(name: "s", shape: Sphere(radius: 0.5), count: {n})],
+            start: Random, box: ({side}, {side}, {side}), seed: 3,
+            stages: [Compress(packing_fraction: {phi}), MonteCarlo(ensemble: Nvt, sweeps: 2000)],
+            log: Log(path: "x.mcap", stats_every: 100, frames_every: 1000))"#
+    );
+    let (result, _) = scene_free_energy(&text, &FrenkelLadd::default(), "fluid-eos");
+    let FreeEnergy::EquationOfState(r) = result.unwrap() else {
+        panic!("a fluid scene runs as a fluid")
+    };
+    let eta = r.packing_fraction;
+    let excess = kolafa_excess(eta);
+    let z = (1.0 + eta + eta * eta - 2.0 / 3.0 * (eta.powi(3) + eta.powi(4))) / (1.0 - eta).powi(3);
+    let rho = r.number_density;
+    let mu = rho.ln() - 1.0 + excess + z;
+    println!(
+        "excess {:.5} ± {:.5} (Kolafa {excess:.5}); βP {:.4} ± {:.4} ({:.4}); βμ {:.4} ± {:.4} ({mu:.4})",
+        r.excess_free_energy_per_particle,
+        r.error,
+        r.pressure.0,
+        r.pressure.1,
+        z * rho,
+        r.chemical_potential.0,
+        r.chemical_potential.1
+    );
+    assert!(r.error < 0.02, "{}", r.error);
+    assert!((r.excess_free_energy_per_particle - excess).abs() < 3.0 * r.error);
+    assert!((r.pressure.0 - z * rho).abs() < 3.0 * r.pressure.1);
+    assert!((r.chemical_potential.0 - mu).abs() < 3.0 * r.chemical_potential.1);
+    assert_eq!(r.path.len(), EquationOfState::default().points);
+
+    let crystal = fcc_spheres(1.0409, 3);
+    let e = fluid_free_energy(
+        &crystal,
+        &EquationOfState::default(),
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap_err();
+    assert!(matches!(e, FreeEnergyError::Ordered { .. }), "{e}");
+    assert!(e.to_string().contains("Q₆"), "{e}");
 }

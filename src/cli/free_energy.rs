@@ -1,11 +1,14 @@
-//! `free-energy`: a crystal scene run, then its Frenkel–Ladd free energy
-//! printed (text or JSON) and its path plotted.
+//! `free-energy`: a scene run, then the free energy of its final state
+//! (a crystal's by Frenkel–Ladd, a fluid's from its equation of state)
+//! printed as text or JSON, and its path plotted.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use hardbody::bench::plot::{Figure, Series, line_plot};
-use hardbody::free_energy::{CrystalFreeEnergy, FrenkelLadd, solid_free_energy};
+use hardbody::free_energy::{
+    CrystalFreeEnergy, EquationOfState, FluidFreeEnergy, FreeEnergy, FrenkelLadd, scene_free_energy,
+};
 use hardbody::log::file::check_output;
 
 use super::*;
@@ -36,8 +39,15 @@ pub(super) fn free_energy(
     if let Err(e) = check_output(&log_path, true, &[scene_path]) {
         return bad_input(e);
     }
+    let crystal = matches!(scene.start, hardbody::scene::Start::Crystal { .. });
+    if flags.spring.is_some() && !crystal {
+        return bad_input(
+            "--spring: springs tether a crystal, and this scene does not start from one \
+             (its free energy is a fluid's, from its equation of state)",
+        );
+    }
     let defaults = FrenkelLadd::default();
-    let options = FrenkelLadd {
+    let solid = FrenkelLadd {
         points: flags.points.unwrap_or(defaults.points),
         sweeps: flags.sweeps.unwrap_or(defaults.sweeps),
         equilibration: flags.sweeps.map_or(defaults.equilibration, |s| s / 10),
@@ -45,17 +55,37 @@ pub(super) fn free_energy(
         seed: flags.seed.unwrap_or(scene.seed),
         ..defaults
     };
+    let defaults = EquationOfState::default();
+    let fluid = EquationOfState {
+        points: flags.points.unwrap_or(defaults.points),
+        sweeps: flags.sweeps.unwrap_or(defaults.sweeps),
+        equilibration: flags.sweeps.map_or(defaults.equilibration, |s| s / 10),
+        seed: flags.seed.unwrap_or(scene.seed),
+        ..defaults
+    };
     handle_ctrl_c();
     esay(&format!(
-        "hardbody {}: running {} ({} particles, {} stages), log {}, then its Frenkel–Ladd path",
+        "hardbody {}: running {} ({} particles, {} stages), log {}, then {}",
         env!("CARGO_PKG_VERSION"),
         scene_path.display(),
         scene.particle_count(),
         scene.stages.len(),
-        log_path.display()
+        log_path.display(),
+        match crystal {
+            true => "its Frenkel–Ladd path",
+            false => "its equation of state from the ideal gas",
+        }
     ));
     let mut progress = progress_display();
-    let result = solid_free_energy(&scene, &text, &log_path, &options, progress.as_mut(), &STOP);
+    let result = scene_free_energy(
+        &scene,
+        &text,
+        &log_path,
+        &solid,
+        &fluid,
+        progress.as_mut(),
+        &STOP,
+    );
     let result = match result {
         Ok(r) => r,
         Err(e) if e.is_bad_input() => return bad_input(e),
@@ -64,21 +94,97 @@ pub(super) fn free_energy(
             return ExitCode::from(EXIT_FAILED);
         }
     };
-    if let Some(dir) = plot
-        && let Err(e) = plot_path(dir, &result)
-    {
+    let plotted = match (plot, &result) {
+        (Some(dir), FreeEnergy::FrenkelLadd(r)) => plot_path(dir, r),
+        (Some(dir), FreeEnergy::EquationOfState(r)) => plot_eos(dir, r),
+        (None, _) => Ok(()),
+    };
+    if let Err(e) = plotted {
         return not_written(e);
     }
     if json {
         print_json(&result);
     } else {
-        print_block(&report(&result));
+        print_block(&match &result {
+            FreeEnergy::FrenkelLadd(r) => crystal_report(r),
+            FreeEnergy::EquationOfState(r) => fluid_report(r),
+        });
     }
     ExitCode::SUCCESS
 }
 
-/// The result as text: the free energy, its terms, the path.
-fn report(r: &CrystalFreeEnergy) -> String {
+/// A fluid's result as text: the free energy, the state's pressure and
+/// chemical potential, the equation of state point by point.
+fn fluid_report(r: &FluidFreeEnergy) -> String {
+    let mut text = format!(
+        "βF/N = {:.5} ± {:.5}  (fluid; Λ = 1 length unit; N = {}, φ = {:.5}, ρ = {:.5})\n\
+         excess over the ideal gas, ∫₀^ρ (Z − 1)/ρ′ dρ′ = {:.5}\n\
+         βP = {:.5} ± {:.5}, βμ = βF/N + βP/ρ = {:.5} ± {:.5}\n\
+         equation of state at {} Gauss–Legendre densities:\n     φ          βP        ±        Z       Q₆\n",
+        r.free_energy_per_particle,
+        r.error,
+        r.n,
+        r.packing_fraction,
+        r.number_density,
+        r.excess_free_energy_per_particle,
+        r.pressure.0,
+        r.pressure.1,
+        r.chemical_potential.0,
+        r.chemical_potential.1,
+        r.path.len(),
+    );
+    for p in &r.path {
+        text += &format!(
+            "{:9.5} {:11.5} {:9.5} {:9.5} {:7.3}\n",
+            p.packing_fraction,
+            p.pressure.mean,
+            p.pressure.error,
+            p.pressure.mean / p.density,
+            p.q6
+        );
+    }
+    text
+}
+
+/// The fluid's βP/ρ against φ, with its error band, as SVG.
+fn plot_eos(dir: &Path, r: &FluidFreeEnergy) -> Result<(), hardbody::bench::plot::PlotError> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let band = |sign: f64| -> Vec<(f64, f64)> {
+        (r.path.iter())
+            .map(|p| {
+                let z = (p.pressure.mean + sign * p.pressure.error) / p.density;
+                (p.packing_fraction, z)
+            })
+            .collect()
+    };
+    line_plot(
+        &dir.join("equation_of_state.svg"),
+        &Figure {
+            title: "equation of state integrated from the ideal gas",
+            x_label: "packing fraction φ",
+            y_label: "Z = βP/ρ",
+            log_x: false,
+            log_y: false,
+        },
+        &[
+            Series {
+                name: "Z".into(),
+                points: band(0.0),
+            },
+            Series {
+                name: "+ standard error".into(),
+                points: band(1.0),
+            },
+            Series {
+                name: "− standard error".into(),
+                points: band(-1.0),
+            },
+        ],
+    )
+}
+
+/// A crystal's result as text: the free energy, its terms, the path.
+fn crystal_report(r: &CrystalFreeEnergy) -> String {
     let mut text = format!(
         "βF/N = {:.5} ± {:.5}  (Λ = 1 length unit; N = {}, φ = {:.5}, ρ = {:.5})\n\
          excess over the ideal gas, βF/N − (ln ρ − 1) = {:.5}\n\

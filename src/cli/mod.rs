@@ -76,11 +76,13 @@ enum Command {
         /// Scene file (RON).
         scene: PathBuf,
     },
-    /// Run a crystal scene, then find the free energy of the state it ends
-    /// in by Frenkel–Ladd integration (springs to its start lattice, the
-    /// centre of mass held): βF/N with Λ = 1 length unit, and its error.
+    /// Run a scene, then find the free energy of the state it ends in:
+    /// a crystal's (the scene starts from Crystal) by Frenkel–Ladd
+    /// integration, springs to its start lattice, the centre of mass
+    /// held; a fluid's by integrating its equation of state from the ideal
+    /// gas. βF/N with Λ = 1 length unit, and its error.
     FreeEnergy {
-        /// Scene file (RON) starting from a Crystal.
+        /// Scene file (RON).
         scene: PathBuf,
         /// Log file of the scene's run (overrides the scene's log.path).
         #[arg(long)]
@@ -91,11 +93,12 @@ enum Command {
         /// Write the path's integrand (SVG) into this directory.
         #[arg(long, value_name = "DIR")]
         plot: Option<PathBuf>,
-        /// Gauss–Legendre points along ln(βλ + c) (default 12).
+        /// Gauss–Legendre points: along ln(βλ + c) for a crystal (default
+        /// 12), in density for a fluid (default 8).
         #[arg(long)]
         points: Option<usize>,
-        /// Sweeps sampled at each point (default 40000; a tenth more are
-        /// run first).
+        /// Sweeps sampled at each point (default 40000 for a crystal,
+        /// 20000 for a fluid; a tenth more are run first).
         #[arg(long)]
         sweeps: Option<u64>,
         /// The strongest springs βλ_max, in 1/length² (default: chosen

@@ -23,10 +23,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use rayon::prelude::*;
 
-use super::FreeEnergyError;
 use super::quadrature::gauss_legendre_on;
+use super::{FreeEnergyError, in_parallel};
 use crate::analysis::series::{Estimate, estimate_from};
 use crate::mc::einstein::{Tether, overlap_free_samples};
 use crate::mc::moves::{Count, Counts, MoveSizes};
@@ -182,45 +181,27 @@ pub fn crystal_free_energy(
         });
     }
     let nodes = gauss_legendre_on(options.points, shift.ln(), (spring_max + shift).ln());
-    let per_point = options.equilibration + options.sweeps;
     let description = format!("Frenkel–Ladd path, {} points", nodes.len());
-    progress.stage(0, 1, &description, per_point * nodes.len() as u64);
-    let done = AtomicU64::new(0);
-    let points: Vec<Result<(PathPoint, f64), FreeEnergyError>> = std::thread::scope(|scope| {
-        let work = scope.spawn(|| {
-            nodes
-                .par_iter()
-                .enumerate()
-                .map(|(k, &(x, weight))| {
-                    let spring = x.exp() - shift;
-                    let sampled =
-                        run_point_counted(system, sites, spring, options, k as u64, &done, stop)?;
-                    let scale = spring + shift;
-                    Ok((
-                        PathPoint {
-                            spring,
-                            integrand: scale * sampled.spread.mean,
-                            integrand_error: scale * sampled.spread.error,
-                            spread: sampled.spread,
-                            weight,
-                            acceptance: sampled.acceptance,
-                        },
-                        weight,
-                    ))
-                })
-                .collect()
-        });
-        while !work.is_finished() {
-            std::thread::sleep(std::time::Duration::from_millis(200));
-            progress.tick(done.load(Ordering::Relaxed), "");
-        }
-        work.join().expect("the path's workers do not panic")
-    });
-    let mut path = Vec::with_capacity(points.len());
-    for point in points {
-        path.push(point?.0);
-    }
-    progress.stage_done(&format!("{} points sampled", path.len()));
+    let per_point = options.equilibration + options.sweeps;
+    let path = in_parallel(
+        &nodes,
+        &description,
+        per_point,
+        progress,
+        |k, &(x, weight), done| {
+            let spring = x.exp() - shift;
+            let sampled = run_point_counted(system, sites, spring, options, k as u64, done, stop)?;
+            let scale = spring + shift;
+            Ok(PathPoint {
+                spring,
+                integrand: scale * sampled.spread.mean,
+                integrand_error: scale * sampled.spread.error,
+                spread: sampled.spread,
+                weight,
+                acceptance: sampled.acceptance,
+            })
+        },
+    )?;
     let (integral, integral_variance) = path.iter().fold((0.0, 0.0), |(s, v), p| {
         (
             s + p.weight * p.integrand,

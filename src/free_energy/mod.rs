@@ -1,18 +1,21 @@
-//! Absolute free energies: of a crystal by Frenkel–Ladd integration on
-//! the state a scene ends in (`frenkel_ladd.rs`), with the quadrature it
-//! integrates by (`quadrature.rs`).
+//! Absolute free energies of the state a scene ends in: of a crystal by
+//! Frenkel–Ladd integration (`frenkel_ladd.rs`), of a fluid by integrating
+//! its equation of state from the ideal gas (`fluid.rs`), with the
+//! quadrature both integrate by (`quadrature.rs`).
 //!
 //! It runs scenes (through [`crate::run`]) and Monte Carlo with springs
 //! ([`crate::mc::einstein`]); the command line and Python call it.
 
+pub mod fluid;
 pub mod frenkel_ladd;
 pub mod quadrature;
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use nalgebra::Vector3;
 
+pub use fluid::{EosPoint, EquationOfState, FluidFreeEnergy, fluid_free_energy};
 pub use frenkel_ladd::{CrystalFreeEnergy, FrenkelLadd, PathPoint, crystal_free_energy};
 
 use crate::mc::einstein::TetherError;
@@ -33,7 +36,7 @@ pub enum FreeEnergyError {
     )]
     NoLattice(&'static str),
     /// The box has walls.
-    #[error("the box has walls: a crystal's free energy is computed in a periodic box only")]
+    #[error("the box has walls: free energies are computed in periodic boxes only")]
     Walls,
     /// The state cannot be tethered to its lattice.
     #[error("the scene's final state cannot be tethered to its start lattice: {0}")]
@@ -75,6 +78,18 @@ pub enum FreeEnergyError {
         /// The widest λ_max / c.
         widest: f64,
     },
+    /// A state given as a fluid is ordered, or orders on the path.
+    #[error(
+        "the state at packing fraction {packing_fraction:.4} is ordered ({order}): a fluid's \
+         free energy integrates its equation of state from the ideal gas, which would cross \
+         the transition; for a crystal, start the scene from Crystal(...) (Frenkel–Ladd)"
+    )]
+    Ordered {
+        /// φ of the ordered state.
+        packing_fraction: f64,
+        /// Which order, and how much.
+        order: String,
+    },
     /// An option cannot be used.
     #[error("Frenkel–Ladd options: {0}")]
     Options(String),
@@ -101,6 +116,73 @@ impl FreeEnergyError {
     }
 }
 
+/// The free energy of a scene's final state, by the route its start
+/// calls for.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "method", rename_all = "snake_case")]
+pub enum FreeEnergy {
+    /// A crystal, by Frenkel–Ladd.
+    FrenkelLadd(CrystalFreeEnergy),
+    /// A fluid, by its equation of state.
+    EquationOfState(FluidFreeEnergy),
+}
+
+impl FreeEnergy {
+    /// βF/N and its error.
+    pub fn per_particle(&self) -> (f64, f64) {
+        match self {
+            FreeEnergy::FrenkelLadd(c) => (c.free_energy_per_particle, c.error),
+            FreeEnergy::EquationOfState(f) => (f.free_energy_per_particle, f.error),
+        }
+    }
+}
+
+/// βF/N of the state `scene` ends in (its log written to `log_path`): by
+/// Frenkel–Ladd if it starts from a crystal, else by integrating its
+/// equation of state as a fluid.
+pub fn scene_free_energy(
+    scene: &Scene,
+    scene_text: &str,
+    log_path: &Path,
+    crystal: &FrenkelLadd,
+    fluid: &EquationOfState,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<FreeEnergy, FreeEnergyError> {
+    if !scene.walls.is_empty() {
+        return Err(FreeEnergyError::Walls);
+    }
+    if let Start::Crystal { .. } = scene.start {
+        return solid_free_energy(scene, scene_text, log_path, crystal, progress, stop)
+            .map(FreeEnergy::FrenkelLadd);
+    }
+    let (_, end) = run_to_end(scene, scene_text, log_path, progress, stop)?;
+    fluid_free_energy(&end, fluid, progress, stop).map(FreeEnergy::EquationOfState)
+}
+
+/// The scene run to its end: its start and final states.
+fn run_to_end(
+    scene: &Scene,
+    scene_text: &str,
+    log_path: &Path,
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<(System, System), FreeEnergyError> {
+    let plan = Plan::of(scene);
+    let mut simulation = Simulation::new(scene, scene_text, log_path)?;
+    let start = system_from_record(&simulation.state()?, &plan)?;
+    while simulation.stage_index().is_some() {
+        let step = simulation.run_stage(progress, stop)?;
+        if step.interrupted {
+            simulation.finish()?;
+            return Err(FreeEnergyError::Stopped);
+        }
+    }
+    let end = system_from_record(&simulation.state()?, &plan)?;
+    simulation.finish()?;
+    Ok((start, end))
+}
+
 /// βF/N of the crystal `scene` ends in: the scene is run (its log written
 /// to `log_path`), its start lattice carried into the final box by the
 /// box's deformation, and the bodies tethered to it.
@@ -122,21 +204,40 @@ pub fn solid_free_energy(
     if !scene.walls.is_empty() {
         return Err(FreeEnergyError::Walls);
     }
-    let plan = Plan::of(scene);
-    let mut simulation = Simulation::new(scene, scene_text, log_path)?;
-    let start = system_from_record(&simulation.state()?, &plan)?;
-    while simulation.stage_index().is_some() {
-        let step = simulation.run_stage(progress, stop)?;
-        if step.interrupted {
-            simulation.finish()?;
-            return Err(FreeEnergyError::Stopped);
-        }
-    }
-    let end = system_from_record(&simulation.state()?, &plan)?;
-    simulation.finish()?;
+    let (start, end) = run_to_end(scene, scene_text, log_path, progress, stop)?;
     let sites = carried_sites(&start, &end);
     let translations = lattice_translations(&start);
     crystal_free_energy(&end, &sites, translations, options, progress, stop)
+}
+
+/// `work` on each of `items` in parallel (rayon), its results in order:
+/// the first error if any. Progress hears of the sweeps the workers count
+/// in their `done` (`per_item` each) as a stage of `description`.
+pub(crate) fn in_parallel<T: Sync, U: Send>(
+    items: &[T],
+    description: &str,
+    per_item: u64,
+    progress: &mut dyn Progress,
+    work: impl Fn(usize, &T, &AtomicU64) -> Result<U, FreeEnergyError> + Sync,
+) -> Result<Vec<U>, FreeEnergyError> {
+    use rayon::prelude::*;
+    progress.stage(0, 1, description, per_item * items.len() as u64);
+    let done = AtomicU64::new(0);
+    let results: Vec<Result<U, FreeEnergyError>> = std::thread::scope(|scope| {
+        let workers = scope.spawn(|| {
+            (items.par_iter().enumerate())
+                .map(|(k, item)| work(k, item, &done))
+                .collect()
+        });
+        while !workers.is_finished() {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+            progress.tick(done.load(Ordering::Relaxed), "");
+        }
+        workers.join().expect("the workers do not panic")
+    });
+    let results = results.into_iter().collect::<Result<Vec<U>, _>>()?;
+    progress.stage_done(&format!("{} points sampled", results.len()));
+    Ok(results)
 }
 
 /// The bodies' start positions carried into `end`'s box by the affine map
