@@ -110,6 +110,37 @@ enum Command {
         #[arg(long)]
         seed: Option<u64>,
     },
+    /// Fluid–crystal coexistence: both scenes run, the fluid's free energy
+    /// from its equation of state and the crystal's by Frenkel–Ladd, each
+    /// phase's equation of state below its state, and the pressure where
+    /// their chemical potentials cross, with errors.
+    Coexistence {
+        /// The fluid's scene (compressed to at or above freezing).
+        #[arg(long)]
+        fluid: PathBuf,
+        /// The crystal's scene (starting from Crystal, at or above melting).
+        #[arg(long)]
+        solid: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Write βμ of both branches against βP (SVG) into this directory.
+        #[arg(long, value_name = "DIR")]
+        plot: Option<PathBuf>,
+        /// Gauss–Legendre points of the fluid's equation of state (default 8).
+        #[arg(long)]
+        points: Option<usize>,
+        /// Sweeps sampled at each point of the fluid's equation of state
+        /// and of the branches (default 20000).
+        #[arg(long)]
+        sweeps: Option<u64>,
+        /// The crystal's strongest springs βλ_max (default: chosen).
+        #[arg(long)]
+        spring: Option<f64>,
+        /// Random seed (default the scenes').
+        #[arg(long)]
+        seed: Option<u64>,
+    },
     /// Export a log's frames to another format (GSD for OVITO, freud, HOOMD-blue).
     Export {
         /// MCAP log written by `hardbody run`.
@@ -326,6 +357,27 @@ pub fn main() -> ExitCode {
             (many, false) => analyze_replicas(many, json, plot.as_deref()),
         },
         Command::Export { log, gsd } => export(&log, &gsd),
+        Command::Coexistence {
+            fluid,
+            solid,
+            json,
+            plot,
+            points,
+            sweeps,
+            spring,
+            seed,
+        } => coexistence(
+            &fluid,
+            &solid,
+            PathFlags {
+                points,
+                sweeps,
+                spring,
+                seed,
+            },
+            json,
+            plot.as_deref(),
+        ),
         Command::FreeEnergy {
             scene,
             out,

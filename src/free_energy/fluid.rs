@@ -239,7 +239,7 @@ fn ordered(system: &System, q6: f64) -> Option<String> {
 
 /// βP of `system` expanded to density `rho` (its own, or lower) by NVT
 /// Monte Carlo, with Q₆ and φ of the last configuration.
-fn sample_pressure(
+pub(super) fn sample_pressure(
     system: &System,
     rho: f64,
     options: &EquationOfState,

@@ -6,6 +6,7 @@
 //! It runs scenes (through [`crate::run`]) and Monte Carlo with springs
 //! ([`crate::mc::einstein`]); the command line and Python call it.
 
+pub mod coexistence;
 pub mod fluid;
 pub mod frenkel_ladd;
 pub mod quadrature;
@@ -15,6 +16,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use nalgebra::Vector3;
 
+pub use coexistence::{
+    Branch, BranchPoint, Coexistence, CoexistenceOptions, Phase, branch_below, coexistence,
+};
 pub use fluid::{EosPoint, EquationOfState, FluidFreeEnergy, fluid_free_energy};
 pub use frenkel_ladd::{CrystalFreeEnergy, FrenkelLadd, PathPoint, crystal_free_energy};
 
@@ -90,6 +94,29 @@ pub enum FreeEnergyError {
         /// Which order, and how much.
         order: String,
     },
+    /// A crystal melted on its branch of the equation of state.
+    #[error(
+        "the crystal melted when expanded to packing fraction {packing_fraction:.4} (global \
+         Q₆ = {q6:.3}): its branch reaches below the crystal's stability; give a denser crystal \
+         or a smaller span"
+    )]
+    MeltedBranch {
+        /// φ where it melted.
+        packing_fraction: f64,
+        /// Its Q₆.
+        q6: f64,
+    },
+    /// The two phases' chemical potentials do not cross where measured.
+    #[error("no coexistence found: {0}")]
+    NoCrossing(String),
+    /// A scene given for one phase is of the other.
+    #[error("the {role} scene {why}")]
+    WrongPhase {
+        /// `fluid` or `solid`.
+        role: &'static str,
+        /// What is wrong with it.
+        why: &'static str,
+    },
     /// An option cannot be used.
     #[error("Frenkel–Ladd options: {0}")]
     Options(String),
@@ -158,6 +185,64 @@ pub fn scene_free_energy(
     }
     let (_, end) = run_to_end(scene, scene_text, log_path, progress, stop)?;
     fluid_free_energy(&end, fluid, progress, stop).map(FreeEnergy::EquationOfState)
+}
+
+/// One phase's scene: the scene, its text and where its log goes.
+pub struct PhaseScene<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its text, which the log records.
+    pub text: &'a str,
+    /// Its log.
+    pub log: &'a Path,
+}
+
+/// Fluid–crystal coexistence from a fluid scene and a crystal scene: both
+/// run, the fluid's free energy from its equation of state, the
+/// crystal's by Frenkel–Ladd, the branches sampled below each, and the
+/// chemical potentials crossed.
+pub fn scene_coexistence(
+    fluid: PhaseScene,
+    solid: PhaseScene,
+    options: (&EquationOfState, &FrenkelLadd, &CoexistenceOptions),
+    progress: &mut dyn Progress,
+    stop: &AtomicBool,
+) -> Result<Coexistence, FreeEnergyError> {
+    if !matches!(solid.scene.start, Start::Crystal { .. }) {
+        return Err(FreeEnergyError::WrongPhase {
+            role: "solid",
+            why: "does not start from Crystal(...): there is no lattice to tether its bodies to",
+        });
+    }
+    if matches!(fluid.scene.start, Start::Crystal { .. }) {
+        return Err(FreeEnergyError::WrongPhase {
+            role: "fluid",
+            why: "starts from a crystal: give a fluid (a Random or Lattice start compressed)",
+        });
+    }
+    if !fluid.scene.walls.is_empty() || !solid.scene.walls.is_empty() {
+        return Err(FreeEnergyError::Walls);
+    }
+    let (_, fluid_state) = run_to_end(fluid.scene, fluid.text, fluid.log, progress, stop)?;
+    let fluid_energy = fluid_free_energy(&fluid_state, options.0, progress, stop)?;
+    let (start, solid_state) = run_to_end(solid.scene, solid.text, solid.log, progress, stop)?;
+    let sites = carried_sites(&start, &solid_state);
+    let translations = lattice_translations(&start);
+    let solid_energy = crystal_free_energy(
+        &solid_state,
+        &sites,
+        translations,
+        options.1,
+        progress,
+        stop,
+    )?;
+    coexistence(
+        (&fluid_state, &fluid_energy),
+        (&solid_state, &solid_energy),
+        options.2,
+        progress,
+        stop,
+    )
 }
 
 /// The scene run to its end: its start and final states.
