@@ -17,6 +17,7 @@ README's "Python" section is the reference."""
 from . import _core
 from ._analyze import analyze
 from ._core import LogError, RunError, SceneError
+from ._free_energy import coexistence, free_energy
 from ._log import Frame, RunLog, open_log
 from ._run import resume, run
 from ._simulation import Simulation
@@ -59,5 +60,5 @@ __all__ = [
     "SimpleCubic", "Triclinic", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
     "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere",
-    "Superellipsoid", "analyze", "open_log", "resume", "run",
+    "Superellipsoid", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
 ]

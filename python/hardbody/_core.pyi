@@ -30,6 +30,26 @@ def run_scene(
     progress: _Progress = None,
 ) -> Dict[str, Any]: ...
 def resume_log(log: _Path, out: Optional[_Path] = None, progress: _Progress = None) -> Dict[str, Any]: ...
+def free_energy_json(
+    text: str,
+    out: Optional[_Path] = None,
+    seed: Optional[int] = None,
+    inputs: Sequence[_Path] = ...,
+    points: Optional[int] = None,
+    sweeps: Optional[int] = None,
+    spring: Optional[float] = None,
+    progress: _Progress = None,
+) -> str: ...
+def coexistence_json(
+    fluid: str,
+    solid: str,
+    seed: Optional[int] = None,
+    inputs: Sequence[_Path] = ...,
+    points: Optional[int] = None,
+    sweeps: Optional[int] = None,
+    spring: Optional[float] = None,
+    progress: _Progress = None,
+) -> str: ...
 def read_log(path: _Path) -> Dict[str, Any]: ...
 def export_gsd(path: _Path, out: _Path) -> int: ...
 def analyze_logs(paths: Sequence[_Path]) -> str: ...

@@ -7,6 +7,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
+mod free_energy;
 mod log;
 mod run;
 mod scene;
@@ -42,6 +43,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene::scene_to_ron, m)?)?;
     m.add_function(wrap_pyfunction!(run::run_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run::resume_log, m)?)?;
+    m.add_function(wrap_pyfunction!(free_energy::free_energy_json, m)?)?;
+    m.add_function(wrap_pyfunction!(free_energy::coexistence_json, m)?)?;
     m.add_function(wrap_pyfunction!(log::read_log, m)?)?;
     m.add_function(wrap_pyfunction!(log::export_gsd, m)?)?;
     m.add_function(wrap_pyfunction!(log::analyze_logs, m)?)?;

@@ -7,25 +7,17 @@ use std::process::ExitCode;
 
 use hardbody::bench::plot::{Figure, Series, line_plot};
 use hardbody::free_energy::{
-    Coexistence, CoexistenceOptions, CrystalFreeEnergy, EquationOfState, FluidFreeEnergy,
-    FreeEnergy, FrenkelLadd, PhaseScene, scene_coexistence, scene_free_energy,
+    Coexistence, CrystalFreeEnergy, FluidFreeEnergy, FreeEnergy, PathChoices, PhaseScene,
+    scene_coexistence, scene_free_energy,
 };
 use hardbody::log::file::check_output;
 
 use super::*;
 
-/// The path's options as the flags give them.
-pub(super) struct PathFlags {
-    pub points: Option<usize>,
-    pub sweeps: Option<u64>,
-    pub spring: Option<f64>,
-    pub seed: Option<u64>,
-}
-
 pub(super) fn free_energy(
     scene_path: &Path,
     out: Option<PathBuf>,
-    flags: PathFlags,
+    flags: PathChoices,
     json: bool,
     plot: Option<&Path>,
 ) -> ExitCode {
@@ -47,23 +39,8 @@ pub(super) fn free_energy(
              (its free energy is a fluid's, from its equation of state)",
         );
     }
-    let defaults = FrenkelLadd::default();
-    let solid = FrenkelLadd {
-        points: flags.points.unwrap_or(defaults.points),
-        sweeps: flags.sweeps.unwrap_or(defaults.sweeps),
-        equilibration: flags.sweeps.map_or(defaults.equilibration, |s| s / 10),
-        spring: flags.spring,
-        seed: flags.seed.unwrap_or(scene.seed),
-        ..defaults
-    };
-    let defaults = EquationOfState::default();
-    let fluid = EquationOfState {
-        points: flags.points.unwrap_or(defaults.points),
-        sweeps: flags.sweeps.unwrap_or(defaults.sweeps),
-        equilibration: flags.sweeps.map_or(defaults.equilibration, |s| s / 10),
-        seed: flags.seed.unwrap_or(scene.seed),
-        ..defaults
-    };
+    let solid = flags.frenkel_ladd(scene.seed);
+    let fluid = flags.equation_of_state(scene.seed);
     handle_ctrl_c();
     esay(&format!(
         "hardbody {}: running {} ({} particles, {} stages), log {}, then {}",
@@ -261,7 +238,7 @@ fn plot_path(dir: &Path, r: &CrystalFreeEnergy) -> Result<(), hardbody::bench::p
 pub(super) fn coexistence(
     fluid_path: &Path,
     solid_path: &Path,
-    flags: PathFlags,
+    flags: PathChoices,
     json: bool,
     plot: Option<&Path>,
 ) -> ExitCode {
@@ -288,25 +265,7 @@ pub(super) fn coexistence(
             fluid_log.display()
         ));
     }
-    let eos_defaults = EquationOfState::default();
-    let eos = EquationOfState {
-        points: flags.points.unwrap_or(eos_defaults.points),
-        sweeps: flags.sweeps.unwrap_or(eos_defaults.sweeps),
-        equilibration: flags.sweeps.map_or(eos_defaults.equilibration, |s| s / 10),
-        seed: flags.seed.unwrap_or(fluid.seed),
-        ..eos_defaults
-    };
-    let fl_defaults = FrenkelLadd::default();
-    let springs = FrenkelLadd {
-        spring: flags.spring,
-        seed: flags.seed.unwrap_or(solid.seed),
-        ..fl_defaults
-    };
-    let branches = CoexistenceOptions {
-        sweeps: flags.sweeps.unwrap_or(CoexistenceOptions::default().sweeps),
-        seed: flags.seed.unwrap_or(fluid.seed),
-        ..CoexistenceOptions::default()
-    };
+    let (eos, springs, branches) = flags.coexistence(fluid.seed);
     handle_ctrl_c();
     esay(&format!(
         "hardbody {}: coexistence of {} ({} bodies) and {} ({} bodies): both scenes run, logs {} \

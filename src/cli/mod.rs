@@ -17,6 +17,7 @@ mod sweep;
 use analyze::*;
 use bench::*;
 use free_energy::*;
+use hardbody::free_energy::PathChoices;
 use run::*;
 use sweep::*;
 
@@ -369,7 +370,7 @@ pub fn main() -> ExitCode {
         } => coexistence(
             &fluid,
             &solid,
-            PathFlags {
+            PathChoices {
                 points,
                 sweeps,
                 spring,
@@ -390,7 +391,7 @@ pub fn main() -> ExitCode {
         } => free_energy(
             &scene,
             out,
-            PathFlags {
+            PathChoices {
                 points,
                 sweeps,
                 spring,

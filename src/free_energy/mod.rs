@@ -187,6 +187,65 @@ pub fn scene_free_energy(
     fluid_free_energy(&end, fluid, progress, stop).map(FreeEnergy::EquationOfState)
 }
 
+/// What a user may choose of the paths (the command line's flags, the
+/// Python keywords); the rest are the defaults.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PathChoices {
+    /// Gauss–Legendre points of the path (the crystal's or the fluid's).
+    pub points: Option<usize>,
+    /// Sweeps sampled per point (a tenth more run first).
+    pub sweeps: Option<u64>,
+    /// λ_max of the crystal's springs.
+    pub spring: Option<f64>,
+    /// Seed (default: the scene's).
+    pub seed: Option<u64>,
+}
+
+impl PathChoices {
+    /// The Frenkel–Ladd path, `seed` the scene's.
+    pub fn frenkel_ladd(&self, seed: u64) -> FrenkelLadd {
+        let defaults = FrenkelLadd::default();
+        FrenkelLadd {
+            points: self.points.unwrap_or(defaults.points),
+            sweeps: self.sweeps.unwrap_or(defaults.sweeps),
+            equilibration: self.sweeps.map_or(defaults.equilibration, |s| s / 10),
+            spring: self.spring,
+            seed: self.seed.unwrap_or(seed),
+            ..defaults
+        }
+    }
+
+    /// The fluid's equation of state, `seed` the scene's.
+    pub fn equation_of_state(&self, seed: u64) -> EquationOfState {
+        let defaults = EquationOfState::default();
+        EquationOfState {
+            points: self.points.unwrap_or(defaults.points),
+            sweeps: self.sweeps.unwrap_or(defaults.sweeps),
+            equilibration: self.sweeps.map_or(defaults.equilibration, |s| s / 10),
+            seed: self.seed.unwrap_or(seed),
+            ..defaults
+        }
+    }
+
+    /// The branches of coexistence (the points are the fluid path's;
+    /// the Frenkel–Ladd path keeps its defaults but for the springs).
+    pub fn coexistence(&self, seed: u64) -> (EquationOfState, FrenkelLadd, CoexistenceOptions) {
+        let defaults = CoexistenceOptions::default();
+        let springs = FrenkelLadd {
+            spring: self.spring,
+            seed: self.seed.unwrap_or(seed),
+            ..FrenkelLadd::default()
+        };
+        let branches = CoexistenceOptions {
+            sweeps: self.sweeps.unwrap_or(defaults.sweeps),
+            equilibration: self.sweeps.map_or(defaults.equilibration, |s| s / 10),
+            seed: self.seed.unwrap_or(seed),
+            ..defaults
+        };
+        (self.equation_of_state(seed), springs, branches)
+    }
+}
+
 /// One phase's scene: the scene, its text and where its log goes.
 pub struct PhaseScene<'a> {
     /// The scene.
