@@ -20,6 +20,16 @@ def _scene(scene: SceneArg) -> Scene:
     return scene if isinstance(scene, Scene) else Scene.load(scene)
 
 
+def _parsed(call, *args, **keywords) -> dict:
+    """The JSON `call` returns, parsed; SIGTERM stops it as Ctrl-C does."""
+    try:
+        with _sigterm_stops_the_run():
+            return json.loads(call(*args, **keywords))
+    except KeyboardInterrupt as e:
+        _interrupted(e)
+        raise
+
+
 def free_energy(
     scene: SceneArg,
     out: Optional[Union[str, os.PathLike]] = None,
@@ -37,23 +47,17 @@ def free_energy(
     first, its log at `out` (default its log path). Raises ValueError for
     what cannot have a free energy (a melting crystal is a RunError)."""
     scene = _scene(scene)
-    inputs = [scene._path] if scene._path is not None else []
-    try:
-        with _sigterm_stops_the_run():
-            text = _core.free_energy_json(
-                scene.to_ron(),
-                out=None if out is None else os.fspath(out),
-                seed=seed,
-                inputs=inputs,
-                points=points,
-                sweeps=sweeps,
-                spring=spring,
-                progress=_progress(progress),
-            )
-    except KeyboardInterrupt as e:
-        _interrupted(e)
-        raise
-    return json.loads(text)
+    return _parsed(
+        _core.free_energy_json,
+        scene.to_ron(),
+        out=None if out is None else os.fspath(out),
+        seed=seed,
+        inputs=[scene._path] if scene._path is not None else [],
+        points=points,
+        sweeps=sweeps,
+        spring=spring,
+        progress=_progress(progress),
+    )
 
 
 def coexistence(
@@ -71,20 +75,14 @@ def coexistence(
     `solid_packing_fraction` with their errors, `chemical_potential`,
     both branches and βμ of each on a grid of βP."""
     fluid, solid = _scene(fluid), _scene(solid)
-    inputs = [s._path for s in (fluid, solid) if s._path is not None]
-    try:
-        with _sigterm_stops_the_run():
-            text = _core.coexistence_json(
-                fluid.to_ron(),
-                solid.to_ron(),
-                seed=seed,
-                inputs=inputs,
-                points=points,
-                sweeps=sweeps,
-                spring=spring,
-                progress=_progress(progress),
-            )
-    except KeyboardInterrupt as e:
-        _interrupted(e)
-        raise
-    return json.loads(text)
+    return _parsed(
+        _core.coexistence_json,
+        fluid.to_ron(),
+        solid.to_ron(),
+        seed=seed,
+        inputs=[s._path for s in (fluid, solid) if s._path is not None],
+        points=points,
+        sweeps=sweeps,
+        spring=spring,
+        progress=_progress(progress),
+    )

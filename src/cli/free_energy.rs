@@ -64,13 +64,9 @@ pub(super) fn free_energy(
         progress.as_mut(),
         &STOP,
     );
-    let result = match result {
+    let result = match result.map_err(refused) {
         Ok(r) => r,
-        Err(e) if e.is_bad_input() => return bad_input(e),
-        Err(e) => {
-            esay(&format!("hardbody: {e}"));
-            return ExitCode::from(EXIT_FAILED);
-        }
+        Err(code) => return code,
     };
     let plotted = match (plot, &result) {
         (Some(dir), FreeEnergy::FrenkelLadd(r)) => plot_path(dir, r),
@@ -89,6 +85,16 @@ pub(super) fn free_energy(
         });
     }
     ExitCode::SUCCESS
+}
+
+/// The exit of a free energy that failed: bad input (2) or a failed
+/// computation (1), the message on standard error.
+fn refused(e: hardbody::free_energy::FreeEnergyError) -> ExitCode {
+    if e.is_bad_input() {
+        return bad_input(e);
+    }
+    esay(&format!("hardbody: {e}"));
+    ExitCode::from(EXIT_FAILED)
 }
 
 /// A fluid's result as text: the free energy, the state's pressure and
@@ -295,13 +301,9 @@ pub(super) fn coexistence(
         progress.as_mut(),
         &STOP,
     );
-    let result = match result {
+    let result = match result.map_err(refused) {
         Ok(r) => r,
-        Err(e) if e.is_bad_input() => return bad_input(e),
-        Err(e) => {
-            esay(&format!("hardbody: {e}"));
-            return ExitCode::from(EXIT_FAILED);
-        }
+        Err(code) => return code,
     };
     if let Some(dir) = plot
         && let Err(e) = plot_chemical_potentials(dir, &result)

@@ -94,22 +94,8 @@ enum Command {
         /// Write the path's integrand (SVG) into this directory.
         #[arg(long, value_name = "DIR")]
         plot: Option<PathBuf>,
-        /// Gauss–Legendre points: along ln(βλ + c) for a crystal (default
-        /// 12), in density for a fluid (default 8).
-        #[arg(long)]
-        points: Option<usize>,
-        /// Sweeps sampled at each point (default 40000 for a crystal,
-        /// 20000 for a fluid; a tenth more are run first).
-        #[arg(long)]
-        sweeps: Option<u64>,
-        /// The strongest springs βλ_max, in 1/length² (default: chosen
-        /// from the crystal, the weakest whose Einstein crystal is
-        /// overlap-free in 90 % of samples).
-        #[arg(long)]
-        spring: Option<f64>,
-        /// Random seed of the path (default the scene's).
-        #[arg(long)]
-        seed: Option<u64>,
+        #[command(flatten)]
+        path: PathArgs,
     },
     /// Fluid–crystal coexistence: both scenes run, the fluid's free energy
     /// from its equation of state and the crystal's by Frenkel–Ladd, each
@@ -128,19 +114,8 @@ enum Command {
         /// Write βμ of both branches against βP (SVG) into this directory.
         #[arg(long, value_name = "DIR")]
         plot: Option<PathBuf>,
-        /// Gauss–Legendre points of the fluid's equation of state (default 8).
-        #[arg(long)]
-        points: Option<usize>,
-        /// Sweeps sampled at each point of the fluid's equation of state
-        /// and of the branches (default 20000).
-        #[arg(long)]
-        sweeps: Option<u64>,
-        /// The crystal's strongest springs βλ_max (default: chosen).
-        #[arg(long)]
-        spring: Option<f64>,
-        /// Random seed (default the scenes').
-        #[arg(long)]
-        seed: Option<u64>,
+        #[command(flatten)]
+        path: PathArgs,
     },
     /// Export a log's frames to another format (GSD for OVITO, freud, HOOMD-blue).
     Export {
@@ -240,6 +215,40 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         plot: Option<std::path::PathBuf>,
     },
+}
+
+/// What may be chosen of a free-energy path (`free-energy`,
+/// `coexistence`).
+#[derive(clap::Args)]
+struct PathArgs {
+    /// Gauss–Legendre points: along ln(βλ + c) for a crystal (default 12),
+    /// in density for a fluid's equation of state (default 8).
+    #[arg(long)]
+    points: Option<usize>,
+    /// Sweeps sampled at each point (default 40000 on a crystal's path,
+    /// 20000 on a fluid's and on coexistence's branches; a tenth more are
+    /// run first).
+    #[arg(long)]
+    sweeps: Option<u64>,
+    /// The crystal's strongest springs βλ_max, in 1/length² (default:
+    /// chosen from the crystal, the weakest whose Einstein crystal is
+    /// overlap-free in 90 % of samples).
+    #[arg(long)]
+    spring: Option<f64>,
+    /// Random seed of the paths (default the scene's).
+    #[arg(long)]
+    seed: Option<u64>,
+}
+
+impl PathArgs {
+    fn choices(&self) -> PathChoices {
+        PathChoices {
+            points: self.points,
+            sweeps: self.sweeps,
+            spring: self.spring,
+            seed: self.seed,
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -363,43 +372,15 @@ pub fn main() -> ExitCode {
             solid,
             json,
             plot,
-            points,
-            sweeps,
-            spring,
-            seed,
-        } => coexistence(
-            &fluid,
-            &solid,
-            PathChoices {
-                points,
-                sweeps,
-                spring,
-                seed,
-            },
-            json,
-            plot.as_deref(),
-        ),
+            path,
+        } => coexistence(&fluid, &solid, path.choices(), json, plot.as_deref()),
         Command::FreeEnergy {
             scene,
             out,
             json,
             plot,
-            points,
-            sweeps,
-            spring,
-            seed,
-        } => free_energy(
-            &scene,
-            out,
-            PathChoices {
-                points,
-                sweeps,
-                spring,
-                seed,
-            },
-            json,
-            plot.as_deref(),
-        ),
+            path,
+        } => free_energy(&scene, out, path.choices(), json, plot.as_deref()),
         Command::Virial {
             shape_a,
             shape_b,
