@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use hardbody::bench::plot::{Figure, Series, line_plot};
+use hardbody::bench::plot::{Figure, PlotError, Series, line_plot};
 use hardbody::free_energy::{
     Coexistence, CrystalFreeEnergy, FluidFreeEnergy, FreeEnergy, PathChoices, PhaseScene,
     scene_coexistence, scene_free_energy,
@@ -131,17 +131,14 @@ fn fluid_report(r: &FluidFreeEnergy) -> String {
 }
 
 /// The fluid's βP/ρ against φ, with its error band, as SVG.
-fn plot_eos(dir: &Path, r: &FluidFreeEnergy) -> Result<(), hardbody::bench::plot::PlotError> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let band = |sign: f64| -> Vec<(f64, f64)> {
-        (r.path.iter())
-            .map(|p| {
-                let z = (p.pressure.mean + sign * p.pressure.error) / p.density;
-                (p.packing_fraction, z)
-            })
-            .collect()
-    };
-    line_plot(
+fn plot_eos(dir: &Path, r: &FluidFreeEnergy) -> Result<(), PlotError> {
+    let points: Vec<_> = (r.path.iter())
+        .map(|p| {
+            let z = p.pressure.mean / p.density;
+            (p.packing_fraction, z, p.pressure.error / p.density)
+        })
+        .collect();
+    band_plot(
         &dir.join("equation_of_state.svg"),
         &Figure {
             title: "equation of state integrated from the ideal gas",
@@ -150,21 +147,37 @@ fn plot_eos(dir: &Path, r: &FluidFreeEnergy) -> Result<(), hardbody::bench::plot
             log_x: false,
             log_y: false,
         },
-        &[
-            Series {
-                name: "Z".into(),
-                points: band(0.0),
-            },
-            Series {
-                name: "+ standard error".into(),
-                points: band(1.0),
-            },
-            Series {
-                name: "− standard error".into(),
-                points: band(-1.0),
-            },
-        ],
+        "Z",
+        &points,
     )
+}
+
+/// (x, y, error) points as a line with lines one standard error above
+/// and below, as SVG at `path` (its folder made).
+fn band_plot(
+    path: &Path,
+    figure: &Figure,
+    name: &str,
+    points: &[(f64, f64, f64)],
+) -> Result<(), PlotError> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let band = |sign: f64| -> Vec<(f64, f64)> {
+        points.iter().map(|&(x, y, e)| (x, y + sign * e)).collect()
+    };
+    let series = [
+        (name, 0.0),
+        ("+ standard error", 1.0),
+        ("− standard error", -1.0),
+    ];
+    let series: Vec<Series> = (series.iter())
+        .map(|&(name, sign)| Series {
+            name: name.into(),
+            points: band(sign),
+        })
+        .collect();
+    line_plot(path, figure, &series)
 }
 
 /// A crystal's result as text: the free energy, its terms, the path.
@@ -204,15 +217,17 @@ fn crystal_report(r: &CrystalFreeEnergy) -> String {
 }
 
 /// The integrand against ln(βλ + c), with its error band, as SVG.
-fn plot_path(dir: &Path, r: &CrystalFreeEnergy) -> Result<(), hardbody::bench::plot::PlotError> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let x = |p: &hardbody::free_energy::PathPoint| (p.spring + r.spring_shift).ln();
-    let band = |sign: f64| -> Vec<(f64, f64)> {
-        (r.path.iter())
-            .map(|p| (x(p), p.integrand + sign * p.integrand_error))
-            .collect()
-    };
-    line_plot(
+fn plot_path(dir: &Path, r: &CrystalFreeEnergy) -> Result<(), PlotError> {
+    let points: Vec<_> = (r.path.iter())
+        .map(|p| {
+            (
+                (p.spring + r.spring_shift).ln(),
+                p.integrand,
+                p.integrand_error,
+            )
+        })
+        .collect();
+    band_plot(
         &dir.join("frenkel_ladd_path.svg"),
         &Figure {
             title: "Frenkel–Ladd path",
@@ -221,20 +236,8 @@ fn plot_path(dir: &Path, r: &CrystalFreeEnergy) -> Result<(), hardbody::bench::p
             log_x: false,
             log_y: false,
         },
-        &[
-            Series {
-                name: "integrand".into(),
-                points: band(0.0),
-            },
-            Series {
-                name: "+ standard error".into(),
-                points: band(1.0),
-            },
-            Series {
-                name: "− standard error".into(),
-                points: band(-1.0),
-            },
-        ],
+        "integrand",
+        &points,
     )
 }
 
@@ -353,10 +356,7 @@ fn coexistence_report(c: &Coexistence) -> String {
 }
 
 /// βμ of both branches against βP, as SVG.
-fn plot_chemical_potentials(
-    dir: &Path,
-    c: &Coexistence,
-) -> Result<(), hardbody::bench::plot::PlotError> {
+fn plot_chemical_potentials(dir: &Path, c: &Coexistence) -> Result<(), PlotError> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let branch = |pick: fn(&(f64, f64, f64)) -> f64| -> Vec<(f64, f64)> {
         (c.chemical_potentials.iter())
