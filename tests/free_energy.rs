@@ -54,8 +54,8 @@ fn fcc_free_energy(cells: usize) -> hardbody::free_energy::CrystalFreeEnergy {
 /// The defect-free fcc hard-sphere crystal at ρσ³ = 1.0409: βF/N less
 /// the ideal gas's ln ρ − 1, at N = 108, 256 and 500, each to better than
 /// 0.003, and extrapolated linearly in 1/N, is Polson, Trizac, Pronk &
-/// Frenkel's 5.91889(4) (J. Chem. Phys. 112, 5339 (2000), abstract and
-/// Table I) within 0.005; the line fits the sizes (χ² under 3 per
+/// Frenkel's 5.91889(4) (J. Chem. Phys. 112, 5339 (2000), abstract)
+/// within 0.005; the line fits the sizes (χ² under 3 per
 /// degree of freedom).
 #[test]
 fn hard_sphere_fcc_free_energy_is_polsons() {
@@ -274,8 +274,7 @@ fn the_free_energy_command_prints_json_and_refuses_springs_for_fluids() {
 /// Carnahan–Starling–Kolafa's excess free energy of the hard-sphere
 /// fluid, βF_ex/N = (5/3) ln(1 − η) + η(34 − 33η + 4η²)/(6(1 − η)²),
 /// the integral of its Z = (1 + η + η² − (2/3)(η³ + η⁴))/(1 − η)³
-/// (Boublík & Nezbeda, Collect. Czech. Chem. Commun. 51, 2301 (1986)),
-/// within 0.1 % of simulation to freezing.
+/// (Boublík & Nezbeda, Collect. Czech. Chem. Commun. 51, 2301 (1986)).
 fn kolafa_excess(eta: f64) -> f64 {
     5.0 / 3.0 * (1.0 - eta).ln()
         + eta * (34.0 - 33.0 * eta + 4.0 * eta * eta) / (6.0 * (1.0 - eta).powi(2))

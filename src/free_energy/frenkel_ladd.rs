@@ -10,9 +10,9 @@
 //!   ln Z_CM(0) = ln Z_E(λ_max) + ln P₀(λ_max) + ∫₀^λ_max ⟨Σ|uᵢ − ū|²⟩_λ dλ,
 //!   ln Z_E(λ) = (3(N − 1)/2) ln(π/λ) + (3/2) ln N,
 //!
-//! with Λ = 1 length unit (Polson, Trizac, Pronk & Frenkel, J. Chem. Phys.
-//! 112, 5339 (2000), Eqs. 10–16, who write V/N_c as 1/ρ for a Bravais
-//! lattice). P₀ is the probability that the ideal Einstein crystal's
+//! with Λ = 1 length unit. The centre-of-mass terms are those Polson,
+//! Trizac, Pronk & Frenkel analyse (J. Chem. Phys. 112, 5339 (2000));
+//! for a Bravais lattice V/N_c is 1/ρ. P₀ is the probability that the ideal Einstein crystal's
 //! bodies do not overlap, sampled directly; the integral runs over
 //! x = ln(λ + c), where (λ + c)⟨Σ|uᵢ − ū|²⟩/N is nearly flat (from
 //! c g₀ at λ = 0 to 3/2 at large λ, for c = 3/(2 g₀), g₀ the spread per

@@ -449,7 +449,7 @@ pub fn lattice_translations(crystal: &System) -> usize {
 }
 
 /// βF/N extrapolated to N → ∞ by a straight line in 1/N, as Polson et
-/// al. find it once the ln N/N terms are in (their Fig. 2): the weighted
+/// al. find it once the ln N/N terms are in (their abstract): the weighted
 /// least-squares fit of values at several N.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct SizeExtrapolation {

@@ -3,8 +3,8 @@
 
 /// The `n` nodes (ascending) and weights of Gauss–Legendre quadrature on
 /// [−1, 1], found as the roots of Pₙ by Newton's method from
-/// cos(π (i − ¼)/(n + ½)) (Abramowitz & Stegun 22.16.6 for the start),
-/// with weights 2 / ((1 − x²) Pₙ′(x)²) (A&S 25.4.29).
+/// cos(π (i − ¼)/(n + ½)), with weights 2 / ((1 − x²) Pₙ′(x)²)
+/// (Abramowitz & Stegun 25.4.29).
 pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     let mut rule = Vec::with_capacity(n);
     for i in 1..=n {
