@@ -186,7 +186,8 @@ fn crystal_report(r: &CrystalFreeEnergy) -> String {
         "βF/N = {:.5} ± {:.5}  (Λ = 1 length unit; N = {}, φ = {:.5}, ρ = {:.5})\n\
          excess over the ideal gas, βF/N − (ln ρ − 1) = {:.5}\n\
          terms per body: −ln(V/N_c) with N_c = {} lattice translations; Einstein crystal \
-         {:.5} at βλ_max = {:.1}; overlaps {:.6} (P₀ = {:.4}); integral {:.5} ± {:.5}\n\
+         {:.5} at βλ_max = {:.1} (its orientations {:.5}, κ = {:.5}); overlaps {:.6} \
+         (P₀ = {:.4}); integral {:.5} ± {:.5}\n\
          path over ln(βλ + c), c = {:.2}:\n         βλ   (λ+c)⟨Σ|u−ū|²⟩/N     ±     settled  accepted\n",
         r.free_energy_per_particle,
         r.error,
@@ -197,6 +198,8 @@ fn crystal_report(r: &CrystalFreeEnergy) -> String {
         r.lattice_translations,
         r.einstein,
         r.spring_max,
+        r.einstein_orientations,
+        r.twist,
         r.overlap_term.0,
         r.overlap_free,
         r.integral_term.0,

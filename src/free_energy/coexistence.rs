@@ -16,8 +16,8 @@ use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;
 
 use super::fluid::{ORDERED_Q6, sample_pressure};
-use super::quadrature::gauss_legendre_on;
 use super::{CrystalFreeEnergy, FluidFreeEnergy, FreeEnergyError, in_parallel};
+use crate::analysis::quadrature::gauss_legendre_on;
 use crate::run::Progress;
 use crate::state::System;
 

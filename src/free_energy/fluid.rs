@@ -17,8 +17,8 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
-use super::quadrature::gauss_legendre_on;
 use super::{FreeEnergyError, in_parallel};
+use crate::analysis::quadrature::gauss_legendre_on;
 use crate::analysis::series::{Estimate, estimate_from};
 use crate::mc::moves::{Ensemble, MoveSizes, sweep};
 use crate::mc::sdf::Sdf;

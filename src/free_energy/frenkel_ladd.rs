@@ -20,20 +20,18 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
-use super::quadrature::gauss_legendre_on;
 use super::{FreeEnergyError, in_parallel};
+use crate::analysis::quadrature::gauss_legendre_on;
 use crate::analysis::series::{Estimate, estimate_from};
-use crate::mc::einstein::{Tether, overlap_free_samples};
-use crate::mc::moves::{Count, Counts, MoveSizes};
+use crate::mc::einstein::{Anchors, Tether, overlap_free_samples, spring_symmetries};
+use crate::mc::einstein_orientation::{WELL_DEPTH, orientational_partition};
+use crate::mc::moves::{Counts, MoveSizes};
 use crate::mc::tuning::Tuner;
 use crate::run::Progress;
 use crate::state::System;
-
-type V3 = Vector3<f64>;
 
 /// The acceptance the translation size is tuned toward at every point.
 const TARGET_ACCEPTANCE: f64 = 0.35;
@@ -63,6 +61,11 @@ pub struct FrenkelLadd {
     /// λ_max, βλ in 1/length² (None: the weakest springs, doubled from
     /// 16 c, whose Einstein crystal is overlap-free in 90 % of samples).
     pub spring: Option<f64>,
+    /// κ (length²): the orientational springs are κλ (None: chosen so
+    /// that the free crystal's orientations and positions spread alike
+    /// per degree of freedom, and deep enough for a finite group's wells
+    /// to be told apart at λ_max).
+    pub twist: Option<f64>,
     /// Samples of the ideal Einstein crystal for P₀.
     pub einstein_samples: usize,
     /// Seed of every random number drawn.
@@ -76,6 +79,7 @@ impl Default for FrenkelLadd {
             sweeps: 40_000,
             equilibration: 4_000,
             spring: None,
+            twist: None,
             einstein_samples: 20_000,
             seed: 1,
         }
@@ -89,13 +93,15 @@ pub struct PathPoint {
     pub spring: f64,
     /// ⟨Σ|uᵢ − ū|²⟩/N at this λ, with its error.
     pub spread: Estimate,
-    /// (λ + c)⟨Σ|uᵢ − ū|²⟩/N, the integrand over ln(λ + c).
+    /// ⟨Σφᵢ⟩/N, the orientations' misalignment, with its error.
+    pub misalignment: Estimate,
+    /// (λ + c)⟨Σ|uᵢ − ū|² + κ Σφᵢ⟩/N, the integrand over ln(λ + c).
     pub integrand: f64,
     /// Its standard error.
     pub integrand_error: f64,
     /// The Gauss–Legendre weight over ln(λ + c).
     pub weight: f64,
-    /// Translations accepted while sampling.
+    /// Moves accepted while sampling.
     pub acceptance: f64,
 }
 
@@ -121,8 +127,14 @@ pub struct CrystalFreeEnergy {
     pub spring_max: f64,
     /// c of x = ln(λ + c).
     pub spring_shift: f64,
-    /// −ln Z_E(λ_max)/N: the Einstein crystal's term.
+    /// κ: the orientational springs are κλ (length²; 0 where no body
+    /// turns).
+    pub twist: f64,
+    /// −ln Z_E(λ_max)/N: the Einstein crystal's term, positions and
+    /// orientations.
     pub einstein: f64,
+    /// Its orientations' part, −Σᵢ ln qᵢ(κλ_max)/N (SO(3) of volume 1).
+    pub einstein_orientations: f64,
     /// P₀: the fraction of Einstein-crystal samples free of overlaps.
     pub overlap_free: f64,
     /// −ln P₀ / N, with its error.
@@ -133,13 +145,14 @@ pub struct CrystalFreeEnergy {
     pub path: Vec<PathPoint>,
 }
 
-/// βF/N of `system`, a crystal whose bodies sit near `sites` (site i for
-/// body i), with `lattice_translations` lattice vectors in its box.
-/// `progress` hears of the sweeps as they run; `stop` ends the work early
-/// (with an error: a path cut short has no free energy).
+/// βF/N of `system`, a crystal whose bodies sit near their `anchors`
+/// (site and reference orientation i for body i), with
+/// `lattice_translations` lattice vectors in its box. `progress` hears of
+/// the sweeps as they run; `stop` ends the work early (with an error: a
+/// path cut short has no free energy).
 pub fn crystal_free_energy(
     system: &System,
-    sites: &[V3],
+    anchors: &Anchors,
     lattice_translations: usize,
     options: &FrenkelLadd,
     progress: &mut dyn Progress,
@@ -147,26 +160,35 @@ pub fn crystal_free_energy(
 ) -> Result<CrystalFreeEnergy, FreeEnergyError> {
     options.check()?;
     let n = system.len();
-    // The free crystal first: its spread sets c, and it must stay on its
-    // lattice.
+    let nf = n as f64;
+    let symmetries = spring_symmetries(system);
+    let of_body = |i: usize| &symmetries[system.particles()[i].species as usize];
+    // Orientational freedoms the springs bind, per body on average.
+    let freedoms = (0..n).map(|i| of_body(i).bound_freedoms()).sum::<usize>() as f64 / nf;
+    // The free crystal first: its spreads set κ and c, and it must stay
+    // on its lattice.
     let pilot_sweeps = options.equilibration.max(TUNE_EVERY * 4);
-    let pilot = run_point(
-        system,
-        sites,
-        0.0,
-        pilot_sweeps,
-        pilot_sweeps,
-        options,
-        u64::MAX,
-    )?;
-    let shift = 1.5 / pilot.spread.mean;
-    let (spring_max, overlap_free) = match options.spring {
-        Some(spring) => (
-            spring,
-            einstein_overlap_free(system, sites, spring, options),
-        ),
-        None => weakest_overlap_free_springs(system, sites, shift, options),
+    let pilot = run_point(system, anchors, (0.0, 0.0), pilot_sweeps, options, u64::MAX)?;
+    let (positions, turns) = (pilot.spread.mean, pilot.misalignment.mean);
+    let mut twist = match (options.twist, freedoms > 0.0 && turns > 0.0) {
+        (Some(t), _) => t,
+        (None, true) => (positions / 3.0) / (turns / freedoms),
+        (None, false) => 0.0,
     };
+    let shift_for = |twist: f64| 0.5 * (3.0 + freedoms) / (positions + twist * turns);
+    let (spring_max, _) = match options.spring {
+        Some(spring) => (spring, 1.0),
+        None => weakest_overlap_free_springs(system, anchors, shift_for(twist), twist, options),
+    };
+    // A finite group's wells must be deep enough at λ_max to count apart.
+    let edge = (0..n)
+        .map(|i| of_body(i).well_edge())
+        .fold(f64::INFINITY, f64::min);
+    if options.twist.is_none() && freedoms > 0.0 {
+        twist = twist.max(1.01 * WELL_DEPTH / (edge * spring_max));
+    }
+    let shift = shift_for(twist);
+    let overlap_free = einstein_overlap_free(system, anchors, (spring_max, twist), options);
     if overlap_free < FEWEST_FREE {
         return Err(FreeEnergyError::SpringsTooWeak {
             spring: spring_max,
@@ -180,6 +202,16 @@ pub fn crystal_free_energy(
             widest: WIDEST_PATH,
         });
     }
+    let mut einstein_orientations = 0.0;
+    for i in 0..n {
+        let q = orientational_partition(of_body(i), twist * spring_max).ok_or(
+            FreeEnergyError::ShallowWells {
+                spring: twist * spring_max,
+                edge,
+            },
+        )?;
+        einstein_orientations -= q.ln() / nf;
+    }
     let nodes = gauss_legendre_on(options.points, shift.ln(), (spring_max + shift).ln());
     let description = format!("Frenkel–Ladd path, {} points", nodes.len());
     let per_point = options.equilibration + options.sweeps;
@@ -190,13 +222,22 @@ pub fn crystal_free_energy(
         progress,
         |k, &(x, weight), done| {
             let spring = x.exp() - shift;
-            let sampled = run_point_counted(system, sites, spring, options, k as u64, done, stop)?;
+            let sampled = run_point_counted(
+                system,
+                anchors,
+                (spring, twist),
+                options,
+                k as u64,
+                done,
+                stop,
+            )?;
             let scale = spring + shift;
             Ok(PathPoint {
                 spring,
-                integrand: scale * sampled.spread.mean,
-                integrand_error: scale * sampled.spread.error,
+                integrand: scale * sampled.combined.mean,
+                integrand_error: scale * sampled.combined.error,
                 spread: sampled.spread,
+                misalignment: sampled.misalignment,
                 weight,
                 acceptance: sampled.acceptance,
             })
@@ -208,10 +249,9 @@ pub fn crystal_free_energy(
             v + (p.weight * p.integrand_error).powi(2),
         )
     });
-    let nf = n as f64;
     let volume = system.periodic_box().volume();
-    let einstein =
-        -(1.5 * (nf - 1.0) * (std::f64::consts::PI / spring_max).ln() + 1.5 * nf.ln()) / nf;
+    let einstein = einstein_orientations
+        - (1.5 * (nf - 1.0) * (std::f64::consts::PI / spring_max).ln() + 1.5 * nf.ln()) / nf;
     let samples = options.einstein_samples as f64;
     let overlap_term = (
         -overlap_free.ln() / nf,
@@ -223,20 +263,19 @@ pub fn crystal_free_energy(
         + overlap_term.0
         + integral_term.0;
     let density = nf / volume;
-    let filled: f64 = (system.particles().iter())
-        .map(|p| system.species()[p.species as usize].shape.volume())
-        .sum();
     Ok(CrystalFreeEnergy {
         free_energy_per_particle: free_energy,
         error: overlap_term.1.hypot(integral_term.1),
         excess_free_energy_per_particle: free_energy - (density.ln() - 1.0),
         n,
         lattice_translations,
-        packing_fraction: filled / volume,
+        packing_fraction: system.packing_fraction(),
         number_density: density,
         spring_max,
         spring_shift: shift,
+        twist,
         einstein,
+        einstein_orientations,
         overlap_free,
         overlap_term,
         integral_term,
@@ -257,24 +296,34 @@ impl FrenkelLadd {
         if self.einstein_samples < 100 {
             return bad("einstein_samples must be 100 or more");
         }
-        match self.spring {
-            Some(s) if !(s > 0.0 && s.is_finite()) => bad("spring must be a finite number > 0"),
+        match (self.spring, self.twist) {
+            (Some(s), _) if !(s > 0.0 && s.is_finite()) => {
+                bad("spring must be a finite number > 0")
+            }
+            (_, Some(t)) if !(t > 0.0 && t.is_finite()) => bad("twist must be a finite number > 0"),
             _ => Ok(()),
         }
     }
 }
 
-/// What one point's sampling found.
+/// What one point's sampling found (per body).
 struct Sampled {
     spread: Estimate,
+    misalignment: Estimate,
+    combined: Estimate,
     acceptance: f64,
 }
 
 /// The fraction of `options.einstein_samples` Einstein-crystal samples at
-/// `spring` that are overlap-free.
-fn einstein_overlap_free(system: &System, sites: &[V3], spring: f64, options: &FrenkelLadd) -> f64 {
+/// `springs` (λ, κ) that are overlap-free.
+fn einstein_overlap_free(
+    system: &System,
+    anchors: &Anchors,
+    springs: (f64, f64),
+    options: &FrenkelLadd,
+) -> f64 {
     let mut rng = Pcg64::seed_from_u64(options.seed ^ 0xe1);
-    let free = overlap_free_samples(system, sites, spring, options.einstein_samples, &mut rng);
+    let free = overlap_free_samples(system, anchors, springs, options.einstein_samples, &mut rng);
     free as f64 / options.einstein_samples as f64
 }
 
@@ -282,34 +331,34 @@ fn einstein_overlap_free(system: &System, sites: &[V3], spring: f64, options: &F
 /// are overlap-free, and P₀ there.
 fn weakest_overlap_free_springs(
     system: &System,
-    sites: &[V3],
+    anchors: &Anchors,
     shift: f64,
+    twist: f64,
     options: &FrenkelLadd,
 ) -> (f64, f64) {
     let mut rng = Pcg64::seed_from_u64(options.seed ^ 0xe2);
     let mut spring = 16.0 * shift;
     while spring < WIDEST_PATH * shift / 2.0
-        && overlap_free_samples(system, sites, spring, 1000, &mut rng) < 900
+        && overlap_free_samples(system, anchors, (spring, twist), 1000, &mut rng) < 900
     {
         spring *= 2.0;
     }
-    (
-        spring,
-        einstein_overlap_free(system, sites, spring, options),
-    )
+    let free = einstein_overlap_free(system, anchors, (spring, twist), options);
+    (spring, free)
 }
 
+/// One point of the path: springs (λ, κ), its sweeps run and sampled.
 fn run_point_counted(
     system: &System,
-    sites: &[V3],
-    spring: f64,
+    anchors: &Anchors,
+    (spring, twist): (f64, f64),
     options: &FrenkelLadd,
     k: u64,
     done: &AtomicU64,
     stop: &AtomicBool,
 ) -> Result<Sampled, FreeEnergyError> {
     let mut system = system.clone();
-    let mut tether = Tether::new(&system, sites, spring)?;
+    let mut tether = Tether::new(&system, anchors, spring, twist)?;
     let mut rng = Pcg64::seed_from_u64(options.seed.wrapping_add(k.wrapping_mul(0x9e37_79b9)));
     let tuner = Tuner {
         target: TARGET_ACCEPTANCE,
@@ -317,13 +366,15 @@ fn run_point_counted(
     };
     let mut sizes = MoveSizes {
         translate: 0.1 * tether.half_spacing(),
-        rotate: 0.0,
+        rotate: 0.1,
         volume: 0.0,
         shear: 0.0,
     };
     let mut window = Counts::default();
-    let mut kept = Count::default();
-    let mut spreads = Vec::with_capacity(options.sweeps as usize);
+    let mut kept = Counts::default();
+    let n = system.len() as f64;
+    let capacity = options.sweeps as usize;
+    let (mut spreads, mut turns) = (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
     for s in 0..options.equilibration + options.sweeps {
         if s % 256 == 0 {
             done.fetch_add(
@@ -334,46 +385,53 @@ fn run_point_counted(
                 return Err(FreeEnergyError::Stopped);
             }
         }
-        let count = tether.sweep(&mut system, sizes.translate, &mut rng);
+        let counts = tether.sweep(&mut system, &sizes, &mut rng);
         if s < options.equilibration {
-            window.translate = window.translate + count;
+            window += counts;
             if s < options.equilibration / 2 && (s + 1) % TUNE_EVERY == 0 {
                 tuner.update(&mut sizes, &window);
                 window = Counts::default();
             }
             continue;
         }
-        kept = kept + count;
+        kept += counts;
         tether
             .check_on_sites()
             .map_err(|source| FreeEnergyError::Melted { spring, source })?;
-        spreads.push(tether.spread() / system.len() as f64);
+        spreads.push(tether.spread() / n);
+        turns.push(tether.misalignment() / n);
     }
+    let combined: Vec<f64> = (spreads.iter().zip(&turns))
+        .map(|(a, b)| a + twist * b)
+        .collect();
+    let moves = kept.translate + kept.rotate;
     Ok(Sampled {
         spread: estimate_from(&spreads, 0),
-        acceptance: kept.rate(),
+        misalignment: estimate_from(&turns, 0),
+        combined: estimate_from(&combined, 0),
+        acceptance: moves.rate(),
     })
 }
 
-/// The free crystal's run (λ = 0) for c and the check that it holds.
+/// The free crystal's run (λ = 0) for κ and c, and the check that it
+/// holds.
 fn run_point(
     system: &System,
-    sites: &[V3],
-    spring: f64,
-    equilibration: u64,
+    anchors: &Anchors,
+    springs: (f64, f64),
     sweeps: u64,
     options: &FrenkelLadd,
     k: u64,
 ) -> Result<Sampled, FreeEnergyError> {
     let pilot = FrenkelLadd {
-        equilibration,
+        equilibration: sweeps,
         sweeps,
         ..options.clone()
     };
     run_point_counted(
         system,
-        sites,
-        spring,
+        anchors,
+        springs,
         &pilot,
         k,
         &AtomicU64::new(0),

@@ -1,7 +1,7 @@
 //! Absolute free energies of the state a scene ends in: of a crystal by
 //! Frenkel–Ladd integration (`frenkel_ladd.rs`), of a fluid by integrating
-//! its equation of state from the ideal gas (`fluid.rs`), with the
-//! quadrature both integrate by (`quadrature.rs`).
+//! its equation of state from the ideal gas (`fluid.rs`), and the
+//! coexistence of the two (`coexistence.rs`).
 //!
 //! It runs scenes (through [`crate::run`]) and Monte Carlo with springs
 //! ([`crate::mc::einstein`]); the command line and Python call it.
@@ -9,7 +9,6 @@
 pub mod coexistence;
 pub mod fluid;
 pub mod frenkel_ladd;
-pub mod quadrature;
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -22,7 +21,7 @@ pub use coexistence::{
 pub use fluid::{EosPoint, EquationOfState, FluidFreeEnergy, fluid_free_energy};
 pub use frenkel_ladd::{CrystalFreeEnergy, FrenkelLadd, PathPoint, crystal_free_energy};
 
-use crate::mc::einstein::TetherError;
+use crate::mc::einstein::{Anchors, TetherError};
 use crate::run::{Progress, RecordError, RunError, Simulation, system_from_record};
 use crate::scene::plan::Plan;
 use crate::scene::{Scene, Start};
@@ -116,6 +115,19 @@ pub enum FreeEnergyError {
         role: &'static str,
         /// What is wrong with it.
         why: &'static str,
+    },
+    /// The orientational springs are too weak at λ_max for a finite
+    /// group's wells to be told apart.
+    #[error(
+        "orientational springs κλ_max = {spring} are too weak: a body's images under its \
+         symmetries lie {edge} apart in 1 − cos θ, and κλ_max × that must reach 40; give a \
+         larger twist or stronger springs"
+    )]
+    ShallowWells {
+        /// κλ_max.
+        spring: f64,
+        /// The well's edge.
+        edge: f64,
     },
     /// An option cannot be used.
     #[error("Frenkel–Ladd options: {0}")]
@@ -285,11 +297,11 @@ pub fn scene_coexistence(
     let (_, fluid_state) = run_to_end(fluid.scene, fluid.text, fluid.log, progress, stop)?;
     let fluid_energy = fluid_free_energy(&fluid_state, options.0, progress, stop)?;
     let (start, solid_state) = run_to_end(solid.scene, solid.text, solid.log, progress, stop)?;
-    let sites = carried_sites(&start, &solid_state);
+    let anchors = carried_anchors(&start, &solid_state);
     let translations = lattice_translations(&start);
     let solid_energy = crystal_free_energy(
         &solid_state,
-        &sites,
+        &anchors,
         translations,
         options.1,
         progress,
@@ -349,9 +361,9 @@ pub fn solid_free_energy(
         return Err(FreeEnergyError::Walls);
     }
     let (start, end) = run_to_end(scene, scene_text, log_path, progress, stop)?;
-    let sites = carried_sites(&start, &end);
+    let anchors = carried_anchors(&start, &end);
     let translations = lattice_translations(&start);
-    crystal_free_energy(&end, &sites, translations, options, progress, stop)
+    crystal_free_energy(&end, &anchors, translations, options, progress, stop)
 }
 
 /// `work` on each of `items` in parallel (rayon), its results in order:
@@ -385,12 +397,14 @@ pub(crate) fn in_parallel<T: Sync, U: Send>(
 }
 
 /// The bodies' start positions carried into `end`'s box by the affine map
-/// between the two boxes.
-pub fn carried_sites(start: &System, end: &System) -> Vec<V3> {
+/// between the two boxes, with their start orientations.
+pub fn carried_anchors(start: &System, end: &System) -> Anchors {
     let (from, to) = (start.periodic_box(), end.periodic_box());
-    (start.particles().iter())
-        .map(|p| to.map_from(from, &p.position))
-        .collect()
+    let mut anchors = Anchors::of(start);
+    for site in &mut anchors.sites {
+        *site = to.map_from(from, site);
+    }
+    anchors
 }
 
 /// How many translations by the vector from body 0 to another body map

@@ -14,6 +14,7 @@ pub mod pair;
 pub mod roots;
 pub mod shape;
 pub mod spec;
+pub mod symmetry;
 
 pub use contact::{Contact, Failure, Method, Relative, Status, WarmStart};
 pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent};

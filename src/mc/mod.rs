@@ -12,6 +12,7 @@
 pub mod box_moves;
 pub mod compress;
 pub mod einstein;
+pub mod einstein_orientation;
 pub mod moves;
 pub mod parallel;
 pub mod sdf;
