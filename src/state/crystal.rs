@@ -341,10 +341,14 @@ fn touching_scale(
         }
         false
     };
-    let (mut lo, mut hi) = (0.0, 1.0);
+    // Start where the lattice's heights are twice the largest reach: the
+    // search then looks at a few translations per axis, whatever the
+    // bodies' size.
+    let start = 2.0 * reach / unit.heights().min();
+    let (mut lo, mut hi) = (0.0, start);
     while overlaps(hi) {
         (lo, hi) = (hi, 2.0 * hi);
-        if hi > 1e12 {
+        if hi > 1e12 * start {
             return Err(CrystalError::Coincident);
         }
     }
@@ -394,6 +398,27 @@ mod tests {
             rotation: true,
         }];
         (species, vec![count])
+    }
+
+    /// The touching search costs the same for bodies of any size: spheres
+    /// of radius 10⁵ and 10⁻⁵ on fcc touch at π/√18 (a search that began
+    /// at unit scale looked at (4·10⁵)³ translations for the large ones).
+    #[test]
+    fn touching_is_found_for_bodies_of_any_size() {
+        let pi = std::f64::consts::PI;
+        for radius in [1e5, 1e-5] {
+            let (species, counts) = one(&format!("Sphere(radius: {radius})"), 4 * 27);
+            let spec = CrystalSpec {
+                cell: UnitCell::fcc(),
+                cells: [3, 3, 3],
+                packing_fraction: 0.5,
+            };
+            let limit = spec.densest_packing_fraction(&species, &counts).unwrap();
+            assert!(
+                (limit - pi / 18f64.sqrt()).abs() < 1e-10,
+                "{radius}: {limit}"
+            );
+        }
     }
 
     /// The close-packed lattices of spheres touch at π/√18, bcc at
