@@ -147,8 +147,27 @@ impl Scene {
         }
         if let Some(crystal) = self.crystal() {
             let built = crystal.and_then(|c| c.build(&self.mc_species(), &self.counts()));
-            if let Err(e) = built {
-                return bad("start", e.to_string());
+            match built {
+                Err(e) => return bad("start", e.to_string()),
+                Ok((box_, _)) => {
+                    // The supercell is a box like any other: its edges lie
+                    // in the range a box given by `box` must.
+                    let l = box_.lengths();
+                    let (low, high) = VALUE_RANGE;
+                    if !l.iter().all(|l| (low..=high).contains(l)) {
+                        return bad(
+                            "start",
+                            format!(
+                                "the crystal's box would have edges ({}, {}, {}), outside \
+                                 [{low:e}, {high:e}]: check the bodies' sizes and the \
+                                 packing fraction",
+                                Num(l.x),
+                                Num(l.y),
+                                Num(l.z)
+                            ),
+                        );
+                    }
+                }
             }
         }
         let diameter = 2.0 * self.largest_bounding_radius();
