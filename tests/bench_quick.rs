@@ -186,7 +186,8 @@ fn superellipsoid_mc_compress_and_effects_suites_run_quick() {
     );
 
     let rows = bench("effects", &dir);
-    assert_eq!(rows.len(), 9);
+    // Nine effects, true inertia for four shapes.
+    assert_eq!(rows.len(), 12);
     for r in &rows {
         let (off, on) = (r["off_us"].as_f64().unwrap(), r["on_us"].as_f64().unwrap());
         assert!(

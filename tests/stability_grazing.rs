@@ -15,7 +15,7 @@
 mod common;
 
 use common::{KINDS, Kind, random_rotation, random_shape, random_unit, rng, touching};
-use hardbody::edmd::motion::Spin;
+use hardbody::edmd::motion::FreeTop;
 use hardbody::edmd::{Predictor, PredictorOptions, Search};
 use hardbody::geometry::{DistanceOptions, Relative, Shape, distance};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -67,8 +67,8 @@ struct Tally {
 
 fn grazing_cases(ka: Kind, kb: Kind, cases: u64, tally: &mut Tally) {
     let predictor = Predictor::new(PredictorOptions::default());
-    let still = Spin::constant(V3::zeros());
     let identity = UnitQuaternion::identity();
+    let still = FreeTop::spherical(identity, V3::zeros());
     for case in 0..cases {
         let mut g = rng(ka as u64 * 10 + kb as u64 + 700, case);
         let a = random_shape(ka, &mut g);
@@ -91,8 +91,8 @@ fn grazing_cases(ka: Kind, kb: Kind, cases: u64, tally: &mut Tally) {
             let r0 = closest + v * t0;
             let found = predictor
                 .search(
-                    (&a, &identity, &still),
-                    (&b, &q, &still),
+                    (&a, &still),
+                    (&b, &FreeTop::spherical(q, V3::zeros())),
                     &r0,
                     &v,
                     None,

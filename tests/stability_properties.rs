@@ -7,7 +7,7 @@
 mod common;
 
 use common::{KINDS, Kind, random_rotation, random_shape, random_unit, rng};
-use hardbody::edmd::motion::Spin;
+use hardbody::edmd::motion::FreeTop;
 use hardbody::edmd::{Predictor, PredictorOptions};
 use hardbody::geometry::{DistanceOptions, Relative, Shape, distance, overlap};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -21,7 +21,9 @@ fn kind(k: usize) -> Kind {
 }
 
 /// A random pair, pose and motion from a seed: B at 1–1.6 bounding-radius
-/// sums from A, moving roughly towards it, both turning.
+/// sums from A, moving roughly towards it, both turning (for odd seeds as
+/// spherical tops, for even ones with their own inertia tensors, mostly
+/// asymmetric tops).
 struct Case {
     a: Shape,
     b: Shape,
@@ -31,6 +33,9 @@ struct Case {
     dv: V3,
     wa: V3,
     wb: V3,
+    /// Principal moments (body axes).
+    ia: V3,
+    ib: V3,
 }
 
 fn case(ka: usize, kb: usize, seed: u64, turning: bool) -> Case {
@@ -48,7 +53,16 @@ fn case(ka: usize, kb: usize, seed: u64, turning: bool) -> Case {
             V3::zeros()
         }
     };
+    let moments = |s: &Shape| {
+        if seed.is_multiple_of(2) {
+            s.inertia_tensor(1.0).diagonal()
+        } else {
+            V3::repeat(1.0)
+        }
+    };
     Case {
+        ia: moments(&a),
+        ib: moments(&b),
         qa: random_rotation(&mut g),
         qb: random_rotation(&mut g),
         wa: spin(&mut g),
@@ -60,9 +74,16 @@ fn case(ka: usize, kb: usize, seed: u64, turning: bool) -> Case {
     }
 }
 
+fn tops(c: &Case) -> (FreeTop, FreeTop) {
+    (
+        FreeTop::new(c.ia, c.qa, c.wa),
+        FreeTop::new(c.ib, c.qb, c.wb),
+    )
+}
+
 fn pose(c: &Case, t: f64) -> Relative {
-    let qa = Spin::constant(c.wa).orientation_after(&c.qa, t);
-    let qb = Spin::constant(c.wb).orientation_after(&c.qb, t);
+    let (sa, sb) = tops(c);
+    let (qa, qb) = (sa.orientation_after(t), sb.orientation_after(t));
     Relative::new(&(c.d + c.dv * t), &qa, &qb)
 }
 
@@ -141,10 +162,10 @@ fn cuboid_against_flat_superellipsoid_contact_is_exact() {
 
 fn contact_time_check(c: &Case) -> Result<(), TestCaseError> {
     let predictor = Predictor::new(PredictorOptions::default());
-    let (sa, sb) = (Spin::constant(c.wa), Spin::constant(c.wb));
+    let (sa, sb) = tops(c);
     let horizon = 4.0;
     let predicted = predictor
-        .contact_time((&c.a, &c.qa, &sa), (&c.b, &c.qb, &sb), &c.d, &c.dv, horizon)
+        .contact_time((&c.a, &sa), (&c.b, &sb), &c.d, &c.dv, horizon)
         .map_err(|e| TestCaseError::fail(e.to_string()))?;
     // Fine stepping with the MC overlap test.
     let steps = 4000;

@@ -3,7 +3,9 @@
 //!
 //! Dynamics (prolate ellipsoids 2:1, N = 256, φ = 0.3, time per collision):
 //! rotation (frozen orientations against free rotation), true inertia
-//! (symmetric tops against spherical tops), hard walls (closed along z
+//! (each body's own tensor against the spherical top: symmetric tops for
+//! the prolate ellipsoids, asymmetric tops for triaxial ellipsoids, bricks
+//! and triaxial superellipsoids at the same φ), hard walls (closed along z
 //! against periodic), neighbour lists (oriented boxes against cells), the
 //! `/stats` sample every 10 collisions, and MSD with C₂ on top of it.
 //! Monte Carlo (the same ellipsoids, time per trial move): rotation moves,
@@ -41,15 +43,33 @@ pub struct EffectRow {
 }
 
 const SHAPE: &str = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)";
+/// Bodies with three different principal moments, for the true-inertia
+/// rows: (name, shape).
+const TRIAXIAL: [(&str, &str); 3] = [
+    (
+        "triaxial ellipsoids 1:0.6:0.3",
+        "Ellipsoid(a: 1.0, b: 0.6, c: 0.3)",
+    ),
+    ("bricks 0.6:0.4:0.25", "Cuboid(a: 0.6, b: 0.4, c: 0.25)"),
+    (
+        "triaxial superellipsoids p = 4",
+        "Superellipsoid(a: 1.0, b: 0.6, c: 0.4, exponents: (4.0, 4.0, 4.0))",
+    ),
+];
 /// Packing fraction of the suite's systems (a lattice start with walls fits there).
 const PHI: f64 = 0.3;
 
 /// N ellipsoids on a lattice at φ = 0.3 (hard walls along z if `walls`),
 /// relaxed by Monte Carlo; `rotation` says whether the species turns.
 fn state(n: usize, walls: bool, rotation: bool) -> Result<System, BenchError> {
-    let shape: Shape = SHAPE.parse()?;
+    state_of(SHAPE, n, walls, rotation)
+}
+
+/// [`state`] of bodies of `shape`.
+fn state_of(shape: &str, n: usize, walls: bool, rotation: bool) -> Result<System, BenchError> {
+    let shape: Shape = shape.parse()?;
     let species = vec![Species {
-        name: "prolate".into(),
+        name: "body".into(),
         shape,
         rotation,
     }];
@@ -190,10 +210,18 @@ pub fn run(quick: bool) -> Result<Vec<EffectRow>, BenchError> {
         ..DynamicsOptions::default()
     };
     rows.push(pair(
-        "true inertia (spherical -> symmetric tops)",
+        "true inertia, prolate ellipsoids (spherical -> symmetric tops)",
         (&periodic, &cells, 0, false),
         (&periodic, &tops, 0, false),
     )?);
+    for (name, shape) in TRIAXIAL {
+        let system = state_of(shape, n, false, true)?;
+        rows.push(pair(
+            &format!("true inertia, {name} (spherical -> asymmetric tops)"),
+            (&system, &cells, 0, false),
+            (&system, &tops, 0, false),
+        )?);
+    }
     rows.push(pair(
         "hard walls along z (periodic -> walls)",
         (&periodic, &cells, 0, false),

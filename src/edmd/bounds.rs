@@ -5,61 +5,28 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::motion::Spin;
+use super::motion::FreeTop;
 use crate::geometry::Shape;
 
 type V3 = Vector3<f64>;
 
 /// What the support-growth bound needs of a body's free rotation, fixed
-/// over a search: |ω| (a constant of the free rotation), the bound on |ü|
-/// for a fixed lab direction's body-frame image u (|ü| ≤ |ω|² + |ω̇_body|,
-/// and |ω̇_body| ≤ |ω| |ω_lab part| for a symmetric top, 0 for a spherical
-/// one), and a spherical top's ω in its own frame (constant as well: the
-/// body turns about ω).
+/// over a search: the largest |ω| over the motion, and the bound on |ü|
+/// for a fixed lab direction's body-frame image u (|ü| ≤ |ω|² + |ω̇_body|;
+/// both from `FreeTop`, which bounds them on the body's energy and
+/// angular-momentum surface, so they hold however far the search goes).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct TurnBound {
     pub(super) speed: f64,
     accel: f64,
-    body_omega: Option<V3>,
-    /// A spherical top's ω/|ω| (lab frame).
-    axis: Option<V3>,
 }
 
 impl TurnBound {
-    pub(super) fn new(spin: &Spin, q: &UnitQuaternion<f64>) -> Self {
-        let omega = spin.angular_velocity(q);
-        let speed = omega.norm();
-        let spherical = spin.body == V3::zeros();
-        let precession = if spherical { 0.0 } else { spin.lab.norm() };
+    pub(super) fn new(top: &FreeTop) -> Self {
+        let speed = top.max_angular_speed();
         Self {
             speed,
-            accel: speed * (speed + precession),
-            body_omega: spherical.then(|| q.inverse_transform_vector(&omega)),
-            axis: (spherical && speed > 0.0).then(|| omega / speed),
-        }
-    }
-
-    /// The orientation a time `t` after `q` (the same rotation as
-    /// `Spin::orientation_after`, to rounding): a spherical top turns by
-    /// |ω| t about its fixed axis, without finding the axis again at each
-    /// τ; not renormalised (one product of unit quaternions from the
-    /// stored orientation, nothing accumulates).
-    #[inline]
-    pub(super) fn orientation_after(
-        &self,
-        spin: &Spin,
-        q: &UnitQuaternion<f64>,
-        t: f64,
-    ) -> UnitQuaternion<f64> {
-        match self.axis {
-            Some(axis) if t != 0.0 => {
-                let (sin, cos) = (0.5 * self.speed * t).sin_cos();
-                let turn = nalgebra::Quaternion::from_parts(cos, axis * sin);
-                UnitQuaternion::new_unchecked(turn * q.quaternion())
-            }
-            Some(_) => *q,
-            None if self.speed == 0.0 => *q,
-            None => spin.orientation_after(q, t),
+            accel: speed * speed + top.max_body_acceleration(),
         }
     }
 
@@ -69,13 +36,11 @@ impl TurnBound {
     pub(super) fn support_growth(
         &self,
         shape: &Shape,
-        spin: &Spin,
+        top: &FreeTop,
         q: &UnitQuaternion<f64>,
         u: &V3,
     ) -> crate::geometry::shape::SupportGrowth {
-        let body_omega = self
-            .body_omega
-            .unwrap_or_else(|| q.inverse_transform_vector(&spin.lab) + spin.body);
+        let body_omega = top.body_angular_velocity(q);
         shape.support_growth(u, &u.cross(&body_omega), self.speed, self.accel)
     }
 }

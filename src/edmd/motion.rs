@@ -1,9 +1,26 @@
 //! Free motion between events (De Michele Sec. 2.2): the centre moves in a
-//! straight line (eq. 6a) and a spherical top turns at constant angular
-//! velocity ω, the body rotating by the angle |ω| t about ω (eqs. 4–6b;
-//! here as a quaternion, which stays a rotation to round-off).
+//! straight line (eq. 6a), and the body turns as a free rigid body with its
+//! own principal moments, in closed form (Landau & Lifshitz, Mechanics §37;
+//! van Zon & Schofield, J. Chem. Phys. 128, 154119 (2008)). The angular
+//! momentum L is fixed in the lab; in the body it moves on Jacobi elliptic
+//! functions,
+//!
+//!   L_a = A cn τ,  L_b = B sn τ,  L_c = C dn τ,  τ = ω_p t + τ₀,
+//!
+//! about the polar axis c (the largest moment when L² > 2E I_mid, else the
+//! smallest) with b the middle axis; and the body turns about L by the
+//! angle α whose rate, with Euler angles (α, θ, ψ) about L,
+//!
+//!   α̇ = L (L_a²/I_a + L_b²/I_b)/(L_a² + L_b²)
+//!      = L/I_c + L (I_c − I_a)/(I_a I_c) / (1 + n sn² τ),
+//!
+//! integrates to an elliptic integral of the third kind (Carlson's R_J).
+//! The characteristic n = I_c (I_b − I_a)/(I_a (I_c − I_b)) depends on the
+//! moments alone. A symmetric top is the case m = k² = 0 and n = 0 (sn and
+//! cn are sine and cosine, α̇ = L/I_a); a spherical top (De Michele's
+//! eqs. 4–6b) also has ω_p = 0. Every case runs through the same formulas.
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
 type V3 = Vector3<f64>;
 
@@ -13,124 +30,504 @@ pub fn position_after(position: &V3, velocity: &V3, dt: f64) -> V3 {
     position + velocity * dt
 }
 
-/// The orientation (body → lab) after a time `dt` of free rotation at the
-/// lab-frame angular velocity `omega` (eqs. 4–6b).
+/// sn, cn and dn of `u` for the parameter `m` = k² in [0, 1] and its
+/// complement `m_complement` = 1 − m (given apart: near 1 it carries the
+/// digits), by Bulirsch's descending Landen transformation (Numer. Math. 7,
+/// 78 (1965)): the arithmetic-geometric mean of 1 and k′, one sine and
+/// cosine at the last step, then back up the sequence by products and
+/// quotients alone.
+pub(crate) fn jacobi(u: f64, m: f64, m_complement: f64) -> (f64, f64, f64) {
+    if m_complement <= 0.0 {
+        let sech = 1.0 / u.cosh();
+        return (u.tanh(), sech, sech);
+    }
+    if m == 0.0 {
+        let (s, c) = u.sin_cos();
+        return (s, c, 1.0);
+    }
+    // a_j and b_j of the mean, a_0 = 1, b_0 = k′.
+    let mut a_seq = [0.0; 16];
+    let mut b_seq = [0.0; 16];
+    let (mut a, mut b) = (1.0, m_complement.sqrt());
+    let mut steps = 0;
+    loop {
+        a_seq[steps] = a;
+        b_seq[steps] = b;
+        steps += 1;
+        let mean = 0.5 * (a + b);
+        if (a - b).abs() <= 1.5e-8 * a || steps == a_seq.len() {
+            a = mean;
+            break;
+        }
+        b = (a * b).sqrt();
+        a = mean;
+    }
+    let (sin, cos) = (u * a).sin_cos();
+    if sin == 0.0 {
+        return (sin, cos, 1.0);
+    }
+    // c_j = cot-like ratios carried back down the sequence.
+    let mut ratio = cos / sin;
+    let mut c = a * ratio;
+    let mut dn = 1.0;
+    for j in (0..steps).rev() {
+        ratio *= c;
+        c *= dn;
+        dn = (b_seq[j] + ratio) / (a_seq[j] + ratio);
+        ratio = c / a_seq[j];
+    }
+    let sn = (1.0 / (c * c + 1.0).sqrt()).copysign(sin);
+    (sn, c * sn, dn)
+}
+
+/// sn, cn and dn of `r` in [−2K, 2K] (`quarter` = K): beyond K/2 from
+/// the quarter-period shift sn(K − v) = cd v, cn(K − v) = k′ sd v,
+/// dn(K − v) = k′ nd v (A&S 16.8), so that cn keeps its relative
+/// precision where it is small (near the separatrix, for most of a period).
+fn jacobi_reduced(r: f64, m: f64, m_complement: f64, quarter: f64) -> (f64, f64, f64) {
+    if r.abs() <= 0.5 * quarter {
+        return jacobi(r, m, m_complement);
+    }
+    let v = quarter - r.abs();
+    let (s, c, d) = jacobi(v, m, m_complement);
+    let k_complement = m_complement.sqrt();
+    ((c / d).copysign(r), k_complement * s / d, k_complement / d)
+}
+
+/// Carlson's R_F, or NaN where its arguments are out of its domain.
+fn carlson_rf(x: f64, y: f64, z: f64) -> f64 {
+    ellip::elliprf(x, y, z).unwrap_or(f64::NAN)
+}
+
+/// Carlson's R_J, or NaN where its arguments are out of its domain.
+fn carlson_rj(x: f64, y: f64, z: f64, p: f64) -> f64 {
+    ellip::elliprj(x, y, z, p).unwrap_or(f64::NAN)
+}
+
+/// The half-angle rotation about z by the angle whose (sin, cos) is
+/// proportional to (`s`, `c`), (s, c) ≠ 0.
 #[inline]
-pub fn orientation_after(
-    orientation: &UnitQuaternion<f64>,
-    omega: &V3,
-    dt: f64,
-) -> UnitQuaternion<f64> {
-    if dt == 0.0 {
-        return *orientation;
-    }
-    let turn = UnitQuaternion::from_scaled_axis(omega * dt);
-    let mut q = turn * orientation;
-    q.renormalize_fast();
-    q
+fn about_z(s: f64, c: f64) -> Quaternion<f64> {
+    let (w, z) = half_angle(s, c);
+    Quaternion::new(w, 0.0, 0.0, z)
 }
 
-/// The free rotation of a rigid body whose angular velocity is
-/// ω(t) = `lab` + R(t) `body`, with `lab` fixed in space and `body` fixed in
-/// the body: a symmetric top (I₁ = I₂ ≠ I₃ about body axis ê₃) has
-/// `lab` = L/I₁ and `body` = ω₃ (1 − I₃/I₁) ê₃, since then
-/// Ṙ = \[ω\]×R with R(t) = exp(t \[lab\]×) R(0) exp(t \[body\]×) (the body turns
-/// about the fixed angular momentum at |L|/I₁ and about its own axis); a
-/// spherical top has `lab` = ω and `body` = 0 (eqs. 4–6).
+/// (cos θ/2, sin θ/2) for the angle θ with (sin θ, cos θ) ∝ (`s`, `c`),
+/// taken from whichever of 1 ± cos θ does not cancel.
+#[inline]
+fn half_angle(s: f64, c: f64) -> (f64, f64) {
+    let r = (s * s + c * c).sqrt();
+    if c >= 0.0 {
+        let cos_half = (0.5 * (1.0 + c / r)).sqrt();
+        (cos_half, s / (2.0 * r * cos_half))
+    } else {
+        let sin_half = (0.5 * (1.0 - c / r)).sqrt().copysign(s);
+        let sin_half = if s == 0.0 { sin_half.abs() } else { sin_half };
+        (s / (2.0 * r * sin_half), sin_half)
+    }
+}
+
+/// One free rigid body's rotation from a given pose: the orientation and
+/// the angular velocity at any later time, exact to rounding.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Spin {
-    /// The part of ω fixed in the lab frame.
-    pub lab: V3,
-    /// The part of ω fixed in the body frame (body coordinates).
-    pub body: V3,
+pub struct FreeTop {
+    /// The orientation at t = 0 (body → lab).
+    start: UnitQuaternion<f64>,
+    /// L in the lab frame, fixed.
+    momentum: V3,
+    /// A spherical top's ω, fixed, kept as given: it survives a restart
+    /// to the bit (L/I would round it).
+    steady_omega: Option<V3>,
+    /// I along the body axes (ω = L/I by division: a stored 1/I would
+    /// round every restart's L the same way, and the energy would creep).
+    body_moments: V3,
+    /// |L|.
+    size: f64,
+    /// The lab frame with z along L, at α = 0.
+    frame: UnitQuaternion<f64>,
+    /// From the body axes to the ordered principal axes (a, b, c).
+    from_body: Quaternion<f64>,
+    /// The ordered moments (I_a, I_b, I_c).
+    moments: V3,
+    /// ω_p: the rate of τ.
+    rate: f64,
+    /// τ₀.
+    phase: f64,
+    /// The parameter m = k² and 1 − m.
+    m: f64,
+    m_complement: f64,
+    /// The characteristic n.
+    n: f64,
+    /// A, B, C (B and C signed).
+    amplitude: V3,
+    /// (A, B)/|(A, B)| from the moments alone, so that ψ stays defined
+    /// where L lies along the polar axis.
+    direction: (f64, f64),
+    /// The quarter period K and H(K) = R_J(0, k′², 1, 1 + n)/3 (infinite
+    /// and unused on the separatrix).
+    quarter: f64,
+    half_turn: f64,
+    /// H(τ₀).
+    turned_at_start: f64,
+    /// Where L stays put in the body (ω_p = 0: a spherical top, or L along
+    /// a principal axis) the body turns about the fixed L at the constant
+    /// rate α̇: (α̇, L/|L|), for a spherical top (|ω|, ω/|ω|).
+    steady: Option<(f64, V3)>,
 }
 
-impl Spin {
-    /// Constant angular velocity `omega` (a spherical top).
-    pub fn constant(omega: V3) -> Self {
-        Self {
-            lab: omega,
-            body: V3::zeros(),
+impl FreeTop {
+    /// The free rotation of a body with principal moments `moments` (along
+    /// its body axes, each > 0) that has orientation `start` and lab-frame
+    /// angular velocity `omega` at t = 0.
+    pub fn new(moments: V3, start: UnitQuaternion<f64>, omega: V3) -> Self {
+        let body_l = moments.component_mul(&start.inverse_transform_vector(&omega));
+        let spherical = moments.x == moments.y && moments.y == moments.z;
+        let momentum = if spherical {
+            omega * moments.x
+        } else {
+            start * body_l
+        };
+        let size = body_l.norm();
+        let mut top = Self {
+            start,
+            momentum,
+            steady_omega: spherical.then_some(omega),
+            body_moments: moments,
+            size,
+            frame: start,
+            from_body: Quaternion::identity(),
+            moments,
+            rate: 0.0,
+            phase: 0.0,
+            m: 0.0,
+            m_complement: 1.0,
+            n: 0.0,
+            amplitude: V3::zeros(),
+            direction: (1.0, 1.0),
+            quarter: std::f64::consts::FRAC_PI_2,
+            half_turn: 0.0,
+            turned_at_start: 0.0,
+            steady: None,
+        };
+        if size == 0.0 {
+            return top;
         }
+        // The axes ordered by moment, and the polar axis from the sign of
+        // L² − 2E I_mid = Σ L_i² (1 − I_mid/I_i) (ties: the odd moment).
+        let mut order = [0usize, 1, 2];
+        order.sort_by(|&i, &j| moments[i].total_cmp(&moments[j]));
+        let [lo, mid, hi] = order;
+        let lsq = body_l.component_mul(&body_l);
+        let beyond_mid: f64 = (0..3)
+            .map(|i| lsq[i] * (1.0 - moments[mid] / moments[i]))
+            .sum();
+        let polar_hi = beyond_mid > 0.0 || (beyond_mid == 0.0 && moments[mid] != moments[hi]);
+        let (a, c) = if polar_hi { (lo, hi) } else { (hi, lo) };
+        let b = mid;
+        // A proper rotation from (a, b, c) to the body axes.
+        let mut axes = Matrix3::zeros();
+        axes[(a, 0)] = 1.0;
+        axes[(b, 1)] = 1.0;
+        axes[(c, 2)] = 1.0;
+        if axes.determinant() < 0.0 {
+            axes[(c, 2)] = -1.0;
+        }
+        let to_abc = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(axes));
+        let l = to_abc.inverse_transform_vector(&body_l);
+        let (ia, ib, ic) = (moments[a], moments[b], moments[c]);
+        top.moments = V3::new(ia, ib, ic);
+        top.from_body = to_abc.inverse().into_inner();
+        let (la2, lb2, lc2) = (l.x * l.x, l.y * l.y, l.z * l.z);
+        if ia != ic {
+            // P = 2E I_c − L² and Q = L² − 2E I_a, as sums of terms of one
+            // sign (that of I_c − I_a).
+            let p = la2 * (ic - ia) / ia + lb2 * (ic - ib) / ib;
+            let q = lb2 * (ib - ia) / ib + lc2 * (ic - ia) / ic;
+            // A² = I_a P/(I_c − I_a), B² = I_b P/(I_c − I_b) and
+            // C² = I_c Q/(I_c − I_a), each written as L_i² plus a term of
+            // its sign.
+            let amp_a = (la2 + lb2 * (ia * (ic - ib)) / (ib * (ic - ia))).sqrt();
+            let amp_b = (lb2 + la2 * (ib * (ic - ia)) / (ia * (ic - ib))).sqrt();
+            let amp_c = (lc2 + lb2 * (ic * (ib - ia)) / (ib * (ic - ia))).sqrt();
+            // ω_p B = (1/I_a − 1/I_c) A C: B carries sign(I_c − I_a) sign(C).
+            let sign_c = if l.z < 0.0 { -1.0 } else { 1.0 };
+            let sign_b = sign_c * (ic - ia).signum();
+            top.amplitude = V3::new(amp_a, sign_b * amp_b, sign_c * amp_c);
+            let (da, db) = ((ia * (ic - ib)).abs().sqrt(), (ib * (ic - ia)).abs().sqrt());
+            let norm = (da * da + db * db).sqrt();
+            top.direction = (da / norm, sign_b * db / norm);
+            top.rate = (q * (ic - ib) / (ia * ib * ic)).max(0.0).sqrt();
+            top.n = ic * (ib - ia) / (ia * (ic - ib));
+            let (num, den) = ((ib - ia) * p, (ic - ib) * q);
+            // 1 − m = (I_c − I_a)(L² − 2E I_b)/((I_c − I_b) Q), read off
+            // sums as well; on the separatrix itself 1 − m is kept the
+            // smallest positive number, so that the period stays finite.
+            let beyond = la2 * (ia - ib) / ia + lc2 * (ic - ib) / ic;
+            if num == 0.0 || den == 0.0 {
+                (top.m, top.m_complement) = (0.0, 1.0);
+            } else {
+                top.m = (num / den).clamp(0.0, 1.0);
+                top.m_complement = ((ic - ia) * beyond / den).clamp(f64::MIN_POSITIVE, 1.0);
+            }
+            if la2 == 0.0 && lc2 == 0.0 && ia != ib && ib != ic {
+                // L along the middle axis: a steady (unstable) turn about
+                // it, written with sn = ±1 at m = 0.
+                (top.m, top.m_complement, top.rate) = (0.0, 1.0, 0.0);
+                top.amplitude = V3::new(0.0, sign_b * l.y.abs(), 0.0);
+            }
+        } else {
+            let perp = (la2 + lb2).sqrt();
+            top.amplitude = V3::new(perp, perp, l.z);
+        }
+        // K and F(φ|m), which for m = 0 are π/2 and φ.
+        top.quarter = if top.m == 0.0 {
+            std::f64::consts::FRAC_PI_2
+        } else {
+            carlson_rf(0.0, top.m_complement, 1.0)
+        };
+        if top.n != 0.0 {
+            top.half_turn = carlson_rj(0.0, top.m_complement, 1.0, 1.0 + top.n) / 3.0;
+        }
+        // τ₀ = F(φ₀) from the amplitude φ₀ = am τ₀ = atan2(sn, cn).
+        let (amp_a, amp_b) = (top.amplitude.x, top.amplitude.y);
+        // (sn, cn) as read off L (not through the angle, which would
+        // lose cn's relative precision where it is small).
+        let (sn0, cn0) = match (amp_a > 0.0, amp_b != 0.0) {
+            (true, true) => (l.y / amp_b, l.x / amp_a),
+            (false, true) => ((l.y / amp_b).signum(), 0.0),
+            _ => (0.0, 1.0),
+        };
+        let norm = (sn0 * sn0 + cn0 * cn0).sqrt();
+        let (s, c) = (sn0 / norm, cn0 / norm);
+        // φ₀ − turns π in [−π/2, π/2].
+        let (turns, s, c) = if c >= 0.0 {
+            (0.0, s, c)
+        } else {
+            (if s < 0.0 { -1.0 } else { 1.0 }, -s, -c)
+        };
+        let partial = if top.m == 0.0 {
+            s.atan2(c)
+        } else {
+            s * carlson_rf(c * c, top.m_complement + top.m * c * c, 1.0)
+        };
+        top.phase = 2.0 * turns * top.quarter + partial;
+        let (sn0, cn0, dn0, h0) = top.elliptic(top.phase);
+        top.turned_at_start = h0;
+        let tilt = top.tilt(sn0, cn0, dn0);
+        top.frame = UnitQuaternion::new_unchecked(
+            start.quaternion() * to_abc.quaternion() * tilt.conjugate(),
+        );
+        if top.rate == 0.0 {
+            let (ia, ic) = (top.moments.x, top.moments.z);
+            let slowed = 1.0 / (1.0 + top.n * sn0 * sn0);
+            let alpha_rate = size * (1.0 / ic + (ic - ia) / (ia * ic) * slowed);
+            // frame · Rz(α) · frame⁻¹ is the turn by α about L.
+            top.steady = Some(match top.steady_omega {
+                Some(omega) => (omega.norm(), omega / omega.norm()),
+                None => (alpha_rate, momentum / momentum.norm()),
+            });
+        }
+        top
     }
 
-    /// The orientation after `dt`, from `orientation` now.
+    /// sn, cn, dn at τ and H(τ) = ∫₀^τ sn²/(1 + n sn²).
     #[inline]
-    pub fn orientation_after(
-        &self,
-        orientation: &UnitQuaternion<f64>,
-        dt: f64,
-    ) -> UnitQuaternion<f64> {
-        if dt == 0.0 {
-            return *orientation;
-        }
-        let mut q = orientation_after(orientation, &self.lab, dt);
-        if self.body != V3::zeros() {
-            q *= UnitQuaternion::from_scaled_axis(self.body * dt);
-            q.renormalize_fast();
-        }
-        q
+    fn elliptic(&self, tau: f64) -> (f64, f64, f64, f64) {
+        let half_periods = if self.quarter.is_finite() {
+            (tau / (2.0 * self.quarter)).round()
+        } else {
+            0.0
+        };
+        let r = tau - 2.0 * self.quarter * half_periods;
+        let r = if half_periods == 0.0 { tau } else { r };
+        let (s, c, d) = jacobi_reduced(r, self.m, self.m_complement, self.quarter);
+        let h = if self.n == 0.0 || s == 0.0 {
+            0.0
+        } else {
+            s * s * s * carlson_rj(c * c, d * d, 1.0, 1.0 + self.n * s * s) / 3.0
+        };
+        let odd = half_periods.rem_euclid(2.0) == 1.0;
+        let sign = if odd { -1.0 } else { 1.0 };
+        let turned = if half_periods == 0.0 {
+            h
+        } else {
+            2.0 * half_periods * self.half_turn + h
+        };
+        (sign * s, sign * c, d, turned)
     }
 
-    /// ω (lab frame) at the orientation `orientation`.
+    /// The rotation Rx(θ) Rz(ψ) taking L/|L| in the (a, b, c) frame to z,
+    /// at the phase with these sn, cn, dn.
+    #[inline]
+    fn tilt(&self, sn: f64, cn: f64, dn: f64) -> Quaternion<f64> {
+        let (la, lb, lc) = (
+            self.amplitude.x * cn,
+            self.amplitude.y * sn,
+            self.amplitude.z * dn,
+        );
+        let perp = (la * la + lb * lb).sqrt();
+        let tilt = half_angle(perp, lc);
+        let (dir_a, dir_b) = self.direction;
+        let spin = about_z(dir_a * cn, dir_b * sn);
+        Quaternion::new(tilt.0, tilt.1, 0.0, 0.0) * spin
+    }
+
+    /// The orientation a time `t` after the start.
+    pub fn orientation_after(&self, t: f64) -> UnitQuaternion<f64> {
+        if t == 0.0 || self.size == 0.0 {
+            return self.start;
+        }
+        if let Some((alpha_rate, axis)) = self.steady {
+            let (sin, cos) = (0.5 * alpha_rate * t).sin_cos();
+            let turn = Quaternion::from_parts(cos, axis * sin);
+            return UnitQuaternion::new_normalize(turn * self.start.quaternion());
+        }
+        let (ia, _, ic) = (self.moments.x, self.moments.y, self.moments.z);
+        let tau = self.phase + self.rate * t;
+        let (sn, cn, dn, turned) = self.elliptic(tau);
+        // ∫ dt/(1 + n sn²) = t − (n/ω_p) (H(τ) − H(τ₀)).
+        let slowed = if self.n == 0.0 {
+            t
+        } else if self.rate == 0.0 {
+            t / (1.0 + self.n * sn * sn)
+        } else {
+            t - self.n / self.rate * (turned - self.turned_at_start)
+        };
+        let alpha = self.size * (t / ic + (ic - ia) / (ia * ic) * slowed);
+        let (sin, cos) = (0.5 * alpha).sin_cos();
+        let precession = Quaternion::new(cos, 0.0, 0.0, sin);
+        let q = self.frame.quaternion() * precession * self.tilt(sn, cn, dn) * self.from_body;
+        UnitQuaternion::new_normalize(q)
+    }
+
+    /// ω (lab frame) at the orientation `orientation` of this motion:
+    /// I⁻¹ L, with L fixed.
     #[inline]
     pub fn angular_velocity(&self, orientation: &UnitQuaternion<f64>) -> V3 {
-        self.lab + orientation * self.body
+        match self.steady_omega {
+            Some(omega) => omega,
+            None => orientation * self.body_angular_velocity(orientation),
+        }
+    }
+
+    /// ω (body frame) at `orientation`.
+    #[inline]
+    pub fn body_angular_velocity(&self, orientation: &UnitQuaternion<f64>) -> V3 {
+        orientation
+            .inverse_transform_vector(&self.momentum)
+            .component_div(&self.body_moments)
+    }
+
+    /// The orientation at t = 0.
+    pub fn start(&self) -> UnitQuaternion<f64> {
+        self.start
+    }
+
+    /// L (lab frame).
+    pub fn momentum(&self) -> V3 {
+        self.momentum
+    }
+
+    /// L in the body frame a time `t` after the start, from the elliptic
+    /// functions alone (not through the orientation): with
+    /// `orientation_after`, an independent check that L stays fixed.
+    pub fn body_momentum_after(&self, t: f64) -> V3 {
+        if self.size == 0.0 {
+            return V3::zeros();
+        }
+        let (sn, cn, dn, _) = self.elliptic(self.phase + self.rate * t);
+        let abc = self.amplitude.component_mul(&V3::new(cn, sn, dn));
+        UnitQuaternion::new_unchecked(self.from_body).inverse_transform_vector(&abc)
+    }
+
+    /// A body of unit moments (a spherical top) at `start` turning at the
+    /// constant lab angular velocity `omega`.
+    pub fn spherical(start: UnitQuaternion<f64>, omega: V3) -> Self {
+        Self::new(V3::repeat(1.0), start, omega)
+    }
+
+    /// The angular velocity's largest size over the motion: |ω|² =
+    /// Σ L_i²/I_i² ≤ min(L²/I_min², 2E/I_min), rounded up.
+    pub fn max_angular_speed(&self) -> f64 {
+        let least = self.body_moments.min();
+        let body_l = self.momentum_body_start();
+        let energy2 = body_l
+            .component_mul(&body_l)
+            .component_div(&self.body_moments)
+            .sum();
+        let bound = (self.size / least).min((energy2 / least).sqrt());
+        bound * (1.0 + 8.0 * f64::EPSILON)
+    }
+
+    /// The largest |ω̇| (body frame) over the motion: I ω̇ = L × ω, and
+    /// L × I⁻¹ L = L × (I⁻¹ − c) L for the mean c of the largest and
+    /// smallest 1/I, so |ω̇| ≤ L² (1/I_min − 1/I_max)/2 / I_min.
+    pub fn max_body_acceleration(&self) -> f64 {
+        let (hi, lo) = (1.0 / self.body_moments.min(), 1.0 / self.body_moments.max());
+        self.size * self.size * 0.5 * (hi - lo) * hi * (1.0 + 8.0 * f64::EPSILON)
+    }
+
+    fn momentum_body_start(&self) -> V3 {
+        self.start.inverse_transform_vector(&self.momentum)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Matrix3;
 
-    /// The quaternion form equals eq. (4)–(5): R(t) = (I + M) R(0) with
-    /// M = sin(wt)/w Ω + (1 − cos(wt))/w² Ω² for the lab-frame Ω (the paper
-    /// writes the body-frame form, R acting on row vectors).
     #[test]
-    fn equals_the_rodrigues_closed_form() {
-        let omega = V3::new(0.3, -1.2, 0.7);
-        let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.5, 0.1, -0.9));
-        let t = 1.7;
-        let w = omega.norm();
-        let big_omega = omega.cross_matrix();
-        let m = big_omega * ((w * t).sin() / w)
-            + big_omega * big_omega * ((1.0 - (w * t).cos()) / (w * w));
-        let expected = (Matrix3::identity() + m) * q0.to_rotation_matrix().into_inner();
-        let got = orientation_after(&q0, &omega, t)
-            .to_rotation_matrix()
-            .into_inner();
-        assert!((got - expected).norm() < 1e-14, "{got} vs {expected}");
-        assert_eq!(orientation_after(&q0, &V3::zeros(), t), q0);
+    fn jacobi_functions_meet_their_identities_and_limits() {
+        for &m in &[0.0, 1e-12, 0.3, 0.7, 0.99, 0.999999, 1.0] {
+            for &u in &[-7.3, -1.0, 0.0, 0.4, 1.2, 3.9, 25.0] {
+                let (s, c, d) = jacobi(u, m, 1.0 - m);
+                assert!((s * s + c * c - 1.0).abs() < 1e-15);
+                assert!((d * d + m * s * s - 1.0).abs() < 1e-14, "m {m} u {u}");
+                // d sn/du = cn dn, by central differences.
+                let h = 1e-6;
+                let slope = (jacobi(u + h, m, 1.0 - m).0 - jacobi(u - h, m, 1.0 - m).0) / (2.0 * h);
+                assert!((slope - c * d).abs() < 1e-8, "m {m} u {u}");
+            }
+        }
+        let (s, c, d) = jacobi(0.8, 0.0, 1.0);
+        assert_eq!((s, c, d), (0.8f64.sin(), 0.8f64.cos(), 1.0));
+        // sn(K) = 1 and the period 4K.
+        for &m in &[0.2, 0.9] {
+            let k = carlson_rf(0.0, 1.0 - m, 1.0);
+            let (s, c, d) = jacobi(k, m, 1.0 - m);
+            assert!((s - 1.0).abs() < 1e-15 && c.abs() < 1e-15);
+            assert!((d - (1.0 - m).sqrt()).abs() < 1e-15);
+            let (s1, c1, _) = jacobi(0.37 + 4.0 * k, m, 1.0 - m);
+            let (s0, c0, _) = jacobi(0.37, m, 1.0 - m);
+            assert!((s1 - s0).abs() < 1e-14 && (c1 - c0).abs() < 1e-14);
+            // F(am u) = u.
+            let u = 0.9 * k;
+            let (s, c, _) = jacobi(u, m, 1.0 - m);
+            let f = s * carlson_rf(c * c, 1.0 - m * s * s, 1.0);
+            assert!((f - u).abs() < 1e-15);
+        }
     }
 
-    /// A symmetric top's closed form against Euler's equations integrated
-    /// by fourth-order Runge–Kutta: same orientation, same ω.
-    #[test]
-    fn symmetric_top_matches_euler_equations() {
-        let (i1, i3) = (0.7, 0.25);
-        let inertia = V3::new(i1, i1, i3);
-        let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.4, -0.3, 1.1));
-        let omega0 = V3::new(1.3, -0.4, 2.2);
-        let e3 = q0 * V3::z();
-        let w3 = omega0.dot(&e3);
-        let spin = Spin {
-            lab: omega0 + e3 * ((i3 / i1 - 1.0) * w3),
-            body: V3::z() * (w3 * (1.0 - i3 / i1)),
-        };
-        // State: quaternion (4) and body-frame ω (3); Euler's equations.
-        let deriv = |q: &nalgebra::Quaternion<f64>, w: &V3| {
-            let wq = nalgebra::Quaternion::new(0.0, w.x, w.y, w.z);
-            let dq = q * wq * 0.5;
+    /// Euler's equations for a body with principal moments `moments`
+    /// (body axes), integrated by fourth-order Runge–Kutta: the
+    /// orientation and the lab angular velocity after `t`.
+    pub(crate) fn euler_equations(
+        moments: V3,
+        q0: UnitQuaternion<f64>,
+        omega0: V3,
+        t: f64,
+        steps: usize,
+    ) -> (UnitQuaternion<f64>, V3) {
+        let deriv = |q: &Quaternion<f64>, w: &V3| {
+            let dq = q * Quaternion::new(0.0, w.x, w.y, w.z) * 0.5;
             let dw = V3::new(
-                (inertia.y - inertia.z) * w.y * w.z / inertia.x,
-                (inertia.z - inertia.x) * w.z * w.x / inertia.y,
-                (inertia.x - inertia.y) * w.x * w.y / inertia.z,
+                (moments.y - moments.z) * w.y * w.z / moments.x,
+                (moments.z - moments.x) * w.z * w.x / moments.y,
+                (moments.x - moments.y) * w.x * w.y / moments.z,
             );
             (dq, dw)
         };
         let (mut q, mut w) = (*q0.quaternion(), q0.inverse_transform_vector(&omega0));
-        let (t, steps) = (2.5, 20_000);
         let h = t / steps as f64;
         for _ in 0..steps {
             let (k1q, k1w) = deriv(&q, &w);
@@ -140,26 +537,53 @@ mod tests {
             q += (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
             w += (k1w + k2w * 2.0 + k3w * 2.0 + k4w) * (h / 6.0);
         }
-        let q_rk = UnitQuaternion::from_quaternion(q);
-        let q_closed = spin.orientation_after(&q0, t);
-        assert!(
-            q_rk.angle_to(&q_closed) < 1e-9,
-            "{}",
-            q_rk.angle_to(&q_closed)
-        );
-        let w_closed = spin.angular_velocity(&q_closed);
-        assert!((w_closed - q_rk * w).norm() < 1e-9);
+        let q = UnitQuaternion::from_quaternion(q);
+        (q, q * w)
     }
 
-    /// A point of the body moves with velocity ω × (x − r) at the start.
+    /// Every kind of top against Euler's equations: asymmetric in both
+    /// polar regimes and with its axes in any order, symmetric (oblate and
+    /// prolate), spherical, and L along each principal axis.
     #[test]
-    fn points_move_with_omega_cross_arm() {
-        let omega = V3::new(0.3, -1.2, 0.7);
-        let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.5, 0.1, -0.9));
-        let body_point = V3::new(1.0, 0.5, -0.25);
-        let h = 1e-6;
-        let x = |t: f64| orientation_after(&q0, &omega, t) * body_point;
-        let numeric = (x(h) - x(-h)) / (2.0 * h);
-        assert!((numeric - omega.cross(&(q0 * body_point))).norm() < 1e-9);
+    fn every_top_follows_euler_equations() {
+        let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.4, -0.3, 1.1));
+        let cases = [
+            (V3::new(1.0, 0.6, 0.3), V3::new(1.3, -0.4, 2.2)),
+            (V3::new(1.0, 0.6, 0.3), V3::new(-2.5, 0.9, 0.2)),
+            (V3::new(0.3, 1.0, 0.6), V3::new(0.7, 1.9, -1.1)),
+            (V3::new(0.6, 0.3, 1.0), V3::new(-0.2, 0.5, 3.0)),
+            (V3::new(0.7, 0.7, 0.25), V3::new(1.3, -0.4, 2.2)),
+            (V3::new(0.25, 0.7, 0.7), V3::new(1.3, -0.4, 2.2)),
+            (V3::new(0.5, 0.5, 0.5), V3::new(1.3, -0.4, 2.2)),
+        ];
+        for (moments, omega) in cases {
+            let top = FreeTop::new(moments, q0, omega);
+            let t = 2.7;
+            let (q_rk, w_rk) = euler_equations(moments, q0, omega, t, 40_000);
+            let q = top.orientation_after(t);
+            assert!(
+                q.angle_to(&q_rk) < 1e-10,
+                "{moments} {omega}: {}",
+                q.angle_to(&q_rk)
+            );
+            assert!((top.angular_velocity(&q) - w_rk).norm() < 1e-10);
+            assert!(top.orientation_after(0.0).angle_to(&q0) == 0.0);
+            assert!(top.orientation_after(1e-300).angle_to(&q0) < 1e-15);
+        }
+        // L along each principal axis (the middle one included): a steady
+        // turn about it.
+        for axis in 0..3 {
+            let moments = V3::new(1.0, 0.6, 0.3);
+            let omega = q0 * V3::ith(axis, 1.7);
+            let top = FreeTop::new(moments, q0, omega);
+            let t = 2.0;
+            let expected = UnitQuaternion::from_scaled_axis(omega * t) * q0;
+            let q = top.orientation_after(t);
+            assert!(
+                q.angle_to(&expected) < 1e-13,
+                "axis {axis}: {}",
+                q.angle_to(&expected)
+            );
+        }
     }
 }

@@ -3,9 +3,9 @@
 //! stopped ([`Progress`]), why it failed ([`SearchError`]), and the
 //! bodies' growth ([`Growth`]). The search itself is in [`super::search`].
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 
-use super::motion::Spin;
+use super::motion::FreeTop;
 use crate::geometry::{Contact, Shape, Status, WarmStart};
 
 type V3 = Vector3<f64>;
@@ -95,10 +95,10 @@ impl Growth {
     }
 }
 
-/// A body's shape and rotation, for prediction: (shape, orientation at the
-/// search's origin, or a given time before it for
-/// [`super::Predictor::search_into`], free rotation; |ω| is constant in it).
-pub type Rotor<'a> = (&'a Shape, &'a UnitQuaternion<f64>, &'a Spin);
+/// A body's shape and rotation, for prediction: (shape, its free rotation
+/// from its orientation at the search's origin, or at a given time before
+/// it for [`super::Predictor::search_into`]).
+pub type Rotor<'a> = (&'a Shape, &'a FreeTop);
 
 /// Why a contact search could not follow the distance.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -189,11 +189,10 @@ impl Predictor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::edmd::motion::Spin;
+    use crate::edmd::motion::FreeTop;
     use crate::edmd::search::{Found, Search};
     use nalgebra::{UnitQuaternion, Vector3};
     type V3 = Vector3<f64>;
-    use crate::edmd::bounds::TurnBound;
     use crate::geometry::Shape;
 
     fn ellipsoid(a: f64, b: f64, c: f64) -> Shape {
@@ -207,15 +206,13 @@ mod tests {
         let p = Predictor::new(PredictorOptions::default());
         let s = ellipsoid(0.5, 0.5, 0.5);
         let q = UnitQuaternion::identity();
-        let w = Spin::constant(V3::zeros());
+        let w = FreeTop::spherical(q, V3::zeros());
         let mut u = crate::test_support::uniform(4);
         for _ in 0..200 {
             let d = V3::new(3.0, u() - 0.5, u() - 0.5);
             let dv = V3::new(-1.0 - u(), 0.3 * (u() - 0.5), 0.3 * (u() - 0.5));
             let expected = crate::geometry::pair::sphere_contact_time(&d, &dv, 1.0);
-            let got = p
-                .contact_time((&s, &q, &w), (&s, &q, &w), &d, &dv, 100.0)
-                .unwrap();
+            let got = p.contact_time((&s, &w), (&s, &w), &d, &dv, 100.0).unwrap();
             match (expected, got) {
                 (Some(e), Some(g)) => assert!((e - g).abs() < 1e-9, "{e} vs {g}"),
                 (None, None) => {}
@@ -247,7 +244,10 @@ mod tests {
             let (a, b) = (&shapes[case % 4], &shapes[(case / 4) % 4]);
             let qa = UnitQuaternion::from_scaled_axis(unit() * 3.0);
             let qb = UnitQuaternion::from_scaled_axis(unit() * 3.0);
-            let (wa, wb) = (Spin::constant(unit() * 0.5), Spin::constant(unit() * 0.5));
+            let (wa, wb) = (
+                FreeTop::spherical(qa, unit() * 0.5),
+                FreeTop::spherical(qb, unit() * 0.5),
+            );
             // B along a random direction, a gap of 1e-6 to 1e-4 away.
             let dir = unit();
             let gap = 10f64.powf(-6.0 + 2.0 * (case % 7) as f64 / 6.0);
@@ -264,21 +264,13 @@ mod tests {
             let dv = unit() * 0.02 - dir * 0.01 * (case % 3) as f64;
             let one_go = Predictor::new(PredictorOptions::default());
             let expected = one_go
-                .search((a, &qa, &wa), (b, &qb, &wb), &d, &dv, None, 2.0, u32::MAX)
+                .search((a, &wa), (b, &wb), &d, &dv, None, 2.0, u32::MAX)
                 .unwrap();
             let stepwise = Predictor::new(PredictorOptions::default());
             let mut progress = None;
             let got = loop {
                 match stepwise
-                    .search(
-                        (a, &qa, &wa),
-                        (b, &qb, &wb),
-                        &d,
-                        &dv,
-                        progress.as_ref(),
-                        2.0,
-                        1,
-                    )
+                    .search((a, &wa), (b, &wb), &d, &dv, progress.as_ref(), 2.0, 1)
                     .unwrap()
                 {
                     Search::Unfinished(p) => {
@@ -320,7 +312,16 @@ mod tests {
                 UnitQuaternion::from_scaled_axis(unit() * 3.0),
                 UnitQuaternion::from_scaled_axis(unit() * 3.0),
             );
-            let (wa, wb) = (Spin::constant(unit() * 2.0), Spin::constant(unit() * 2.0));
+            // Tops of every kind: spherical, symmetric and asymmetric.
+            let moments = |k: usize| match k % 3 {
+                0 => V3::repeat(0.4),
+                1 => V3::new(0.5, 0.5, 0.2),
+                _ => V3::new(0.5, 0.3, 0.2),
+            };
+            let (wa, wb) = (
+                FreeTop::new(moments(case), qa, unit() * 2.0),
+                FreeTop::new(moments(case / 3), qb, unit() * 2.0),
+            );
             let since = (0.3 * (case % 4) as f64, 0.2 * (case % 5) as f64);
             let dir = unit();
             let d = dir * 3.0;
@@ -329,8 +330,8 @@ mod tests {
             let mut stopped = None;
             let given_earlier = p
                 .search_into(
-                    (a, &qa, &wa),
-                    (b, &qb, &wb),
+                    (a, &wa),
+                    (b, &wb),
                     since,
                     None,
                     &d,
@@ -341,20 +342,13 @@ mod tests {
                     &mut stopped,
                 )
                 .unwrap();
-            let (qa_now, qb_now) = (
-                wa.orientation_after(&qa, since.0),
-                wb.orientation_after(&qb, since.1),
+            let (qa_now, qb_now) = (wa.orientation_after(since.0), wb.orientation_after(since.1));
+            let (wa_now, wb_now) = (
+                FreeTop::new(moments(case), qa_now, wa.angular_velocity(&qa_now)),
+                FreeTop::new(moments(case / 3), qb_now, wb.angular_velocity(&qb_now)),
             );
             let turned_first = p
-                .search(
-                    (a, &qa_now, &wa),
-                    (b, &qb_now, &wb),
-                    &d,
-                    &dv,
-                    None,
-                    10.0,
-                    u32::MAX,
-                )
+                .search((a, &wa_now), (b, &wb_now), &d, &dv, None, 10.0, u32::MAX)
                 .unwrap();
             match (given_earlier, turned_first) {
                 (Found::Contact(s), Search::Contact(t)) => {
@@ -368,36 +362,6 @@ mod tests {
         assert!(contacts > 100, "{contacts}");
     }
 
-    /// The search's orientations are the free rotation's to rounding, for
-    /// spherical tops (the shortcut), symmetric tops and bodies at rest.
-    #[test]
-    fn the_search_turns_bodies_as_the_free_rotation_does() {
-        let mut u = crate::test_support::uniform(5);
-        let mut vector = || V3::new(u() - 0.5, u() - 0.5, u() - 0.5);
-        for case in 0..300 {
-            let q = UnitQuaternion::from_scaled_axis(vector() * 4.0);
-            let spin = match case % 3 {
-                0 => Spin::constant(vector() * 5.0),
-                1 => Spin {
-                    lab: vector() * 3.0,
-                    body: V3::z() * vector().x,
-                },
-                _ => Spin::constant(V3::zeros()),
-            };
-            let turn = TurnBound::new(&spin, &q);
-            for t in [0.0, 1e-9, 1e-3, 0.3, 2.0, 40.0] {
-                let (got, expected) = (
-                    turn.orientation_after(&spin, &q, t),
-                    spin.orientation_after(&q, t),
-                );
-                assert!(
-                    (got.coords - expected.coords).norm() < 1e-14 * (1.0 + t),
-                    "case {case}, t {t}: {got:?} vs {expected:?}"
-                );
-            }
-        }
-    }
-
     /// A rotating rod sweeping past a sphere at rest: the predicted time is
     /// when the distance first reaches zero, checked by stepping finely.
     #[test]
@@ -406,17 +370,17 @@ mod tests {
         let rod = ellipsoid(2.0, 0.2, 0.2);
         let ball = ellipsoid(0.3, 0.3, 0.3);
         let qa = UnitQuaternion::identity();
-        let wa = Spin::constant(V3::new(0.0, 0.0, 1.0));
+        let wa = FreeTop::spherical(qa, V3::new(0.0, 0.0, 1.0));
         let qb = UnitQuaternion::identity();
-        let wb = Spin::constant(V3::zeros());
+        let wb = FreeTop::spherical(qb, V3::zeros());
         let d = V3::new(0.0, 1.5, 0.0);
         let dv = V3::zeros();
         let tc = p
-            .contact_time((&rod, &qa, &wa), (&ball, &qb, &wb), &d, &dv, 10.0)
+            .contact_time((&rod, &wa), (&ball, &wb), &d, &dv, 10.0)
             .unwrap()
             .expect("the rod sweeps through the ball");
         let dist = |t: f64| {
-            let rel = Relative::new(&d, &wa.orientation_after(&qa, t), &qb);
+            let rel = Relative::new(&d, &wa.orientation_after(t), &qb);
             distance(&rod, &ball, &rel, &DistanceOptions::default(), None).distance
         };
         assert!(dist(tc) >= 0.0 && dist(tc) < 1e-9, "{}", dist(tc));
@@ -451,8 +415,8 @@ mod tests {
             let qa = UnitQuaternion::from_scaled_axis(vector() * 6.0);
             let qb = UnitQuaternion::from_scaled_axis(vector() * 6.0);
             let (wa, wb) = (
-                Spin::constant(vector() * 2.0),
-                Spin::constant(vector() * 2.0),
+                FreeTop::spherical(qa, vector() * 2.0),
+                FreeTop::spherical(qb, vector() * 2.0),
             );
             let d = vector().normalize() * 1.9;
             let dv = -d * 0.3 + vector() * 0.8;
@@ -466,8 +430,8 @@ mod tests {
                 let s = growth.scale + growth.rate * t;
                 let rel = Relative::new(
                     &((d + dv * t) / s),
-                    &wa.orientation_after(&qa, t),
-                    &wb.orientation_after(&qb, t),
+                    &wa.orientation_after(t),
+                    &wb.orientation_after(t),
                 );
                 s * distance(a, b, &rel, &DistanceOptions::default(), None).distance
             };
@@ -477,8 +441,8 @@ mod tests {
             let mut stopped = None;
             let found = p
                 .search_into(
-                    (a, &qa, &wa),
-                    (b, &qb, &wb),
+                    (a, &wa),
+                    (b, &wb),
                     (0.0, 0.0),
                     Some(growth),
                     &d,

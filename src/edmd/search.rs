@@ -30,7 +30,7 @@
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::bounds::{TurnBound, first_zero, time_to_zero};
-use super::motion::Spin;
+use super::motion::FreeTop;
 use super::predict::{Predictor, is_fallback};
 use crate::geometry::pair::{distance_lower_bound_near, support_points_start};
 use crate::geometry::roots::{brent_minimize, narrow_sign_change};
@@ -99,6 +99,13 @@ impl Predictor {
         )
     }
 
+    /// Whether the bounding spheres of `a` and `b`, at separation `d` (B − A)
+    /// closing at `dv`, meet before `horizon`: where they do not, a search
+    /// ends at once, and the caller need not build the bodies' rotations.
+    pub fn bounding_spheres_meet(a: &Shape, b: &Shape, d: &V3, dv: &V3, horizon: f64) -> bool {
+        ContactSearch::interval(a, b, d, dv, horizon).is_some()
+    }
+
     /// [`Predictor::search`] that leaves the progress of a search out of
     /// budget in `stopped` and returns only how it ended: a search's
     /// progress is a few hundred bytes, which the dynamics' many searches
@@ -122,7 +129,7 @@ impl Predictor {
         if horizon <= resume.map_or(0.0, |p| p.t) {
             return Ok(Found::Apart);
         }
-        let Some((t1, t2, t_exit)) = ContactSearch::interval(a, b, d, dv, horizon) else {
+        let Some((t1, t2, t_exit)) = ContactSearch::interval(a.0, b.0, d, dv, horizon) else {
             return Ok(Found::Apart);
         };
         let mut search = ContactSearch::new(self, a, b, since, d, dv);
@@ -148,10 +155,8 @@ struct ContactSearch<'a> {
     predictor: &'a Predictor,
     shape_a: &'a Shape,
     shape_b: &'a Shape,
-    q_a: &'a UnitQuaternion<f64>,
-    q_b: &'a UnitQuaternion<f64>,
-    w_a: &'a Spin,
-    w_b: &'a Spin,
+    w_a: &'a FreeTop,
+    w_b: &'a FreeTop,
     /// How long before the search's origin the orientations were given.
     since: (f64, f64),
     /// The bodies' growth, if they grow.
@@ -195,8 +200,8 @@ impl<'a> ContactSearch<'a> {
     /// where they part (`t_exit`); None where they never meet by then.
     #[inline]
     fn interval(
-        (shape_a, ..): Rotor,
-        (shape_b, ..): Rotor,
+        shape_a: &Shape,
+        shape_b: &Shape,
         d: &V3,
         dv: &V3,
         horizon: f64,
@@ -232,13 +237,13 @@ impl<'a> ContactSearch<'a> {
     #[inline]
     fn new(
         predictor: &'a Predictor,
-        (shape_a, q_a, w_a): Rotor<'a>,
-        (shape_b, q_b, w_b): Rotor<'a>,
+        (shape_a, w_a): Rotor<'a>,
+        (shape_b, w_b): Rotor<'a>,
         since: (f64, f64),
         d: &'a V3,
         dv: &'a V3,
     ) -> Self {
-        let (turn_a, turn_b) = (TurnBound::new(w_a, q_a), TurnBound::new(w_b, q_b));
+        let (turn_a, turn_b) = (TurnBound::new(w_a), TurnBound::new(w_b));
         // Eq. (32), with the moment arm in place of the bounding radius: the
         // distance changes at the normal velocity of the contact points, and
         // a rotation moves a surface point along its normal by ω·(x × n).
@@ -250,8 +255,6 @@ impl<'a> ContactSearch<'a> {
             predictor,
             shape_a,
             shape_b,
-            q_a,
-            q_b,
             w_a,
             w_b,
             since,
@@ -266,7 +269,7 @@ impl<'a> ContactSearch<'a> {
             // Far from contact the cheap lower bound is enough to step
             // with (a step d/ḋ_max is safe for any d below the distance).
             exact_below: options.exact_below * scale,
-            turned: (f64::NAN, *q_a, *q_b),
+            turned: (f64::NAN, w_a.start(), w_b.start()),
             warm: None,
             failure: None,
             last: None,
@@ -297,10 +300,8 @@ impl<'a> ContactSearch<'a> {
             return (qa, qb);
         }
         let (qa, qb) = (
-            self.turn_a
-                .orientation_after(self.w_a, self.q_a, self.since.0 + t),
-            self.turn_b
-                .orientation_after(self.w_b, self.q_b, self.since.1 + t),
+            self.w_a.orientation_after(self.since.0 + t),
+            self.w_b.orientation_after(self.since.1 + t),
         );
         self.turned = (t, qa, qb);
         (qa, qb)

@@ -436,15 +436,6 @@ impl Shape {
         })
     }
 
-    /// The body axis of a body of revolution (two equal principal moments;
-    /// the third, odd one is the axis; x when all three are equal), or `None` for a
-    /// body with three different moments.
-    pub fn symmetric_top_axis(&self) -> Option<usize> {
-        let principal = self.inertia_tensor(1.0).diagonal();
-        let equal = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.max(b);
-        (0..3).find(|&k| equal(principal[(k + 1) % 3], principal[(k + 2) % 3]))
-    }
-
     /// Whether the body has rotational symmetry that makes orientation
     /// irrelevant (only the sphere).
     pub fn is_sphere(&self) -> bool {

@@ -120,9 +120,7 @@ fn bodies(state: &StateRecord, scene: Option<&Scene>) -> Vec<Body> {
         .map(|(k, species)| {
             let mass = scene.and_then(|s| s.species.get(k)).map_or(1.0, |s| s.mass);
             let turns = species.rotation && !species.shape.is_sphere();
-            let moments = top_moments(&species.shape, mass, true_inertia)
-                .or_else(|| top_moments(&species.shape, mass, false))
-                .map_or([0.0; 3], |(m, _)| m.into());
+            let moments: [f64; 3] = top_moments(&species.shape, mass, true_inertia).into();
             Body {
                 mass: mass as f32,
                 moments: if turns {

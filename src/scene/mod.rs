@@ -203,8 +203,9 @@ pub enum Stage {
         /// Simulated time between frames (default duration/20).
         #[serde(default)]
         frames_every: Option<f64>,
-        /// Bodies of revolution turn as symmetric tops with their true
-        /// moments of inertia (default: spherical tops).
+        /// Every body turns with its own principal moments of inertia
+        /// (asymmetric tops in closed form; default: spherical tops with
+        /// the mean moment).
         #[serde(default)]
         true_inertia: bool,
         /// Report the mean-squared displacement in `/stats`.

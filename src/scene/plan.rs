@@ -519,7 +519,7 @@ impl fmt::Display for Report<'_> {
                     Num(*duration),
                     Num(*temperature),
                     if *true_inertia {
-                        "symmetric (true inertia)"
+                        "each body's own (true inertia)"
                     } else {
                         "spherical"
                     }

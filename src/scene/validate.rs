@@ -422,7 +422,6 @@ impl Scene {
                     temperature,
                     stats_every,
                     frames_every,
-                    true_inertia,
                     ..
                 } => {
                     if !(duration.is_finite() && *duration > 0.0) {
@@ -474,20 +473,6 @@ impl Scene {
                             &f("duration"),
                             format!(
                                 "at kT = {temperature:e} the lightest body (mass {lightest:e}) would travel {travelled:.3e} times the smallest body size {smallest:e} (cube root of its volume): at most {MAX_SIZES_TRAVELLED:e} in one stage"
-                            ),
-                        );
-                    }
-                    if *true_inertia
-                        && let Some(s) = self
-                            .species
-                            .iter()
-                            .find(|s| s.rotation && s.shape.symmetric_top_axis().is_none())
-                    {
-                        return bad(
-                            &f("true_inertia"),
-                            format!(
-                                "species \"{}\" ({}) has three different principal moments; true inertia is available for bodies of revolution only",
-                                s.name, s.shape
                             ),
                         );
                     }

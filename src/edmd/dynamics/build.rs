@@ -707,15 +707,14 @@ pub(super) fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
 }
 
 /// The principal moments of inertia (along the body axes) a body of
-/// `shape` and `mass` turns with, and the axis of its top: with
-/// `true_inertia` its own (None unless a body of revolution, a symmetric
-/// top), else a spherical top with the mean moment (De Michele, eqs. 4–6).
-pub fn top_moments(shape: &Shape, mass: f64, true_inertia: bool) -> Option<(V3, usize)> {
+/// `shape` and `mass` turns with: with `true_inertia` its own, else a
+/// spherical top with the mean moment (De Michele, eqs. 4–6).
+pub fn top_moments(shape: &Shape, mass: f64, true_inertia: bool) -> V3 {
     let principal = shape.inertia_tensor(mass).diagonal();
     if true_inertia {
-        shape.symmetric_top_axis().map(|k| (principal, k))
+        principal
     } else {
-        Some((V3::repeat(principal.sum() / 3.0), 2))
+        V3::repeat(principal.sum() / 3.0)
     }
 }
 
@@ -737,18 +736,12 @@ pub(super) fn kinds_for(
     }
     let mut kinds = Vec::with_capacity(species.len());
     for (s, &m) in species.iter().zip(&masses) {
-        let Some((moments, top_axis)) = top_moments(&s.shape, m, options.true_inertia) else {
-            return Err(EdmdError::NotATop {
-                species: s.name.clone(),
-                moments: s.shape.inertia_tensor(m).diagonal().into(),
-            });
-        };
+        let moments = top_moments(&s.shape, m, options.true_inertia);
         kinds.push(Kind {
             shape: s.shape,
             inverse_mass: 1.0 / m,
             rotates: s.rotation,
             moments,
-            top_axis,
         });
     }
     Ok(kinds)

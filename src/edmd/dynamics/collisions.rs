@@ -264,8 +264,8 @@ impl Dynamics {
                 kj.spin(&bj.orientation, &bj.angular_velocity),
             );
             let rate = (bj.velocity - bi.velocity).norm()
-                + bi.angular_velocity.norm() * ki.shape.moment_arm()
-                + bj.angular_velocity.norm() * kj.shape.moment_arm();
+                + spin_i.max_angular_speed() * ki.shape.moment_arm()
+                + spin_j.max_angular_speed() * kj.shape.moment_arm();
             let tolerance = self.predictor.contact_tolerance() * size;
             let mut delta = tolerance / rate.max(f64::MIN_POSITIVE);
             for _ in 0..40 {
@@ -274,8 +274,8 @@ impl Dynamics {
                 let scale_later = self.growth.map_or(1.0, |g| g.at(self.now + delta));
                 let later = Relative::new(
                     &((d + (bj.velocity - bi.velocity) * delta) / scale_later),
-                    &spin_i.orientation_after(&bi.orientation, delta),
-                    &spin_j.orientation_after(&bj.orientation, delta),
+                    &spin_i.orientation_after(delta),
+                    &spin_j.orientation_after(delta),
                 );
                 let ahead = scaled_contact(
                     self.predictor.contact(&ki.shape, &kj.shape, &later),

@@ -186,7 +186,7 @@ impl Dynamics {
     /// box's half-extents, c its centre and hₖ the body's extent along uₖ.
     pub(super) fn box_gap_at(
         &self,
-        i: usize,
+        (i, top): (usize, &FreeTop),
         t: f64,
         spheres: &NeighbourSpheres,
         half: &[V3],
@@ -194,7 +194,7 @@ impl Dynamics {
     ) -> f64 {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
-        let (r, q) = self.pose_at(i, t);
+        let (r, q) = self.pose_by(i, top, t);
         let axes = &axes[i];
         let h = kind
             .shape
@@ -207,7 +207,7 @@ impl Dynamics {
     }
 
     /// When body `i`'s neighbour box stops being trusted: the gap to its
-    /// faces cannot close faster than |v·uₖ| + |ω| × moment arm, so steps
+    /// faces cannot close faster than |v·uₖ| + |ω|max × moment arm, so steps
     /// of gap / rate never pass a face (conservative advancement); the
     /// search stops within [`BOX_ESCAPE_MARGIN`] of the shell, or after 64
     /// steps (an early rebuild costs a search, never a collision).
@@ -221,14 +221,15 @@ impl Dynamics {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let along = axes[i].tr_mul(&b.velocity).abs().max();
-        let rate = along + b.angular_velocity.norm() * kind.shape.moment_arm();
+        let top = kind.spin(&b.orientation, &b.angular_velocity);
+        let rate = along + top.max_angular_speed() * kind.shape.moment_arm();
         if rate == 0.0 {
             return f64::INFINITY;
         }
         let margin = BOX_ESCAPE_MARGIN * spheres.shell;
         let mut t = self.now;
         for _ in 0..64 {
-            let gap = self.box_gap_at(i, t, spheres, half, axes);
+            let gap = self.box_gap_at((i, &top), t, spheres, half, axes);
             if gap <= margin {
                 break;
             }
@@ -240,10 +241,10 @@ impl Dynamics {
     /// The gap between body `i` at absolute time `t` (relative to the
     /// origin) and the nearest wall: min over walled axes of
     /// L/2 − |rₖ| − hₖ(R), with the axis and side.
-    pub(super) fn wall_gap_at(&self, i: usize, t: f64) -> (f64, usize, bool) {
+    pub(super) fn wall_gap_at(&self, (i, top): (usize, &FreeTop), t: f64) -> (f64, usize, bool) {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
-        let (r, q) = self.pose_at(i, t);
+        let (r, q) = self.pose_by(i, top, t);
         let h = kind
             .shape
             .lab_half_extents(&q.to_rotation_matrix().into_inner());
@@ -264,7 +265,7 @@ impl Dynamics {
 
     /// Body `i`'s next wall contact before `t_end`: in closed form for a
     /// body that does not turn; otherwise by bracketing the gap with steps
-    /// it cannot close faster than (|v| + |ω| × moment arm), a search for
+    /// it cannot close faster than (|v| + |ω|max × moment arm), a search for
     /// grazing minima below ε_d, and the safeguarded root finder. Gives up
     /// after a fixed number of steps (to be renewed from there).
     pub(super) fn wall_contact(&self, i: usize, t_end: f64) -> WallContact {
@@ -321,14 +322,15 @@ impl Dynamics {
             .filter(|&k| walls[k])
             .map(|k| b.velocity[k].abs())
             .fold(0.0, f64::max);
+        let top = kind.spin(&b.orientation, &b.angular_velocity);
         let rate = speed
-            + b.angular_velocity.norm() * kind.shape.moment_arm()
+            + top.max_angular_speed() * kind.shape.moment_arm()
             + self
                 .growth
                 .map_or(0.0, |g| g.rate * kind.shape.bounding_radius());
-        let gap = |t: f64| self.wall_gap_at(i, t).0;
+        let gap = |t: f64| self.wall_gap_at((i, &top), t).0;
         let contact = |lo: f64| {
-            let (_, axis, up) = self.wall_gap_at(i, lo);
+            let (_, axis, up) = self.wall_gap_at((i, &top), lo);
             WallContact::At { time: lo, axis, up }
         };
         // From now: the pose is kept through the events that renew this

@@ -123,7 +123,7 @@ impl Dynamics {
             b.position = position_after(&b.position, &b.velocity, dt);
             if rotating && b.angular_velocity != V3::zeros() {
                 let spin = self.kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
-                b.orientation = spin.orientation_after(&b.orientation, dt);
+                b.orientation = spin.orientation_after(dt);
                 b.angular_velocity = spin.angular_velocity(&b.orientation);
             }
             b.time = now;

@@ -31,7 +31,7 @@ pub use observables::{Interval, Sample, StressSums, SymmetricTensor};
 use scheduling::*;
 
 use crate::edmd::calendar::Calendar;
-use crate::edmd::motion::{Spin, position_after};
+use crate::edmd::motion::{FreeTop, position_after};
 use crate::edmd::predict::{Predictor, PredictorOptions};
 use crate::edmd::search::SearchError;
 use crate::edmd::search::{Growth, Progress};
@@ -110,17 +110,6 @@ pub enum EdmdError {
         /// Collisions in a row.
         collisions: u64,
     },
-    /// True inertia was asked for a body that is not a body of revolution
-    /// (its free rotation has no closed form here).
-    #[error(
-        "species {species}: true inertia needs a body of revolution (two equal principal moments), got {moments:?}"
-    )]
-    NotATop {
-        /// The species.
-        species: String,
-        /// Its principal moments.
-        moments: [f64; 3],
-    },
     /// Velocities given for a different number of bodies, not finite, or
     /// spinning a body that does not rotate.
     #[error(
@@ -166,9 +155,10 @@ pub struct DynamicsOptions {
     pub masses: Vec<f64>,
     /// Collision prediction for non-spherical pairs.
     pub predictor: PredictorOptions,
-    /// Rotate bodies of revolution as symmetric tops with their true
-    /// principal moments; otherwise every body is a spherical top with the
-    /// mean moment (De Michele's choice, eqs. 4–6).
+    /// Rotate every body with its own principal moments (an asymmetric top
+    /// in closed form; symmetric for bodies of revolution); otherwise every
+    /// body is a spherical top with the mean moment (De Michele's choice,
+    /// eqs. 4–6).
     pub true_inertia: bool,
     /// Neighbour lists (Donev et al.; De Michele Sec. 3.3): each body gets
     /// a neighbour region fixed where the body was when it was built, and
@@ -302,33 +292,19 @@ struct Kind {
     /// Whether the species turns.
     rotates: bool,
     /// Principal moments of inertia along the body axes: all equal (the
-    /// mean of the body's) for a spherical top, the body's own for a
-    /// symmetric top.
+    /// mean of the body's) for a spherical top, else the body's own.
     moments: V3,
-    /// The body axis of the symmetric top (the odd moment).
-    top_axis: usize,
 }
 
 impl Kind {
     /// The free rotation of a body of this kind with orientation `q` and
     /// lab angular velocity `omega` (zero for kinds that do not turn).
     #[inline]
-    fn spin(&self, q: &UnitQuaternion<f64>, omega: &V3) -> Spin {
+    fn spin(&self, q: &UnitQuaternion<f64>, omega: &V3) -> FreeTop {
         if !self.rotates {
-            return Spin::constant(V3::zeros());
+            return FreeTop::new(self.moments, *q, V3::zeros());
         }
-        let k = self.top_axis;
-        let (i1, i3) = (self.moments[(k + 1) % 3], self.moments[k]);
-        if i1 == i3 {
-            return Spin::constant(*omega);
-        }
-        let axis = V3::ith(k, 1.0);
-        let e3 = q * axis;
-        let w3 = omega.dot(&e3);
-        Spin {
-            lab: omega + e3 * ((i3 / i1 - 1.0) * w3),
-            body: axis * (w3 * (1.0 - i3 / i1)),
-        }
+        FreeTop::new(self.moments, *q, *omega)
     }
 
     /// I⁻¹ in the lab frame at orientation `q`.
@@ -537,13 +513,13 @@ const CHEAP_SEARCH: u32 = 16;
 fn body_pose(kinds: &[Kind], b: &Body, t: f64) -> (V3, UnitQuaternion<f64>) {
     let dt = t - b.time;
     let r = position_after(&b.position, &b.velocity, dt);
-    let q = body_spin(kinds, b).orientation_after(&b.orientation, dt);
+    let q = body_spin(kinds, b).orientation_after(dt);
     (r, q)
 }
 
 /// A body's free rotation since its stored time.
 #[inline]
-fn body_spin(kinds: &[Kind], b: &Body) -> Spin {
+fn body_spin(kinds: &[Kind], b: &Body) -> FreeTop {
     kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity)
 }
 

@@ -235,7 +235,7 @@ impl Dynamics {
             let axis = self.molecular_axes[b.species as usize].map(|u| {
                 self.kinds[b.species as usize]
                     .spin(&b.orientation, &b.angular_velocity)
-                    .orientation_after(&b.orientation, dt)
+                    .orientation_after(dt)
                     * u
             });
             (centre, axis)

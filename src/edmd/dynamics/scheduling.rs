@@ -43,6 +43,18 @@ impl Dynamics {
         body_pose(&self.kinds, &self.bodies[i], t)
     }
 
+    /// [`Self::pose_at`] with the body's free rotation `top` already built
+    /// (for searches that ask for many times).
+    #[inline]
+    pub(super) fn pose_by(&self, i: usize, top: &FreeTop, t: f64) -> (V3, UnitQuaternion<f64>) {
+        let b = &self.bodies[i];
+        let dt = t - b.time;
+        (
+            position_after(&b.position, &b.velocity, dt),
+            top.orientation_after(dt),
+        )
+    }
+
     /// Predicts and schedules the collisions of body `i` (at the current
     /// time) with the bodies in the cells around it, except `skip`; with
     /// `once`, only with bodies of larger index (the initial sweep over all
@@ -405,15 +417,17 @@ impl Dynamics {
             &self.kinds[ba.species as usize],
             &self.kinds[bb.species as usize],
         );
-        // A free rotation's two parts are constants of the motion.
+        if !Predictor::bounding_spheres_meet(&ka.shape, &kb.shape, d, dv, horizon - t0) {
+            return Ok(Found::Apart);
+        }
         let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
         // The stored orientations, each turned on from its own time
         // inside the search (one rotation per step, none to bring it to
         // t0 first).
         self.predictor
             .search_into(
-                (&ka.shape, &ba.orientation, &spin_a),
-                (&kb.shape, &bb.orientation, &spin_b),
+                (&ka.shape, &spin_a),
+                (&kb.shape, &spin_b),
                 (t0 - ba.time, t0 - bb.time),
                 self.growth.map(|g| g.since(t0)),
                 d,
