@@ -513,17 +513,29 @@ impl fmt::Display for Report<'_> {
                     duration,
                     temperature,
                     true_inertia,
+                    c2,
                     ..
-                } => format!(
-                    "event-driven dynamics for t = {} at kT = {}, {} tops",
-                    Num(*duration),
-                    Num(*temperature),
-                    if *true_inertia {
-                        "each body's own (true inertia)"
-                    } else {
-                        "spherical"
-                    }
-                ),
+                } => {
+                    let turning = scene
+                        .species
+                        .iter()
+                        .any(|s| s.rotation && !s.shape.is_sphere());
+                    format!(
+                        "event-driven dynamics for t = {} at kT = {}, {}{}",
+                        Num(*duration),
+                        Num(*temperature),
+                        if *true_inertia {
+                            "bodies turning with their own inertia tensors"
+                        } else {
+                            "bodies turning as spherical tops with their mean moment"
+                        },
+                        if *c2 && turning && !*true_inertia {
+                            " (C2 then follows the mean moment: set true_inertia for the bodies' own rotational dynamics)"
+                        } else {
+                            ""
+                        }
+                    )
+                }
             };
             writeln!(f, "  {i}: {text}")?;
         }
