@@ -463,6 +463,24 @@ fn soak_cuboid_sphere_mixture() {
     run(&[CUBE, BALL], 6, 0.45, soak_length(), 0.2, 15);
 }
 
+/// Dynamics of `system` with true inertia, every body started with all
+/// its kinetic energy in translation (none turning).
+fn true_tops_translating(system: &hardbody::state::System, seed: u64) -> Dynamics {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let options = DynamicsOptions {
+        true_inertia: true,
+        ..DynamicsOptions::default()
+    };
+    let mut md = Dynamics::from_state(system, &options, &mut rng).unwrap();
+    let still: Vec<_> = md
+        .velocities()
+        .iter()
+        .map(|(v, _)| (v * std::f64::consts::SQRT_2, nalgebra::Vector3::zeros()))
+        .collect();
+    md.set_velocities(&still).unwrap();
+    md
+}
+
 /// Prolate spheroids as true symmetric tops (I₁ = I₂ ≠ I₃), started with
 /// all the kinetic energy in translation: energy is conserved through free
 /// precession and collisions; the normal of a body of revolution always
@@ -473,18 +491,7 @@ fn soak_cuboid_sphere_mixture() {
 #[test]
 fn symmetric_tops_keep_their_spin_and_reach_equipartition() {
     let system = compressed_state(&[PROLATE], 6, 0.40, 21);
-    let mut rng = Pcg64::seed_from_u64(22);
-    let options = DynamicsOptions {
-        true_inertia: true,
-        ..DynamicsOptions::default()
-    };
-    let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
-    let still: Vec<_> = md
-        .velocities()
-        .iter()
-        .map(|(v, _)| (v * std::f64::consts::SQRT_2, nalgebra::Vector3::zeros()))
-        .collect();
-    md.set_velocities(&still).unwrap();
+    let mut md = true_tops_translating(&system, 22);
     let e0 = md.kinetic_energy();
     assert!((md.translational_kinetic_energy() / e0 - 1.0).abs() < 1e-14);
     // About 50 collisions per body to relax, then blocks of 40 frames.
@@ -541,18 +548,7 @@ fn asymmetric_tops_reach_equipartition_about_each_body_axis() {
         (TRIAXIAL_SUPER, 0.35, 33),
     ] {
         let system = compressed_state(&[shape], 5, phi, seed);
-        let mut rng = Pcg64::seed_from_u64(seed + 1);
-        let options = DynamicsOptions {
-            true_inertia: true,
-            ..DynamicsOptions::default()
-        };
-        let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
-        let still: Vec<_> = md
-            .velocities()
-            .iter()
-            .map(|(v, _)| (v * 2f64.sqrt(), nalgebra::Vector3::zeros()))
-            .collect();
-        md.set_velocities(&still).unwrap();
+        let mut md = true_tops_translating(&system, seed + 1);
         let moments = system.species()[0].shape.inertia_tensor(1.0).diagonal();
         let e0 = md.kinetic_energy();
         let n = md.len() as f64;

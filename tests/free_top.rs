@@ -60,9 +60,10 @@ fn landau_period(moments: V3, l2: f64, e2: f64) -> f64 {
 }
 
 /// Asymmetric tops in both regimes (L² above and below 2E I_mid), their
-/// moments in any order along the body axes: the closed form's orientation
-/// and ω against Euler's equations over several periods, within 1e-10.
-/// The reference's own error is measured by halving its step.
+/// moments in any order along the body axes, symmetric tops (oblate and
+/// prolate) and a spherical top: the closed form's orientation and ω
+/// against Euler's equations over several periods, within 1e-10. The
+/// reference's own error is measured by halving its step.
 #[test]
 fn the_closed_form_follows_euler_equations_to_1e_10() {
     let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.9, -0.2, 0.4));
@@ -70,7 +71,10 @@ fn the_closed_form_follows_euler_equations_to_1e_10() {
         (V3::new(1.0, 0.6, 0.3), V3::new(0.4, -1.1, 2.5)),
         (V3::new(1.0, 0.6, 0.3), V3::new(2.2, 0.9, -0.3)),
         (V3::new(0.45, 0.2, 0.8), V3::new(-1.3, 0.8, 1.0)),
+        (V3::new(0.6, 0.3, 1.0), V3::new(-0.2, 0.5, 3.0)),
         (V3::new(0.7, 0.7, 0.2), V3::new(1.0, 2.0, 3.0)),
+        (V3::new(0.25, 0.7, 0.7), V3::new(1.3, -0.4, 2.2)),
+        (V3::new(0.5, 0.5, 0.5), V3::new(1.3, -0.4, 2.2)),
     ];
     for (moments, omega) in cases {
         let top = FreeTop::new(moments, q0, omega);
@@ -201,5 +205,21 @@ fn a_top_about_its_middle_axis_flips_over() {
             .map(|w| (w[axis] - 2.0).abs())
             .fold(0.0, f64::max);
         assert!(worst < 1e-3, "axis {axis}: {worst}");
+    }
+}
+
+/// L along each principal axis, the unstable middle one included: a
+/// steady turn about it at |ω|, to rounding.
+#[test]
+fn a_top_about_a_principal_axis_turns_steadily() {
+    let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.4, -0.3, 1.1));
+    let moments = V3::new(1.0, 0.6, 0.3);
+    for axis in 0..3 {
+        let omega = q0 * V3::ith(axis, 1.7);
+        let top = FreeTop::new(moments, q0, omega);
+        let t = 2.0;
+        let expected = UnitQuaternion::from_scaled_axis(omega * t) * q0;
+        let error = angle(&top.orientation_after(t), &expected);
+        assert!(error < 1e-13, "axis {axis}: {error:e}");
     }
 }
