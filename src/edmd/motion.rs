@@ -18,7 +18,9 @@
 //! The characteristic n = I_c (I_b − I_a)/(I_a (I_c − I_b)) depends on the
 //! moments alone. A symmetric top is the case m = k² = 0 and n = 0 (sn and
 //! cn are sine and cosine, α̇ = L/I_a); a spherical top (De Michele's
-//! eqs. 4–6b) also has ω_p = 0. Every case runs through the same formulas.
+//! eqs. 4–6b) also has ω_p = 0. Every case is set up by the same formulas;
+//! where L stays put in the body (ω_p = 0) they reduce to a turn about L
+//! at the constant rate α̇, evaluated as such.
 
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
@@ -138,8 +140,7 @@ pub struct FreeTop {
     /// A spherical top's ω, fixed, kept as given: it survives a restart
     /// to the bit (L/I would round it).
     steady_omega: Option<V3>,
-    /// I along the body axes (ω = L/I by division: a stored 1/I would
-    /// round every restart's L the same way, and the energy would creep).
+    /// I along the body axes.
     body_moments: V3,
     /// |L|.
     size: f64,
