@@ -233,11 +233,12 @@ impl FreeTop {
         if axes.determinant() < 0.0 {
             axes[(c, 2)] = -1.0;
         }
-        let to_abc = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(axes));
-        let l = to_abc.inverse_transform_vector(&body_l);
+        let abc_to_body =
+            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(axes));
+        let l = abc_to_body.inverse_transform_vector(&body_l);
         let (ia, ib, ic) = (moments[a], moments[b], moments[c]);
         top.moments = V3::new(ia, ib, ic);
-        top.from_body = to_abc.inverse().into_inner();
+        top.from_body = abc_to_body.inverse().into_inner();
         let (la2, lb2, lc2) = (l.x * l.x, l.y * l.y, l.z * l.z);
         if ia != ic {
             // P = 2E I_c − L² and Q = L² − 2E I_a, as sums of terms of one
@@ -316,7 +317,7 @@ impl FreeTop {
         top.turned_at_start = h0;
         let tilt = top.tilt(sn0, cn0, dn0);
         top.frame = UnitQuaternion::new_unchecked(
-            start.quaternion() * to_abc.quaternion() * tilt.conjugate(),
+            start.quaternion() * abc_to_body.quaternion() * tilt.conjugate(),
         );
         if top.rate == 0.0 {
             let (ia, ic) = (top.moments.x, top.moments.z);
