@@ -164,8 +164,8 @@ pub struct FreeTop {
     /// (A, B)/|(A, B)| from the moments alone, so that ψ stays defined
     /// where L lies along the polar axis.
     direction: (f64, f64),
-    /// The quarter period K and H(K) = R_J(0, k′², 1, 1 + n)/3 (infinite
-    /// and unused on the separatrix).
+    /// The quarter period K and H(K) = R_J(0, k′², 1, 1 + n)/3, finite
+    /// (1 − m is kept positive).
     quarter: f64,
     half_turn: f64,
     /// H(τ₀).
@@ -335,13 +335,8 @@ impl FreeTop {
     /// sn, cn, dn at τ and H(τ) = ∫₀^τ sn²/(1 + n sn²).
     #[inline]
     fn elliptic(&self, tau: f64) -> (f64, f64, f64, f64) {
-        let half_periods = if self.quarter.is_finite() {
-            (tau / (2.0 * self.quarter)).round()
-        } else {
-            0.0
-        };
+        let half_periods = (tau / (2.0 * self.quarter)).round();
         let r = tau - 2.0 * self.quarter * half_periods;
-        let r = if half_periods == 0.0 { tau } else { r };
         let (s, c, d) = jacobi_reduced(r, self.m, self.m_complement, self.quarter);
         let h = if self.n == 0.0 || s == 0.0 {
             0.0
@@ -350,12 +345,12 @@ impl FreeTop {
         };
         let odd = half_periods.rem_euclid(2.0) == 1.0;
         let sign = if odd { -1.0 } else { 1.0 };
-        let turned = if half_periods == 0.0 {
-            h
-        } else {
-            2.0 * half_periods * self.half_turn + h
-        };
-        (sign * s, sign * c, d, turned)
+        (
+            sign * s,
+            sign * c,
+            d,
+            2.0 * half_periods * self.half_turn + h,
+        )
     }
 
     /// The rotation Rx(θ) Rz(ψ) taking L/|L| in the (a, b, c) frame to z,
