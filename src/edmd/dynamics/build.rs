@@ -455,6 +455,7 @@ impl Dynamics {
             species,
             kinds,
             bodies,
+            tops: Vec::new(),
             crossing_times: vec![f64::INFINITY; n],
             growth,
         };
@@ -471,6 +472,13 @@ impl Dynamics {
         // one would miss what the new ones find beyond it.
         for b in &mut self.bodies {
             b.horizon = f64::INFINITY;
+        }
+        if !self.closed_form {
+            self.tops = self
+                .bodies
+                .iter()
+                .map(|b| body_spin(&self.kinds, b))
+                .collect();
         }
         for i in 0..self.bodies.len() {
             self.schedule_crossing(i);

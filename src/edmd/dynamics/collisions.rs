@@ -356,6 +356,7 @@ impl Dynamics {
         for (idx, k) in [(i, ka), (j, kb)] {
             self.bodies[idx].velocity = k.velocity;
             self.bodies[idx].angular_velocity = k.angular_velocity;
+            self.refresh_top(idx);
         }
         virial
     }

@@ -221,7 +221,7 @@ impl Dynamics {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let along = axes[i].tr_mul(&b.velocity).abs().max();
-        let top = kind.spin(&b.orientation, &b.angular_velocity);
+        let top = &self.tops[i];
         let rate = along + top.max_angular_speed() * kind.shape.moment_arm();
         if rate == 0.0 {
             return f64::INFINITY;
@@ -229,7 +229,7 @@ impl Dynamics {
         let margin = BOX_ESCAPE_MARGIN * spheres.shell;
         let mut t = self.now;
         for _ in 0..64 {
-            let gap = self.box_gap_at((i, &top), t, spheres, half, axes);
+            let gap = self.box_gap_at((i, top), t, spheres, half, axes);
             if gap <= margin {
                 break;
             }
@@ -322,15 +322,15 @@ impl Dynamics {
             .filter(|&k| walls[k])
             .map(|k| b.velocity[k].abs())
             .fold(0.0, f64::max);
-        let top = kind.spin(&b.orientation, &b.angular_velocity);
+        let top = &self.tops[i];
         let rate = speed
             + top.max_angular_speed() * kind.shape.moment_arm()
             + self
                 .growth
                 .map_or(0.0, |g| g.rate * kind.shape.bounding_radius());
-        let gap = |t: f64| self.wall_gap_at((i, &top), t).0;
+        let gap = |t: f64| self.wall_gap_at((i, top), t).0;
         let contact = |lo: f64| {
-            let (_, axis, up) = self.wall_gap_at((i, &top), lo);
+            let (_, axis, up) = self.wall_gap_at((i, top), lo);
             WallContact::At { time: lo, axis, up }
         };
         // From now: the pose is kept through the events that renew this
@@ -411,6 +411,7 @@ impl Dynamics {
         self.kinetic_impulse(&before, &(-normal * j), kind.inverse_mass);
         self.bodies[i].velocity = body.velocity;
         self.bodies[i].angular_velocity = body.angular_velocity;
+        self.refresh_top(i);
         self.calendar.invalidate(i);
         self.schedule_crossing(i);
         self.schedule_collisions(i, None, false)

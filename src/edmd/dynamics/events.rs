@@ -122,7 +122,17 @@ impl Dynamics {
         if dt != 0.0 {
             b.position = position_after(&b.position, &b.velocity, dt);
             if rotating && b.angular_velocity != V3::zeros() {
-                let spin = self.kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
+                // The stored pose moves on; its top is rebuilt by the
+                // caller once the spin is settled. (Turning spheres whose
+                // pairs are all in closed form keep no tops.)
+                let built;
+                let spin = match self.tops.get(i) {
+                    Some(top) => top,
+                    None => {
+                        built = body_spin(&self.kinds, b);
+                        &built
+                    }
+                };
                 b.orientation = spin.orientation_after(dt);
                 b.angular_velocity = spin.angular_velocity(&b.orientation);
             }

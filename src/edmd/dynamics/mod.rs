@@ -408,6 +408,11 @@ pub struct Dynamics {
     /// with neighbour lists; see `image_steps`); never with `closed_form`.
     narrow: [bool; 3],
     bodies: Vec<Body>,
+    /// Per body: its free rotation from its stored pose, rebuilt wherever
+    /// the stored pose or spin changes (a collision, a wall bounce, a
+    /// rescheduling of everything); empty with `closed_form`, where no
+    /// body turns.
+    tops: Vec<FreeTop>,
     /// Per body: when it next leaves its cell or neighbour region (its
     /// events after that are invalidated there anyway, so none later is
     /// scheduled). Beside `bodies`, which keep a sphere search's reads in
@@ -515,6 +520,17 @@ fn body_pose(kinds: &[Kind], b: &Body, t: f64) -> (V3, UnitQuaternion<f64>) {
     let r = position_after(&b.position, &b.velocity, dt);
     let q = body_spin(kinds, b).orientation_after(dt);
     (r, q)
+}
+
+impl Dynamics {
+    /// Rebuilds body `i`'s free rotation from its stored pose.
+    #[inline]
+    pub(super) fn refresh_top(&mut self, i: usize) {
+        if let Some(top) = self.tops.get_mut(i) {
+            let b = &self.bodies[i];
+            *top = self.kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
+        }
+    }
 }
 
 /// A body's free rotation since its stored time.

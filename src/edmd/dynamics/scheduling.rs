@@ -420,14 +420,14 @@ impl Dynamics {
         if !Predictor::bounding_spheres_meet(&ka.shape, &kb.shape, d, dv, horizon - t0) {
             return Ok(Found::Apart);
         }
-        let (spin_a, spin_b) = (body_spin(&self.kinds, ba), body_spin(&self.kinds, bb));
+        let (spin_a, spin_b) = (&self.tops[a], &self.tops[b]);
         // The stored orientations, each turned on from its own time
         // inside the search (one rotation per step, none to bring it to
         // t0 first).
         self.predictor
             .search_into(
-                (&ka.shape, &spin_a),
-                (&kb.shape, &spin_b),
+                (&ka.shape, spin_a),
+                (&kb.shape, spin_b),
                 (t0 - ba.time, t0 - bb.time),
                 self.growth.map(|g| g.since(t0)),
                 d,
