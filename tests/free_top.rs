@@ -223,3 +223,59 @@ fn a_top_about_a_principal_axis_turns_steadily() {
         assert!(error < 1e-13, "axis {axis}: {error:e}");
     }
 }
+
+/// The turn bounds the contact search steps by: the largest |ω| and the
+/// largest body-frame |ω̇| over the motion hold at every time of two
+/// periods, and are reached there (within the sampling's reach), for
+/// tops in both regimes with their moments in any order; ω̇ is read off
+/// Euler's equations, I ω̇ = L × ω, at each sample, apart from the
+/// polhode algebra the bounds come from.
+#[test]
+fn the_turn_bounds_hold_and_are_reached() {
+    let cases = [
+        (V3::new(0.45, 1.09, 1.36), V3::new(1.4, 1.1, 0.9)),
+        (V3::new(0.45, 1.09, 1.36), V3::new(0.2, 1.9, 0.3)),
+        (V3::new(1.0, 0.3, 0.6), V3::new(-0.7, 2.5, 0.4)),
+        (V3::new(0.6, 1.0, 0.3), V3::new(1.2, -0.2, 3.0)),
+        (V3::new(0.2, 0.2, 1.0), V3::new(0.5, 1.0, -2.0)),
+        (V3::new(2.0, 2.0, 1.0), V3::new(0.5, 1.0, -2.0)),
+    ];
+    for (moments, body_omega) in cases {
+        let q0 = UnitQuaternion::from_scaled_axis(V3::new(0.3, 1.2, -0.7));
+        let top = FreeTop::new(moments, q0, q0 * body_omega);
+        let (speed, acceleration) = (top.max_angular_speed(), top.max_body_acceleration());
+        let l_body = moments.component_mul(&body_omega);
+        let e2 = l_body.component_mul(&body_omega).sum();
+        // Two periods of the slowest body-frame motion there is.
+        let span =
+            4.0 * std::f64::consts::PI * moments.max() / (e2.sqrt() * moments.min().sqrt()) * 20.0;
+        let (mut top_speed, mut top_acceleration): (f64, f64) = (0.0, 0.0);
+        for k in 0..=200_000 {
+            let t = span * k as f64 / 200_000.0;
+            let q = top.orientation_after(t);
+            let w = top.body_angular_velocity(&q);
+            let l = moments.component_mul(&w);
+            let w_dot = l.cross(&w).component_div(&moments);
+            assert!(
+                w.norm() <= speed,
+                "{moments} t {t}: |ω| {} > {speed}",
+                w.norm()
+            );
+            assert!(
+                w_dot.norm() <= acceleration,
+                "{moments} t {t}: |ω̇| {} > {acceleration}",
+                w_dot.norm()
+            );
+            top_speed = top_speed.max(w.norm());
+            top_acceleration = top_acceleration.max(w_dot.norm());
+        }
+        assert!(
+            top_speed > speed * (1.0 - 1e-6),
+            "{moments}: {top_speed} of {speed}"
+        );
+        assert!(
+            top_acceleration > acceleration * (1.0 - 1e-4),
+            "{moments}: {top_acceleration} of {acceleration}"
+        );
+    }
+}

@@ -174,6 +174,9 @@ pub struct FreeTop {
     /// a principal axis) the body turns about the fixed L at the constant
     /// rate α̇: (α̇, L/|L|), for a spherical top (|ω|, ω/|ω|).
     steady: Option<(f64, V3)>,
+    /// The largest |ω| and |ω̇| (body frame) over the motion.
+    max_speed: f64,
+    max_acceleration: f64,
 }
 
 impl FreeTop {
@@ -209,6 +212,8 @@ impl FreeTop {
             half_turn: 0.0,
             turned_at_start: 0.0,
             steady: None,
+            max_speed: 0.0,
+            max_acceleration: 0.0,
         };
         if size == 0.0 {
             return top;
@@ -319,6 +324,7 @@ impl FreeTop {
         top.frame = UnitQuaternion::new_unchecked(
             start.quaternion() * abc_to_body.quaternion() * tilt.conjugate(),
         );
+        (top.max_speed, top.max_acceleration) = top.polhode_extremes();
         if top.rate == 0.0 {
             let (ia, ic) = (top.moments.x, top.moments.z);
             let slowed = 1.0 / (1.0 + top.n * sn0 * sn0);
@@ -443,29 +449,73 @@ impl FreeTop {
         Self::new(V3::repeat(1.0), start, omega)
     }
 
-    /// The angular velocity's largest size over the motion: |ω|² =
-    /// Σ L_i²/I_i² ≤ min(L²/I_min², 2E/I_min), rounded up.
+    /// The angular velocity's largest size over the motion (on the
+    /// polhode, the body's energy and angular-momentum surface), rounded
+    /// up.
+    #[inline]
     pub fn max_angular_speed(&self) -> f64 {
+        self.max_speed
+    }
+
+    /// The largest |ω̇| (body frame) over the motion, rounded up.
+    #[inline]
+    pub fn max_body_acceleration(&self) -> f64 {
+        self.max_acceleration
+    }
+
+    /// The largest |ω| and |ω̇| (body frame) on the polhode. With
+    /// s = sn² τ, which sweeps [0, 1], and ω_i = L_i/I_i,
+    ///
+    ///   |ω|² = A²(1 − s)/I_a² + B² s/I_b² + C²(1 − m s)/I_c²
+    ///
+    /// is linear in s, and from Euler's I ω̇ = L × ω,
+    ///
+    ///   |ω̇|² = k_a s(1 − m s) + k_b (1 − s)(1 − m s) + k_c s(1 − s),
+    ///   k_a = (B C (1/I_c − 1/I_b)/I_a)², and so on cyclically,
+    ///
+    /// is quadratic: each is largest at an end or at the vertex. Each is
+    /// capped by the bounds that need no polhode, |ω|² ≤ min(L²/I_min²,
+    /// 2E/I_min) and |ω̇| ≤ L² (1/I_min − 1/I_max)/(2 I_min) (from
+    /// L × I⁻¹ L = L × (I⁻¹ − c) L for the mean c of the extreme 1/I), and
+    /// both are rounded up by far more than their rounding.
+    fn polhode_extremes(&self) -> (f64, f64) {
+        const UP: f64 = 1.0 + 1e-12;
+        if let Some(omega) = self.steady_omega {
+            // |ω| itself: only its own rounding to cover.
+            return (omega.norm() * (1.0 + 8.0 * f64::EPSILON), 0.0);
+        }
         let least = self.body_moments.min();
-        let body_l = self.momentum_body_start();
+        let body_l = self.start.inverse_transform_vector(&self.momentum);
         let energy2 = body_l
             .component_mul(&body_l)
             .component_div(&self.body_moments)
             .sum();
-        let bound = (self.size / least).min((energy2 / least).sqrt());
-        bound * (1.0 + 8.0 * f64::EPSILON)
-    }
-
-    /// The largest |ω̇| (body frame) over the motion: I ω̇ = L × ω, and
-    /// L × I⁻¹ L = L × (I⁻¹ − c) L for the mean c of the largest and
-    /// smallest 1/I, so |ω̇| ≤ L² (1/I_min − 1/I_max)/2 / I_min.
-    pub fn max_body_acceleration(&self) -> f64 {
-        let (hi, lo) = (1.0 / self.body_moments.min(), 1.0 / self.body_moments.max());
-        self.size * self.size * 0.5 * (hi - lo) * hi * (1.0 + 8.0 * f64::EPSILON)
-    }
-
-    fn momentum_body_start(&self) -> V3 {
-        self.start.inverse_transform_vector(&self.momentum)
+        let speed_cap = (self.size / least).min((energy2 / least).sqrt());
+        let hi = 1.0 / least;
+        let lo = 1.0 / self.body_moments.max();
+        let acceleration_cap = self.size * self.size * 0.5 * (hi - lo) * hi;
+        let (ia, ib, ic) = (self.moments.x, self.moments.y, self.moments.z);
+        let (a, b, c) = (self.amplitude.x, self.amplitude.y, self.amplitude.z);
+        let m = self.m;
+        let (wa, wb, wc) = ((a / ia).powi(2), (b / ib).powi(2), (c / ic).powi(2));
+        let speed2 = (wa + wc).max(wb + (1.0 - m) * wc);
+        let ka = (b * c * (1.0 / ic - 1.0 / ib) / ia).powi(2);
+        let kb = (c * a * (1.0 / ia - 1.0 / ic) / ib).powi(2);
+        let kc = (a * b * (1.0 / ib - 1.0 / ia) / ic).powi(2);
+        // g(s) = kb + c1 s + c2 s².
+        let c1 = ka - kb * (1.0 + m) + kc;
+        let c2 = m * (kb - ka) - kc;
+        let mut acceleration2 = kb.max(ka * (1.0 - m));
+        if c2 < 0.0 {
+            let vertex = -c1 / (2.0 * c2);
+            if vertex > 0.0 && vertex < 1.0 {
+                acceleration2 = acceleration2.max(kb - c1 * c1 / (4.0 * c2));
+            }
+        }
+        (
+            speed2.sqrt().min(speed_cap) * UP,
+            acceleration2.sqrt().min(acceleration_cap) * UP,
+        )
     }
 }
 
