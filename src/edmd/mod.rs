@@ -9,6 +9,7 @@ mod bounds;
 pub mod calendar;
 pub mod collision;
 pub mod dynamics;
+mod elliptic;
 pub mod jam;
 pub mod motion;
 mod outcome;
