@@ -275,12 +275,27 @@ impl Dynamics {
         nematic_order(self.trajectory_points().filter_map(|(_, u)| u))
     }
 
-    /// Velocities and angular velocities (lab frame) at the current time.
+    /// Velocities and angular velocities (lab frame) at the current time:
+    /// a body that is not a spherical top turns its ω with it between
+    /// events (L is what stays).
     pub fn velocities(&self) -> Vec<(V3, V3)> {
-        self.bodies
-            .iter()
-            .map(|b| (b.velocity, b.angular_velocity))
+        (0..self.bodies.len())
+            .map(|i| (self.bodies[i].velocity, self.angular_velocity_now(i)))
             .collect()
+    }
+
+    /// Body `i`'s lab angular velocity now.
+    fn angular_velocity_now(&self, i: usize) -> V3 {
+        let b = &self.bodies[i];
+        let dt = self.now - b.time;
+        if dt == 0.0 || b.angular_velocity == V3::zeros() {
+            return b.angular_velocity;
+        }
+        let top = match self.tops.get(i) {
+            Some(top) => *top,
+            None => body_spin(&self.kinds, b),
+        };
+        top.angular_velocity(&top.orientation_after(dt))
     }
 
     /// The current state as an MC system: building it checks, independently
