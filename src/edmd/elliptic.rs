@@ -18,6 +18,8 @@ pub(crate) struct Landen {
     /// a_j and b_j of the mean, a₀ = 1, b₀ = k′.
     a: [f64; MEAN_STEPS],
     b: [f64; MEAN_STEPS],
+    /// 1/a_j.
+    a_inverse: [f64; MEAN_STEPS],
     steps: usize,
     /// The mean itself, π/(2K).
     mean: f64,
@@ -32,6 +34,7 @@ impl Landen {
             m_complement,
             a: [0.0; MEAN_STEPS],
             b: [0.0; MEAN_STEPS],
+            a_inverse: [0.0; MEAN_STEPS],
             steps: 0,
             mean: 1.0,
         };
@@ -42,6 +45,7 @@ impl Landen {
         loop {
             landen.a[landen.steps] = a;
             landen.b[landen.steps] = b;
+            landen.a_inverse[landen.steps] = 1.0 / a;
             landen.steps += 1;
             let mean = 0.5 * (a + b);
             if (a - b).abs() <= 1.5e-8 * a || landen.steps == MEAN_STEPS {
@@ -78,7 +82,7 @@ impl Landen {
             ratio *= c;
             c *= dn;
             dn = (self.b[j] + ratio) / (self.a[j] + ratio);
-            ratio = c / self.a[j];
+            ratio = c * self.a_inverse[j];
         }
         let sn = (1.0 / (c * c + 1.0).sqrt()).copysign(sin);
         ([sn, c * sn, dn], (sin, cos))
@@ -125,7 +129,7 @@ pub(crate) struct ThetaTurn {
     /// ⟨f⟩.
     pub(crate) mean: f64,
     /// w.
-    weight: f64,
+    pub(crate) weight: f64,
     /// Re θ₄ = 1 + Σ re_k cos 2kx, Im θ₄ = Σ im_k sin 2kx.
     re: [f64; THETA_TERMS],
     im: [f64; THETA_TERMS],
@@ -182,9 +186,9 @@ impl ThetaTurn {
         None
     }
 
-    /// w arg θ₄(x + i y) from the sine and cosine of x.
+    /// θ₄(x + i y) from the sine and cosine of x (Re θ₄ > 0).
     #[inline]
-    pub(crate) fn periodic(&self, (sin, cos): (f64, f64)) -> f64 {
+    pub(crate) fn theta4(&self, (sin, cos): (f64, f64)) -> (f64, f64) {
         // e^(2ix), then its powers.
         let step = (cos * cos - sin * sin, 2.0 * sin * cos);
         let mut power = step;
@@ -197,6 +201,13 @@ impl ThetaTurn {
                 power.1 * step.0 + power.0 * step.1,
             );
         }
+        (re, im)
+    }
+
+    /// The periodic part w arg θ₄(x + i y).
+    #[cfg(test)]
+    pub(crate) fn periodic(&self, angle: (f64, f64)) -> f64 {
+        let (re, im) = self.theta4(angle);
         self.weight * im.atan2(re)
     }
 }

@@ -34,26 +34,19 @@ pub fn position_after(position: &V3, velocity: &V3, dt: f64) -> V3 {
     position + velocity * dt
 }
 
-/// The half-angle rotation about z by the angle whose (sin, cos) is
-/// proportional to (`s`, `c`), (s, c) ≠ 0.
+/// (cos θ/2, sin θ/2) times a factor > 0, for the angle θ in (−π, π]
+/// with (sin θ, cos θ) = (`s`, `c`)/`r`: (r + c, s) = 2r cos(θ/2) (cos θ/2,
+/// sin θ/2), or where that cancels (c < 0) (s, r − c) = 2r sin(θ/2) (…),
+/// its sign taken out. No root and no quotient: the pose they build is
+/// normalised once, at the end.
 #[inline]
-fn about_z(s: f64, c: f64) -> Quaternion<f64> {
-    let (w, z) = half_angle(s, c);
-    Quaternion::new(w, 0.0, 0.0, z)
-}
-
-/// (cos θ/2, sin θ/2) for the angle θ with (sin θ, cos θ) ∝ (`s`, `c`),
-/// taken from whichever of 1 ± cos θ does not cancel.
-#[inline]
-fn half_angle(s: f64, c: f64) -> (f64, f64) {
-    let r = (s * s + c * c).sqrt();
+fn half_angle(s: f64, c: f64, r: f64) -> (f64, f64) {
     if c >= 0.0 {
-        let cos_half = (0.5 * (1.0 + c / r)).sqrt();
-        (cos_half, s / (2.0 * r * cos_half))
+        (r + c, s)
+    } else if s < 0.0 {
+        (-s, c - r)
     } else {
-        let sin_half = (0.5 * (1.0 - c / r)).sqrt().copysign(s);
-        let sin_half = if s == 0.0 { sin_half.abs() } else { sin_half };
-        (s / (2.0 * r * sin_half), sin_half)
+        (s, r - c)
     }
 }
 
@@ -94,6 +87,10 @@ pub struct FreeTop {
     n: f64,
     /// A, B, C (B and C signed).
     amplitude: V3,
+    /// (A, B, C)/|L|.
+    unit_amplitude: V3,
+    /// α̇ = a + b/(1 + n sn²): (a, b) = (L/I_c, L (I_c − I_a)/(I_a I_c)).
+    alpha_rates: (f64, f64),
     /// (A, B)/|(A, B)| from the moments alone, so that ψ stays defined
     /// where L lies along the polar axis.
     direction: (f64, f64),
@@ -101,8 +98,12 @@ pub struct FreeTop {
     /// (1 − m is kept positive).
     quarter: f64,
     half_turn: f64,
-    /// H(τ₀), or with the θ-series its periodic part at τ₀.
+    /// H(τ₀).
     turned_at_start: f64,
+    /// With the θ-series: θ₄ at τ₀, and the rate α̇ of α's part linear
+    /// in t.
+    theta_at_start: (f64, f64),
+    theta_rate: f64,
     /// Where L stays put in the body (ω_p = 0: a spherical top, or L along
     /// a principal axis) the body turns about the fixed L at the constant
     /// rate α̇: (α̇, L/|L|), for a spherical top (|ω|, ω/|ω|).
@@ -142,10 +143,14 @@ impl FreeTop {
             theta: None,
             n: 0.0,
             amplitude: V3::zeros(),
+            unit_amplitude: V3::zeros(),
+            alpha_rates: (0.0, 0.0),
             direction: (1.0, 1.0),
             quarter: std::f64::consts::FRAC_PI_2,
             half_turn: 0.0,
             turned_at_start: 0.0,
+            theta_at_start: (1.0, 0.0),
+            theta_rate: 0.0,
             steady: None,
             max_speed: 0.0,
             max_acceleration: 0.0,
@@ -231,10 +236,16 @@ impl FreeTop {
             top.half_turn = carlson_rj(0.0, top.m_complement, 1.0, 1.0 + top.n) / 3.0;
         }
         top.landen = Landen::new(top.m, top.m_complement);
+        top.unit_amplitude = top.amplitude / size;
+        let (ia, ic) = (top.moments.x, top.moments.z);
+        top.alpha_rates = (size / ic, size * (ic - ia) / (ia * ic));
         if top.rate > 0.0 {
             // Π(−n | m) = K − n H(K).
             let complete = top.quarter - top.n * top.half_turn;
             top.theta = ThetaTurn::new(top.m, top.m_complement, top.n, top.quarter, complete);
+            if let Some(theta) = &top.theta {
+                top.theta_rate = top.alpha_rates.0 + top.alpha_rates.1 * theta.mean;
+            }
         }
         // τ₀ = F(φ₀) from the amplitude φ₀ = am τ₀ = atan2(sn, cn).
         let (amp_a, amp_b) = (top.amplitude.x, top.amplitude.y);
@@ -259,10 +270,10 @@ impl FreeTop {
             s * carlson_rf(c * c, top.m_complement + top.m * c * c, 1.0)
         };
         top.phase = 2.0 * turns * top.quarter + partial;
-        let (sn0, cn0, dn0, h0) = top.elliptic(top.phase);
-        top.turned_at_start = h0;
-        let tilt = top.tilt(sn0, cn0, dn0);
-        top.frame = UnitQuaternion::new_unchecked(
+        let (sn0, cn0, dn0, h0, theta0) = top.elliptic(top.phase);
+        (top.turned_at_start, top.theta_at_start) = (h0, theta0);
+        let tilt = top.tilt(sn0, cn0, dn0).normalize();
+        top.frame = UnitQuaternion::new_normalize(
             start.quaternion() * abc_to_body.quaternion() * tilt.conjugate(),
         );
         (top.max_speed, top.max_acceleration) = top.polhode_extremes();
@@ -280,39 +291,42 @@ impl FreeTop {
     }
 
     /// sn, cn, dn at τ and H(τ) = ∫₀^τ sn²/(1 + n sn²), or with the
-    /// θ-series the periodic part of ∫₀^τ 1/(1 + n sn²).
+    /// θ-series θ₄(x + i y) (see [`ThetaTurn`]) in its place.
     #[inline]
-    fn elliptic(&self, tau: f64) -> (f64, f64, f64, f64) {
+    fn elliptic(&self, tau: f64) -> (f64, f64, f64, f64, (f64, f64)) {
         let half_periods = (tau / (2.0 * self.quarter)).round();
         let r = tau - 2.0 * self.quarter * half_periods;
         let ([s, c, d], angle) = self.landen.reduced(r, self.quarter);
-        let turned = if let Some(theta) = &self.theta {
-            theta.periodic(angle)
-        } else if self.n == 0.0 || s == 0.0 {
+        let odd = (0.5 * half_periods).fract() != 0.0;
+        let sign = if odd { -1.0 } else { 1.0 };
+        if let Some(theta) = &self.theta {
+            return (sign * s, sign * c, d, 0.0, theta.theta4(angle));
+        }
+        let turned = if self.n == 0.0 || s == 0.0 {
             2.0 * half_periods * self.half_turn
         } else {
             let h = s * s * s * carlson_rj(c * c, d * d, 1.0, 1.0 + self.n * s * s) / 3.0;
             2.0 * half_periods * self.half_turn + h
         };
-        let odd = half_periods.rem_euclid(2.0) == 1.0;
-        let sign = if odd { -1.0 } else { 1.0 };
-        (sign * s, sign * c, d, turned)
+        (sign * s, sign * c, d, turned, (1.0, 0.0))
     }
 
     /// The rotation Rx(θ) Rz(ψ) taking L/|L| in the (a, b, c) frame to z,
-    /// at the phase with these sn, cn, dn.
+    /// at the phase with these sn, cn, dn, times a factor > 0.
     #[inline]
     fn tilt(&self, sn: f64, cn: f64, dn: f64) -> Quaternion<f64> {
         let (la, lb, lc) = (
-            self.amplitude.x * cn,
-            self.amplitude.y * sn,
-            self.amplitude.z * dn,
+            self.unit_amplitude.x * cn,
+            self.unit_amplitude.y * sn,
+            self.unit_amplitude.z * dn,
         );
         let perp = (la * la + lb * lb).sqrt();
-        let tilt = half_angle(perp, lc);
+        let (w, x) = half_angle(perp, lc, 1.0);
         let (dir_a, dir_b) = self.direction;
-        let spin = about_z(dir_a * cn, dir_b * sn);
-        Quaternion::new(tilt.0, tilt.1, 0.0, 0.0) * spin
+        let (s, c) = (dir_a * cn, dir_b * sn);
+        let (w2, z) = half_angle(s, c, (s * s + c * c).sqrt());
+        // (w + x i)(w2 + z k).
+        Quaternion::new(w * w2, x * w2, -x * z, w * z)
     }
 
     /// The orientation a time `t` after the start.
@@ -325,25 +339,33 @@ impl FreeTop {
             let turn = Quaternion::from_parts(cos, axis * sin);
             return UnitQuaternion::new_normalize(turn * self.start.quaternion());
         }
-        let (ia, _, ic) = (self.moments.x, self.moments.y, self.moments.z);
         let tau = self.phase + self.rate * t;
-        let (sn, cn, dn, turned) = self.elliptic(tau);
-        // ∫ dt/(1 + n sn²) = t − (n/ω_p) (H(τ) − H(τ₀)), or from the
-        // θ-series ⟨f⟩ t + (P(τ) − P(τ₀))/ω_p.
-        let slowed = if self.n == 0.0 {
-            t
-        } else if self.rate == 0.0 {
-            t / (1.0 + self.n * sn * sn)
-        } else if let Some(theta) = &self.theta {
-            theta.mean * t + (turned - self.turned_at_start) / self.rate
+        let (sn, cn, dn, turned, theta) = self.elliptic(tau);
+        let precession = if self.theta.is_some() {
+            // α = α̇ t ± (arg θ₄(τ) − arg θ₄(τ₀)), the sign of I_c − I_a:
+            // e^(iα/2) from the square root of θ₄(τ) θ₄(τ₀)* or its
+            // conjugate, on its principal branch (Re θ₄ > 0).
+            let (re0, im0) = self.theta_at_start;
+            let (re, im) = (theta.0 * re0 + theta.1 * im0, theta.1 * re0 - theta.0 * im0);
+            let im = if self.alpha_rates.1 < 0.0 { -im } else { im };
+            let (w, z) = half_angle(im, re, (re * re + im * im).sqrt());
+            let (sin, cos) = (0.5 * self.theta_rate * t).sin_cos();
+            Quaternion::new(cos * w - sin * z, 0.0, 0.0, sin * w + cos * z)
         } else {
-            t - self.n / self.rate * (turned - self.turned_at_start)
+            // ∫ dt/(1 + n sn²) = t − (n/ω_p) (H(τ) − H(τ₀)).
+            let slowed = if self.n == 0.0 {
+                t
+            } else if self.rate == 0.0 {
+                t / (1.0 + self.n * sn * sn)
+            } else {
+                t - self.n / self.rate * (turned - self.turned_at_start)
+            };
+            let alpha = self.alpha_rates.0 * t + self.alpha_rates.1 * slowed;
+            let (sin, cos) = (0.5 * alpha).sin_cos();
+            Quaternion::new(cos, 0.0, 0.0, sin)
         };
-        let alpha = self.size * (t / ic + (ic - ia) / (ia * ic) * slowed);
-        let (sin, cos) = (0.5 * alpha).sin_cos();
-        let precession = Quaternion::new(cos, 0.0, 0.0, sin);
         let q = self.frame.quaternion() * precession * self.tilt(sn, cn, dn) * self.from_body;
-        UnitQuaternion::new_normalize(q)
+        UnitQuaternion::new_unchecked(q * (1.0 / q.norm()))
     }
 
     /// ω (lab frame) at the orientation `orientation` of this motion:
@@ -381,7 +403,7 @@ impl FreeTop {
         if self.size == 0.0 {
             return V3::zeros();
         }
-        let (sn, cn, dn, _) = self.elliptic(self.phase + self.rate * t);
+        let (sn, cn, dn, _, _) = self.elliptic(self.phase + self.rate * t);
         let abc = self.amplitude.component_mul(&V3::new(cn, sn, dn));
         UnitQuaternion::new_unchecked(self.from_body).inverse_transform_vector(&abc)
     }
@@ -472,6 +494,10 @@ mod tests {
         let mut plain = *top;
         plain.theta = None;
         plain.turned_at_start = plain.elliptic(plain.phase).3;
+        // θ-series and R_J turn alike only if the series' weight w is the
+        // reciprocal of L (I_c − I_a)/(I_a I_c ω_p), as the algebra says.
+        let gain = top.alpha_rates.1 / top.rate * top.theta.unwrap().weight;
+        assert!((gain.abs() - 1.0).abs() < 1e-13, "{gain}");
         plain
     }
 
