@@ -371,6 +371,32 @@ fn a_dump_with_a_pair_overlapping_by_a_hair_is_rebuilt() {
     assert_eq!(replay.dump(), dump);
 }
 
+/// A dump with a value that is not finite is refused, naming the body
+/// and the field.
+#[test]
+fn a_dump_with_a_spin_that_is_not_finite_is_refused_by_name() {
+    use nalgebra::Vector3;
+    let flat = [0.0, 0.0, 0.0, 1.0];
+    let system = two_cubes(0.5, [1.0, 0.0, 0.0], flat, flat);
+    let velocities = [
+        (Vector3::x(), Vector3::zeros()),
+        (-Vector3::x(), Vector3::zeros()),
+    ];
+    let options = DynamicsOptions::default();
+    let md = Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap();
+    for (field, value) in [("angular_velocity", f64::NAN), ("velocity", f64::INFINITY)] {
+        let mut dump = md.dump();
+        match field {
+            "angular_velocity" => dump.bodies[1].angular_velocity[2] = value,
+            _ => dump.bodies[1].velocity[0] = value,
+        }
+        let err = Dynamics::from_dump(md.species(), &dump, md.options()).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains(&format!("body 1: {field} [")), "{text}");
+        assert!(text.contains("not finite"), "{text}");
+    }
+}
+
 /// A dump of growing bodies (a jam's chunk, where its numerical failures
 /// happen) carries the growth: the dynamics rebuilt from it, through JSON,
 /// with the dynamics' own species and options, grows on and makes the

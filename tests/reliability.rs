@@ -604,6 +604,109 @@ fn item_11_stats_after_a_resume_inside_dynamics_match_the_uninterrupted_run() {
     }
 }
 
+/// The log of `text` whose messages are `reference`'s, message `index`
+/// rewritten by `rewrite`, written to `path` (its chunks all intact).
+fn rewrite_message(
+    text: &str,
+    reference: &hardbody::log::read::LogContents,
+    index: usize,
+    path: &Path,
+    rewrite: impl Fn(&[u8]) -> Vec<u8>,
+) {
+    let scene = Scene::parse(text).unwrap();
+    let species = hardbody::scene::plan::Plan::of(&scene).mc_species();
+    let mut writer =
+        LogWriter::create(path, text, &reference.metadata["scene_resolved"], &species).unwrap();
+    for (i, (topic, t, data)) in reference.messages.iter().enumerate() {
+        if i == index {
+            writer.copy(topic, *t, &rewrite(data)).unwrap();
+        } else {
+            writer.copy(topic, *t, data).unwrap();
+        }
+    }
+    writer.finish().unwrap();
+}
+
+/// A frame whose angular velocities do not read as finite numbers (a
+/// value out of range of a double, as a tool that writes inf would
+/// leave): never taken for a state. `inspect` and `run --resume` name the
+/// field, the particle and the place in the message; resumed, the run
+/// goes on from the frame before and ends as the whole run did; a log
+/// whose every dynamics frame is so is refused.
+#[test]
+fn a_frame_with_angular_velocities_out_of_range_is_named_and_not_resumed_from() {
+    let dir = scratch("badspin");
+    let text = small(1.0);
+    let whole = dir.join("whole.mcap");
+    run_to(&text, &whole);
+    let reference = read_log_with(
+        &whole,
+        ReadOptions {
+            all_states: true,
+            messages: true,
+        },
+    )
+    .unwrap();
+    let states = |log: &hardbody::log::read::LogContents| -> Vec<usize> {
+        (0..log.messages.len())
+            .filter(|&i| log.messages[i].0 == "/state")
+            .collect()
+    };
+    // The first rod's first component, in the last frame.
+    let spin_out_of_range = |data: &[u8]| {
+        let json = String::from_utf8(data.to_vec()).unwrap();
+        let at = json.find("\"angular_velocities\":[[").unwrap() + 24;
+        let end = at + json[at..].find(',').unwrap();
+        format!("{}1e999{}", &json[..at], &json[end..]).into_bytes()
+    };
+    let last = dir.join("last.mcap");
+    let index = *states(&reference).last().unwrap();
+    rewrite_message(&text, &reference, index, &last, spin_out_of_range);
+    let (code, err) = cli(&["inspect", s(&last)]);
+    assert_eq!(code, 2, "{err}");
+    for named in ["angular_velocities[0][0]", "out of range", "line 1 column"] {
+        assert!(err.contains(named), "{named}: {err}");
+    }
+    let out = dir.join("resumed.mcap");
+    let (code, err) = cli(&["run", "--resume", s(&last), "--out", s(&out)]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("angular_velocities[0][0]"), "{err}");
+    assert!(err.contains("resumed from the last intact frame"), "{err}");
+    let resumed = read_log(&out, true).unwrap();
+    assert_eq!(resumed.states.len(), reference.states.len());
+    for ((_, a), (_, b)) in resumed.states.iter().zip(&reference.states) {
+        assert!(bits(a) == bits(b));
+    }
+    // A run of dynamics alone, its first frame so: nothing to resume from.
+    let text = text.replace(
+        "Compress(packing_fraction: 0.30),\n        MonteCarlo(ensemble: Nvt, sweeps: 100),",
+        "",
+    );
+    let only_dynamics = dir.join("dynamics.mcap");
+    run_to(&text, &only_dynamics);
+    let options = ReadOptions {
+        all_states: true,
+        messages: true,
+    };
+    let reference = read_log_with(&only_dynamics, options).unwrap();
+    let first = dir.join("first.mcap");
+    let index = states(&reference)[0];
+    rewrite_message(&text, &reference, index, &first, spin_out_of_range);
+    let (code, err) = cli(&[
+        "run",
+        "--resume",
+        s(&first),
+        "--out",
+        s(&dir.join("no.mcap")),
+    ]);
+    assert_ne!(code, 0, "{err}");
+    assert!(
+        err.contains("no complete frame") && err.contains("angular_velocities[0][0]"),
+        "{err}"
+    );
+    assert!(!dir.join("no.mcap").exists());
+}
+
 #[test]
 fn item_12_one_bad_message_does_not_block_the_log() {
     let dir = scratch("badmessage");
@@ -629,24 +732,9 @@ fn item_12_one_bad_message_does_not_block_the_log() {
         .unwrap()
         .0;
     let damaged = dir.join("damaged.mcap");
-    let scene = Scene::parse(&text).unwrap();
-    let species = hardbody::scene::plan::Plan::of(&scene).mc_species();
-    let mut writer = LogWriter::create(
-        &damaged,
-        &text,
-        &reference.metadata["scene_resolved"],
-        &species,
-    )
-    .unwrap();
-    for (i, (topic, t, data)) in reference.messages.iter().enumerate() {
-        let data: &[u8] = if i == bad_index {
-            b"{\"stage_index\": 2, \"positions\": [[0, 0"
-        } else {
-            data
-        };
-        writer.copy(topic, *t, data).unwrap();
-    }
-    writer.finish().unwrap();
+    rewrite_message(&text, &reference, bad_index, &damaged, |_| {
+        b"{\"stage_index\": 2, \"positions\": [[0, 0".to_vec()
+    });
     let read = read_log(&damaged, true).unwrap();
     let damage = read.damage.clone().expect("the bad message is reported");
     assert!(

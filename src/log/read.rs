@@ -254,17 +254,17 @@ pub fn read_log_bytes(
             log_time,
             data,
         } => {
-            let decode_error = |e: serde_json::Error| Fault::Message {
+            let decode_error = |reason: String| Fault::Message {
                 topic: topic.to_string(),
-                reason: e.to_string(),
+                reason,
             };
             match topic {
                 "/stats" => {
-                    let s: Stats = serde_json::from_slice(data).map_err(decode_error)?;
+                    let s: Stats = decode(data).map_err(decode_error)?;
                     contents.stats.push((log_time, s));
                 }
                 "/state" => {
-                    let s: StateRecord = serde_json::from_slice(data).map_err(decode_error)?;
+                    let s: StateRecord = decode(data).map_err(decode_error)?;
                     s.check_consistent().map_err(|why| Fault::Message {
                         topic: topic.to_string(),
                         reason: why.to_string(),
@@ -275,7 +275,7 @@ pub fn read_log_bytes(
                     contents.last_state = Some((log_time, s));
                 }
                 "/failure" => {
-                    let f: FailureRecord = serde_json::from_slice(data).map_err(decode_error)?;
+                    let f: FailureRecord = decode(data).map_err(decode_error)?;
                     contents.failure = Some((log_time, f));
                 }
                 _ => {}
@@ -585,4 +585,13 @@ fn visit_record(
         }
         _ => Ok(()),
     }
+}
+
+/// A JSON message decoded, or why not with the field and the place:
+/// `angular_velocities[3][0]: number out of range at line 1 column 345`.
+fn decode<T: serde::de::DeserializeOwned>(data: &[u8]) -> Result<T, String> {
+    let mut json = serde_json::Deserializer::from_slice(data);
+    let value = serde_path_to_error::deserialize(&mut json).map_err(|e| e.to_string())?;
+    json.end().map_err(|e| e.to_string())?;
+    Ok(value)
 }

@@ -201,17 +201,22 @@ impl Dynamics {
         }
         let mut bodies = Vec::with_capacity(n);
         for (k, b) in dump.bodies.iter().enumerate() {
-            let finite = b
-                .position
+            let fields: [(&str, &[f64]); 4] = [
+                ("position", &b.position),
+                ("orientation", &b.orientation),
+                ("velocity", &b.velocity),
+                ("angular_velocity", &b.angular_velocity),
+            ];
+            if let Some((name, value)) = fields
                 .iter()
-                .chain(&b.orientation)
-                .chain(&b.velocity)
-                .chain(&b.angular_velocity)
-                .all(|x| x.is_finite());
-            if !finite || !b.time.is_finite() || b.time > dump.now {
+                .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+            {
+                return Err(bad(format!("body {k}: {name} {value:?} is not finite")));
+            }
+            if !b.time.is_finite() || b.time > dump.now {
                 return Err(bad(format!(
-                    "body {k}: values must be finite and its time at most now ({})",
-                    dump.now
+                    "body {k}: its time {} must be finite and at most now ({})",
+                    b.time, dump.now
                 )));
             }
             let Some(kind) = kinds.get(b.species as usize) else {
