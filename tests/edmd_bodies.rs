@@ -356,25 +356,15 @@ fn growing_cubes_overlapping_by_round_off_where_an_edge_lies_across() {
 /// tolerance, which a new state would refuse).
 #[test]
 fn a_dump_with_a_pair_overlapping_by_a_hair_is_rebuilt() {
-    use nalgebra::Vector3;
-    let flat = [0.0, 0.0, 0.0, 1.0];
-    let system = two_cubes(0.5, [1.0, 0.0, 0.0], flat, flat);
-    let velocities = [
-        (Vector3::x(), Vector3::zeros()),
-        (-Vector3::x(), Vector3::zeros()),
-    ];
-    let options = DynamicsOptions::default();
-    let md = Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap();
+    let md = two_cubes_closing();
     let mut dump = md.dump();
     dump.bodies[1].position[0] -= 1e-8;
     let replay = Dynamics::from_dump(md.species(), &dump, md.options()).unwrap();
     assert_eq!(replay.dump(), dump);
 }
 
-/// A dump with a value that is not finite is refused, naming the body
-/// and the field.
-#[test]
-fn a_dump_with_a_spin_that_is_not_finite_is_refused_by_name() {
+/// Two unit cubes face to face a unit apart, closing at unit speed each.
+fn two_cubes_closing() -> Dynamics {
     use nalgebra::Vector3;
     let flat = [0.0, 0.0, 0.0, 1.0];
     let system = two_cubes(0.5, [1.0, 0.0, 0.0], flat, flat);
@@ -383,7 +373,14 @@ fn a_dump_with_a_spin_that_is_not_finite_is_refused_by_name() {
         (-Vector3::x(), Vector3::zeros()),
     ];
     let options = DynamicsOptions::default();
-    let md = Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap();
+    Dynamics::from_parts(&system, &velocities, &options, 0.0, 0).unwrap()
+}
+
+/// A dump with a value that is not finite is refused, naming the body
+/// and the field.
+#[test]
+fn a_dump_with_a_spin_that_is_not_finite_is_refused_by_name() {
+    let md = two_cubes_closing();
     for (field, value) in [("angular_velocity", f64::NAN), ("velocity", f64::INFINITY)] {
         let mut dump = md.dump();
         match field {

@@ -604,6 +604,19 @@ fn item_11_stats_after_a_resume_inside_dynamics_match_the_uninterrupted_run() {
     }
 }
 
+/// The log of `text` run to `name` in `dir`, read with every state and
+/// message.
+fn whole_log(dir: &Path, text: &str, name: &str) -> (PathBuf, hardbody::log::read::LogContents) {
+    let path = dir.join(name);
+    run_to(text, &path);
+    let options = ReadOptions {
+        all_states: true,
+        messages: true,
+    };
+    let contents = read_log_with(&path, options).unwrap();
+    (path, contents)
+}
+
 /// The log of `text` whose messages are `reference`'s, message `index`
 /// rewritten by `rewrite`, written to `path` (its chunks all intact).
 fn rewrite_message(
@@ -637,16 +650,7 @@ fn rewrite_message(
 fn a_frame_with_angular_velocities_out_of_range_is_named_and_not_resumed_from() {
     let dir = scratch("badspin");
     let text = small(1.0);
-    let whole = dir.join("whole.mcap");
-    run_to(&text, &whole);
-    let reference = read_log_with(
-        &whole,
-        ReadOptions {
-            all_states: true,
-            messages: true,
-        },
-    )
-    .unwrap();
+    let (_, reference) = whole_log(&dir, &text, "whole.mcap");
     let states = |log: &hardbody::log::read::LogContents| -> Vec<usize> {
         (0..log.messages.len())
             .filter(|&i| log.messages[i].0 == "/state")
@@ -655,7 +659,7 @@ fn a_frame_with_angular_velocities_out_of_range_is_named_and_not_resumed_from() 
     // The first rod's first component, in the last frame.
     let spin_out_of_range = |data: &[u8]| {
         let json = String::from_utf8(data.to_vec()).unwrap();
-        let at = json.find("\"angular_velocities\":[[").unwrap() + 24;
+        let at = json.find("\"angular_velocities\":[[").unwrap() + 23;
         let end = at + json[at..].find(',').unwrap();
         format!("{}1e999{}", &json[..at], &json[end..]).into_bytes()
     };
@@ -682,13 +686,7 @@ fn a_frame_with_angular_velocities_out_of_range_is_named_and_not_resumed_from() 
         "Compress(packing_fraction: 0.30),\n        MonteCarlo(ensemble: Nvt, sweeps: 100),",
         "",
     );
-    let only_dynamics = dir.join("dynamics.mcap");
-    run_to(&text, &only_dynamics);
-    let options = ReadOptions {
-        all_states: true,
-        messages: true,
-    };
-    let reference = read_log_with(&only_dynamics, options).unwrap();
+    let (_, reference) = whole_log(&dir, &text, "dynamics.mcap");
     let first = dir.join("first.mcap");
     let index = states(&reference)[0];
     rewrite_message(&text, &reference, index, &first, spin_out_of_range);
@@ -711,16 +709,7 @@ fn a_frame_with_angular_velocities_out_of_range_is_named_and_not_resumed_from() 
 fn item_12_one_bad_message_does_not_block_the_log() {
     let dir = scratch("badmessage");
     let text = small(1.0);
-    let whole = dir.join("whole.mcap");
-    run_to(&text, &whole);
-    let reference = read_log_with(
-        &whole,
-        ReadOptions {
-            all_states: true,
-            messages: true,
-        },
-    )
-    .unwrap();
+    let (_, reference) = whole_log(&dir, &text, "whole.mcap");
     // The same messages, one dynamics /state replaced by bytes that are
     // not a state, in a log whose chunks are all intact.
     let bad_index = reference
