@@ -310,7 +310,7 @@ class Dynamics:
     temperature: float = 1.0
     stats_every: Optional[float] = None
     frames_every: Optional[float] = None
-    true_inertia: bool = False
+    true_inertia: bool = True
     msd: bool = False
     c2: bool = False
 

@@ -208,12 +208,15 @@ def test_gsd_export_and_frames_as_gsd(small_log, tmp_path):
             at = (stats["log_time"] == frame.log_time) & (stats["stage_index"] == frame.stage_index)
             if at.any():
                 np.testing.assert_equal(g.log["hardbody/pressure"][0], stats["pressure"][at][0])
-            # Masses 1; rods 2 x 0.8 long turning as spherical tops with the
-            # mean moment of a solid ellipsoid; spheres not turning.
+            # Masses 1; rods 2 x 0.8 long, the principal moments of a solid
+            # ellipsoid in the dynamics' frames (true inertia, the default),
+            # their mean elsewhere (spherical tops); spheres not turning.
             assert np.all(g.particles.mass == 1.0)
             assert np.allclose(g.particles.diameter, np.where(rods, 1.6, 0.8))
-            mean = (2 * (0.8**2 + 0.4**2) + 2 * 0.4**2) / 5 / 3
-            assert np.allclose(g.particles.moment_inertia[rods], mean, rtol=1e-6)
+            own = np.array([2 * 0.4**2, 0.8**2 + 0.4**2, 0.8**2 + 0.4**2]) / 5
+            dynamics = isinstance(small_log.scene.stages[frame.stage_index], hb.Dynamics)
+            moments = own if dynamics else own.mean()
+            assert np.allclose(g.particles.moment_inertia[rods], moments, rtol=1e-6)
             assert np.all(g.particles.moment_inertia[~rods] == 0.0)
             if frame.angular_velocities is not None:
                 # L_body from HOOMD's quaternion 2 q (0, L_body) is I w_body.

@@ -204,9 +204,10 @@ pub enum Stage {
         #[serde(default)]
         frames_every: Option<f64>,
         /// Every body turns with its own principal moments of inertia
-        /// (asymmetric tops in closed form; default: spherical tops with
-        /// the mean moment).
-        #[serde(default)]
+        /// (asymmetric tops in closed form; the default); `false` turns
+        /// them as spherical tops with the mean moment, which leaves
+        /// equilibrium averages as they are and costs less.
+        #[serde(default = "yes")]
         true_inertia: bool,
         /// Report the mean-squared displacement in `/stats`.
         #[serde(default)]
