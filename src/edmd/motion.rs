@@ -14,8 +14,9 @@
 //!   α̇ = L (L_a²/I_a + L_b²/I_b)/(L_a² + L_b²)
 //!      = L/I_c + L (I_c − I_a)/(I_a I_c) / (1 + n sn² τ),
 //!
-//! integrates to an elliptic integral of the third kind (Carlson's R_J).
-//! The characteristic n = I_c (I_b − I_a)/(I_a (I_c − I_b)) depends on the
+//! integrates to an elliptic integral of the third kind: a linear term
+//! plus ± arg θ₄ (`elliptic::ThetaTurn`), or Carlson's R_J where that
+//! series would converge slowly. The characteristic n = I_c (I_b − I_a)/(I_a (I_c − I_b)) depends on the
 //! moments alone. A symmetric top is the case m = k² = 0 and n = 0 (sn and
 //! cn are sine and cosine, α̇ = L/I_a); a spherical top (De Michele's
 //! eqs. 4–6b) also has ω_p = 0. Every case is set up by the same formulas;
