@@ -116,25 +116,20 @@ impl Dynamics {
     #[inline]
     pub(super) fn advance(&mut self, i: usize) {
         let now = self.now;
-        let rotating = self.rotating;
-        let b = &mut self.bodies[i];
-        let dt = now - b.time;
+        let dt = now - self.bodies[i].time;
         if dt != 0.0 {
+            // The stored pose moves on; its top is rebuilt by the caller
+            // once the spin is settled.
+            let turned =
+                (self.rotating && self.bodies[i].angular_velocity != V3::zeros()).then(|| {
+                    let top = self.top(i);
+                    let q = top.orientation_after(dt);
+                    (q, top.angular_velocity(&q))
+                });
+            let b = &mut self.bodies[i];
             b.position = position_after(&b.position, &b.velocity, dt);
-            if rotating && b.angular_velocity != V3::zeros() {
-                // The stored pose moves on; its top is rebuilt by the
-                // caller once the spin is settled. (Turning spheres whose
-                // pairs are all in closed form keep no tops.)
-                let built;
-                let spin = match self.tops.get(i) {
-                    Some(top) => top,
-                    None => {
-                        built = body_spin(&self.kinds, b);
-                        &built
-                    }
-                };
-                b.orientation = spin.orientation_after(dt);
-                b.angular_velocity = spin.angular_velocity(&b.orientation);
+            if let Some((q, w)) = turned {
+                (b.orientation, b.angular_velocity) = (q, w);
             }
             b.time = now;
         }

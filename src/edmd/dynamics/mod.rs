@@ -527,8 +527,18 @@ impl Dynamics {
     #[inline]
     pub(super) fn refresh_top(&mut self, i: usize) {
         if let Some(top) = self.tops.get_mut(i) {
-            let b = &self.bodies[i];
-            *top = self.kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity);
+            *top = body_spin(&self.kinds, &self.bodies[i]);
+        }
+    }
+
+    /// Body `i`'s free rotation from its stored pose: the one kept, or
+    /// built where none are (turning spheres whose pairs are all in
+    /// closed form).
+    #[inline]
+    pub(super) fn top(&self, i: usize) -> std::borrow::Cow<'_, FreeTop> {
+        match self.tops.get(i) {
+            Some(top) => std::borrow::Cow::Borrowed(top),
+            None => std::borrow::Cow::Owned(body_spin(&self.kinds, &self.bodies[i])),
         }
     }
 }

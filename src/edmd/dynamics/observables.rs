@@ -291,10 +291,7 @@ impl Dynamics {
         if dt == 0.0 || b.angular_velocity == V3::zeros() {
             return b.angular_velocity;
         }
-        let top = match self.tops.get(i) {
-            Some(top) => *top,
-            None => body_spin(&self.kinds, b),
-        };
+        let top = self.top(i);
         top.angular_velocity(&top.orientation_after(dt))
     }
 
