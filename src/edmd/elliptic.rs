@@ -68,10 +68,7 @@ impl Landen {
             return ([u.tanh(), sech, sech], (0.0, 1.0));
         }
         let (sin, cos) = (u * self.mean).sin_cos();
-        if self.m == 0.0 {
-            return ([sin, cos, 1.0], (sin, cos));
-        }
-        if sin == 0.0 {
+        if self.m == 0.0 || sin == 0.0 {
             return ([sin, cos, 1.0], (sin, cos));
         }
         // c_j = cot-like ratios carried back down the sequence.
