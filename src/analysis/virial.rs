@@ -9,6 +9,7 @@ use rand_distr::StandardNormal;
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
+use crate::geometry::pair::{OverlapStrains, counting_strains};
 use crate::geometry::{Relative, Shape, overlap};
 
 /// Samples per independent random stream; streams are keyed on
@@ -26,6 +27,10 @@ pub struct VirialEstimate {
     pub b2: f64,
     /// Samples drawn.
     pub samples: u64,
+    /// Overlap tests of the samples that GJK left undecided (each settled
+    /// by the signed distance, or counted as an overlap where that failed
+    /// too).
+    pub overlap_strains: OverlapStrains,
 }
 
 /// A uniformly random rotation (normalised 4-D Gaussian).
@@ -60,24 +65,29 @@ pub fn excluded_volume(a: &Shape, b: &Shape, samples: u64, seed: u64) -> VirialE
     let samples = samples.max(1);
     let reach = a.bounding_radius() + b.bounding_radius();
     let chunks = samples.div_ceil(CHUNK);
-    let hits: u64 = (0..chunks)
+    let (hits, strains) = (0..chunks)
         .into_par_iter()
         .map(|chunk| {
             let mut rng = Pcg64::seed_from_u64(seed ^ chunk.wrapping_mul(0x9E37_79B9_7F4A_7C15));
             let n = CHUNK.min(samples - chunk * CHUNK);
-            let mut hits = 0;
-            for _ in 0..n {
-                let r_ab = random_in_ball(&mut rng, reach);
-                let (qa, qb) = if a.is_sphere() {
-                    (UnitQuaternion::identity(), random_rotation(&mut rng))
-                } else {
-                    (random_rotation(&mut rng), random_rotation(&mut rng))
-                };
-                hits += overlap(a, b, &Relative::new(&r_ab, &qa, &qb)) as u64;
-            }
-            hits
+            counting_strains(|| {
+                let mut hits = 0;
+                for _ in 0..n {
+                    let r_ab = random_in_ball(&mut rng, reach);
+                    let (qa, qb) = if a.is_sphere() {
+                        (UnitQuaternion::identity(), random_rotation(&mut rng))
+                    } else {
+                        (random_rotation(&mut rng), random_rotation(&mut rng))
+                    };
+                    hits += overlap(a, b, &Relative::new(&r_ab, &qa, &qb)) as u64;
+                }
+                hits
+            })
         })
-        .sum();
+        .reduce(
+            || (0, OverlapStrains::default()),
+            |(h, s), (h2, s2)| (h + h2, s + s2),
+        );
     let ball = 4.0 / 3.0 * std::f64::consts::PI * reach.powi(3);
     let p = hits as f64 / samples as f64;
     let excluded = ball * p;
@@ -86,5 +96,6 @@ pub fn excluded_volume(a: &Shape, b: &Shape, samples: u64, seed: u64) -> VirialE
         excluded_volume_error: ball * (p * (1.0 - p) / samples as f64).sqrt(),
         b2: excluded / 2.0,
         samples,
+        overlap_strains: strains,
     }
 }

@@ -392,6 +392,9 @@ pub(super) fn virial(a: &str, b: &str, samples: u64, seed: u64, json: bool) -> E
             e.excluded_volume_error / 2.0
         ));
         say(&format!("samples:         {}", e.samples));
+        if let Some(strains) = e.overlap_strains.in_words() {
+            say(&format!("overlap tests:   {strains}"));
+        }
     }
     ExitCode::SUCCESS
 }

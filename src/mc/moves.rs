@@ -8,7 +8,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-use crate::geometry::pair::{OverlapStrains, take_overlap_strains};
+use crate::geometry::pair::OverlapStrains;
 use crate::state::System;
 
 /// Attempts and acceptances of one kind of move; counts add.
@@ -53,17 +53,17 @@ pub struct Counts {
     /// Box moves that shear (a tilt factor).
     #[serde(default)]
     pub shear: Count,
-    /// Overlap tests the boolean test left undecided (counted on the
-    /// threads that ran them, see [`take_overlap_strains`]).
+    /// Overlap tests the boolean test left undecided (counted by the
+    /// scope each thread ran its sweeps in, see
+    /// [`crate::geometry::pair::counting_strains`]).
     #[serde(default)]
     pub strains: OverlapStrains,
 }
 
 impl Counts {
-    /// These counts with the overlap strains of this thread's tests since
-    /// they were last taken.
-    pub fn with_this_threads_strains(mut self) -> Counts {
-        self.strains += take_overlap_strains();
+    /// These counts with the overlap strains of the sweeps they count.
+    pub fn with_strains(mut self, strains: OverlapStrains) -> Counts {
+        self.strains += strains;
         self
     }
 

@@ -3,7 +3,7 @@
 
 use rand_pcg::Pcg64;
 
-use crate::geometry::pair::{OverlapStrains, take_overlap_strains};
+use crate::geometry::pair::{OverlapStrains, counting_strains};
 use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::compress::{CompressOptions, CompressReport, Compressor};
 use crate::mc::moves::Counts;
@@ -86,10 +86,11 @@ impl<'a> CompressStage<'a> {
 
 impl StageRun for CompressStage<'_> {
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
-        let step = self.compressor.sweep(&mut self.system, self.rng);
+        let (step, strains) =
+            counting_strains(|| self.compressor.sweep(&mut self.system, self.rng));
         let state = self.compressor.state();
         self.window += state.counts - self.last_counts;
-        self.window.strains += take_overlap_strains();
+        self.window.strains += strains;
         self.last_counts = state.counts;
         let s = state.sweeps;
         let time = runner.clock + s * NS_PER_SWEEP;

@@ -5,7 +5,7 @@
 use rand::RngCore;
 use rand_pcg::Pcg64;
 
-use crate::geometry::pair::OverlapStrains;
+use crate::geometry::pair::{OverlapStrains, counting_strains};
 use crate::log::{NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
@@ -199,7 +199,8 @@ impl StageRun for MonteCarloStage<'_> {
             .slabs
             .is_some()
             .then(|| self.draw_chunk(settled, pause));
-        let counts = match (&mut self.slabs, chunk) {
+        // The slabs' team counts its strains on its own threads.
+        let (counts, strains) = counting_strains(|| match (&mut self.slabs, chunk) {
             (Some(slabs), Some(first_index)) => slabs.sweeps(
                 &mut self.system,
                 &runner.sizes,
@@ -211,8 +212,8 @@ impl StageRun for MonteCarloStage<'_> {
                 self.sweep += 1;
                 sweep(&mut self.system, &runner.sizes, &self.mc_ensemble, self.rng)
             }
-        }
-        .with_this_threads_strains();
+        });
+        let counts = counts.with_strains(strains);
         let s = self.sweep;
         self.window += counts;
         self.tune_window += counts;
@@ -224,12 +225,18 @@ impl StageRun for MonteCarloStage<'_> {
             }
         }
         if self.samples_at(s) {
-            if let Some(sdf) = &mut self.sdf {
-                sdf.add(&self.system);
-            }
-            if let Some(tensor) = &mut self.tensor {
-                tensor.add(&self.system);
-            }
+            let ((), strains) = counting_strains(|| {
+                if let Some(sdf) = &mut self.sdf {
+                    sdf.add(&self.system);
+                }
+                if let Some(tensor) = &mut self.tensor {
+                    tensor.add(&self.system);
+                }
+            });
+            // Counted with the stage's tests since the interval and since
+            // the tuning began, as the sweeps' are.
+            self.window.strains += strains;
+            self.tune_window.strains += strains;
         }
         let end = s == self.sweeps;
         Ok(Mark {

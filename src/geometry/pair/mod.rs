@@ -27,7 +27,7 @@ use super::shape::Shape;
 pub use cuboid_patch::ContactPatch;
 pub use quadric_quadric::{Spheroid, perram_wertheim, spheroid_overlap};
 pub use smooth_smooth::support_points_start;
-pub use strains::{OverlapStrains, take_overlap_strains};
+pub use strains::{OverlapStrains, counting_strains};
 
 type V3 = Vector3<f64>;
 

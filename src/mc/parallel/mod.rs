@@ -371,8 +371,10 @@ impl ParallelSweeps {
             }
             let mut system = systems[me].lock().expect("no thread panicked");
             let _member = Member(&exchange.barrier);
-            member_sweeps((me, team), Some(&exchange), &mut system, &work)
-                .with_this_threads_strains()
+            let (counts, strains) = crate::geometry::pair::counting_strains(|| {
+                member_sweeps((me, team), Some(&exchange), &mut system, &work)
+            });
+            counts.with_strains(strains)
         });
         drop(systems);
         self.in_step_at = Some(system.stamp());

@@ -362,9 +362,10 @@ pub(super) fn shared_sweeps(
             return Default::default();
         }
         let _member = Member(&barrier);
-        let (counts, shared_counts) =
-            shared_member_sweeps((me, team), &barrier, &reports, &shared, work);
-        (counts.with_this_threads_strains(), shared_counts)
+        let ((counts, shared_counts), strains) = crate::geometry::pair::counting_strains(|| {
+            shared_member_sweeps((me, team), &barrier, &reports, &shared, work)
+        });
+        (counts.with_strains(strains), shared_counts)
     });
     let counts = per_thread.iter().fold(Counts::default(), |a, c| a + c.0);
     (counts, per_thread[0].1)
