@@ -17,7 +17,7 @@ use std::sync::atomic::AtomicBool;
 use common::scene_files;
 use hardbody::log::read::{ReadOptions, read_log_with};
 use hardbody::run::{Silent, run_scene};
-use hardbody::scene::{Scene, Stage};
+use hardbody::scene::{Scene, Stage, ValidScene};
 
 const REFERENCE: &str = "tests/golden/states.txt";
 
@@ -25,7 +25,8 @@ const REFERENCE: &str = "tests/golden/states.txt";
 /// of at most 1 time unit, compressions to at most φ = 0.45, jams at
 /// γ ≥ 10⁻² to βPV/N = 10⁴ at most, and
 /// frames often enough that every stage writes several.
-fn shortened(mut scene: Scene) -> Scene {
+fn shortened(scene: ValidScene) -> ValidScene {
+    let mut scene = scene.into_scene();
     scene.log.frames_every = 50;
     scene.log.stats_every = 50;
     for stage in &mut scene.stages {
@@ -56,7 +57,7 @@ fn shortened(mut scene: Scene) -> Scene {
             }
         }
     }
-    scene
+    scene.validated().expect("a shortened scene is valid")
 }
 
 /// FNV-1a over the bytes: enough to tell any change (nothing here is
@@ -104,8 +105,8 @@ fn state_digest(path: &Path) -> (usize, u64, usize, u64) {
 
 /// Every shipped scene, shortened and run once for the tests of this
 /// file: (name, scene as run, text, log).
-fn shortened_runs() -> &'static [(String, Scene, PathBuf)] {
-    static RUNS: OnceLock<Vec<(String, Scene, PathBuf)>> = OnceLock::new();
+fn shortened_runs() -> &'static [(String, ValidScene, PathBuf)] {
+    static RUNS: OnceLock<Vec<(String, ValidScene, PathBuf)>> = OnceLock::new();
     RUNS.get_or_init(|| {
         let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden");
         let _ = std::fs::remove_dir_all(&dir);

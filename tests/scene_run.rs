@@ -568,7 +568,7 @@ fn ctrl_c_finishes_the_log_cleanly() {
 /// Runs `scene` (spelt `text`) on a rayon pool of `threads` threads into
 /// `dir/threads-{threads}.mcap`, and reads back the log with every state.
 fn run_on_threads(
-    scene: &Scene,
+    scene: &hardbody::scene::ValidScene,
     text: &str,
     dir: &Path,
     threads: usize,

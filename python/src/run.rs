@@ -12,7 +12,7 @@ use std::time::Duration;
 use hardbody::log::StorageFailure;
 use hardbody::log::file::check_output;
 use hardbody::run::{Progress, RunError as RustRunError, RunSummary, check_start};
-use hardbody::scene::{Scene, Start};
+use hardbody::scene::{Scene, Start, ValidScene};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -177,10 +177,10 @@ pub(crate) fn prepare(
     out: Option<PathBuf>,
     seed: Option<u64>,
     inputs: &[PathBuf],
-) -> PyResult<(Scene, PathBuf)> {
+) -> PyResult<(ValidScene, PathBuf)> {
     let mut scene = Scene::parse(text).map_err(|e| scene_error(py, &e))?;
     if let Some(seed) = seed {
-        scene.seed = seed;
+        scene = scene.with_seed(seed);
     }
     check_start(&scene).map_err(|e| run_error(py, e))?;
     let out = out.unwrap_or_else(|| PathBuf::from(&scene.log.path));

@@ -2,7 +2,7 @@
 //! write, checked by the crate's own validation, so that Python raises the
 //! command line's refusals.
 
-use hardbody::scene::{Scene, SceneError as RustSceneError};
+use hardbody::scene::{Scene, SceneError as RustSceneError, ValidScene};
 use pyo3::prelude::*;
 
 use crate::SceneError;
@@ -53,7 +53,7 @@ pub fn scene_to_ron(py: Python<'_>, json: &str) -> PyResult<String> {
     Ok(parse_json(py, json)?.to_ron())
 }
 
-pub(crate) fn parse_json(py: Python<'_>, json: &str) -> PyResult<Scene> {
+pub(crate) fn parse_json(py: Python<'_>, json: &str) -> PyResult<ValidScene> {
     let mut reader = serde_json::Deserializer::from_str(json);
     let scene: Scene = serde_path_to_error::deserialize(&mut reader).map_err(|e| {
         let field = e.path().to_string();
@@ -65,6 +65,5 @@ pub(crate) fn parse_json(py: Python<'_>, json: &str) -> PyResult<Scene> {
             .to_string();
         refusal(py, format!("{field}: {message}"), Some(field), None)
     })?;
-    scene.check().map_err(|e| scene_error(py, &e))?;
-    Ok(scene)
+    scene.validated().map_err(|e| scene_error(py, &e))
 }

@@ -98,8 +98,7 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, BenchError> {
         counts.0.push(c as f64);
 
         let clock = Instant::now();
-        let mut scene = Scene::parse(&text)?;
-        scene.seed = seed;
+        let scene = Scene::parse(&text)?.with_seed(seed);
         let out = dir.join("scene.mcap");
         run_scene(&scene, &text, &out, &mut Silent, &AtomicBool::new(false))?;
         let elapsed = clock.elapsed().as_secs_f64();

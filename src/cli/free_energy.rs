@@ -266,7 +266,7 @@ pub(super) fn coexistence(
         }
     }
     let [(fluid, fluid_text), (solid, solid_text)] =
-        <[(hardbody::scene::Scene, String); 2]>::try_from(loaded).expect("two scenes");
+        <[(hardbody::scene::ValidScene, String); 2]>::try_from(loaded).expect("two scenes");
     let (fluid_log, solid_log) = (
         PathBuf::from(&fluid.log.path),
         PathBuf::from(&solid.log.path),

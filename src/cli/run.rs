@@ -9,8 +9,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use hardbody::log::file::check_output;
 use hardbody::run::{Progress, RunError, RunSummary, check_start, resume_run, run_scene};
-use hardbody::scene::Scene;
 use hardbody::scene::plan::{Plan, Report};
+use hardbody::scene::{Scene, ValidScene};
 
 use super::*;
 
@@ -53,7 +53,7 @@ pub(super) enum Refusal {
 
 /// Reads and validates a scene file; the error names the file, the line
 /// and the field.
-pub(super) fn load_scene(path: &std::path::Path) -> Result<(Scene, String), Refusal> {
+pub(super) fn load_scene(path: &std::path::Path) -> Result<(ValidScene, String), Refusal> {
     let unreadable = |source: Box<dyn std::error::Error + Send + Sync>| Refusal::Unreadable {
         path: path.to_path_buf(),
         source,
@@ -87,10 +87,16 @@ pub(super) fn run(
         ),
     };
     if let Some(seed) = seed {
-        scene.seed = seed;
+        scene = scene.with_seed(seed);
     }
     if let Some(log) = &resume {
-        scene.start = hardbody::scene::Start::Resume(log.display().to_string());
+        // Another start: the scene is checked again with it.
+        let mut edited = scene.into_scene();
+        edited.start = hardbody::scene::Start::Resume(log.display().to_string());
+        scene = match edited.validated() {
+            Ok(s) => s,
+            Err(e) => return bad_input(e),
+        };
     }
     if let Some(p) = &scene_path
         && let Err(e) = preflight(p, &text, &scene, out.is_some())
@@ -228,7 +234,7 @@ pub(super) fn scene_refusal(
 pub(super) fn preflight(
     path: &std::path::Path,
     text: &str,
-    scene: &Scene,
+    scene: &ValidScene,
     out_given: bool,
 ) -> Result<(), Refusal> {
     if let Err(e) = check_start(scene) {
@@ -288,7 +294,7 @@ pub(super) fn continue_run(
         None => Scene::parse(DEFAULT_SCENE).expect("the default scene is valid"),
     };
     if let Some(seed) = seed {
-        scene.seed = seed;
+        scene = scene.with_seed(seed);
     }
     let scene_name = scene_path
         .as_ref()
@@ -382,7 +388,7 @@ pub(super) fn continue_run(
 fn log_of_scene(
     log: &std::path::Path,
     contents: &hardbody::log::read::LogContents,
-    scene: &Scene,
+    scene: &ValidScene,
     name: &str,
 ) -> Result<(), Refusal> {
     let logged = contents

@@ -24,7 +24,7 @@ pub use frenkel_ladd::{CrystalFreeEnergy, FrenkelLadd, PathPoint, crystal_free_e
 use crate::mc::einstein::{Anchors, TetherError};
 use crate::run::{Progress, RecordError, RunError, Simulation, system_from_record};
 use crate::scene::plan::Plan;
-use crate::scene::{Scene, Start};
+use crate::scene::{Start, ValidScene};
 use crate::state::System;
 
 type V3 = Vector3<f64>;
@@ -180,7 +180,7 @@ impl FreeEnergy {
 /// Frenkel–Ladd if it starts from a crystal, else by integrating its
 /// equation of state as a fluid.
 pub fn scene_free_energy(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_text: &str,
     log_path: &Path,
     crystal: &FrenkelLadd,
@@ -261,7 +261,7 @@ impl PathChoices {
 /// One phase's scene: the scene, its text and where its log goes.
 pub struct PhaseScene<'a> {
     /// The scene.
-    pub scene: &'a Scene,
+    pub scene: &'a ValidScene,
     /// Its text, which the log records.
     pub text: &'a str,
     /// Its log.
@@ -318,7 +318,7 @@ pub fn scene_coexistence(
 
 /// The scene run to its end: its start and final states.
 fn run_to_end(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_text: &str,
     log_path: &Path,
     progress: &mut dyn Progress,
@@ -343,7 +343,7 @@ fn run_to_end(
 /// to `log_path`), its start lattice carried into the final box by the
 /// box's deformation, and the bodies tethered to it.
 pub fn solid_free_energy(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_text: &str,
     log_path: &Path,
     options: &FrenkelLadd,

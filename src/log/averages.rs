@@ -337,7 +337,7 @@ pub fn replica_averages(logs: &[(String, &LogContents)]) -> Result<Replicas, Rep
             .map(|s| Scene {
                 seed: 0,
                 log: Default::default(),
-                ..s
+                ..s.into_scene()
             })
             .ok_or_else(|| ReplicaError::NoScene(name.clone()))?;
         match &first {

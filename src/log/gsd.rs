@@ -25,7 +25,7 @@ use super::view::superellipsoid_mesh;
 use super::{LogError, StateRecord, Stats};
 use crate::edmd::dynamics::top_moments;
 use crate::geometry::Shape;
-use crate::scene::{Scene, Stage};
+use crate::scene::{Scene, Stage, ValidScene};
 
 /// Bytes per row of `particles/type_shapes` (JSON, zero-padded): room for
 /// the largest superellipsoid mesh.
@@ -105,7 +105,7 @@ struct Body {
 
 /// The bodies of `state`'s species in its stage of `scene` (masses 1 and
 /// spherical tops where the log holds no scene).
-fn bodies(state: &StateRecord, scene: Option<&Scene>) -> Vec<Body> {
+fn bodies(state: &StateRecord, scene: Option<&ValidScene>) -> Vec<Body> {
     let true_inertia = matches!(
         scene.and_then(|s| s.stages.get(state.stage_index)),
         Some(Stage::Dynamics {

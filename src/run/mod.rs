@@ -51,7 +51,7 @@ use crate::mc::moves::MoveSizes;
 use crate::mc::tuning::DriftWatch;
 use crate::number::Num;
 use crate::scene::plan::Plan;
-use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start};
+use crate::scene::{DEFAULT_COMPRESS_SWEEPS, Ensemble, Scene, Stage, Start, ValidScene};
 use crate::state::StateError;
 use crate::state::System;
 use crate::state::start::StartError;
@@ -243,7 +243,7 @@ enum Phase {
 /// between sweeps and between output events: when set, the run ends
 /// cleanly at the next one with a final frame.
 pub fn run_scene(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_text: &str,
     log_path: &Path,
     progress: &mut dyn Progress,
@@ -339,7 +339,7 @@ pub fn resume_run(
 }
 
 fn run_with(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_text: &str,
     log_path: &Path,
     progress: &mut dyn Progress,
@@ -437,7 +437,7 @@ fn ticks(stage: &Stage) -> u64 {
 }
 
 struct Runner {
-    scene: Scene,
+    scene: ValidScene,
     plan: Plan,
     /// Log time at the start of the current stage (ns).
     clock: u64,

@@ -67,12 +67,12 @@ impl Simulation {
     /// Makes the start of `scene` (parsed from `scene_text`, which the log
     /// records) and opens its log at `log_path` (written via
     /// `<log_path>.partial`, renamed by [`Simulation::finish`]).
-    pub fn new(scene: &Scene, scene_text: &str, log_path: &Path) -> Result<Self, RunError> {
+    pub fn new(scene: &ValidScene, scene_text: &str, log_path: &Path) -> Result<Self, RunError> {
         Self::open(scene, scene_text, log_path, None)
     }
 
     pub(super) fn open(
-        scene: &Scene,
+        scene: &ValidScene,
         scene_text: &str,
         log_path: &Path,
         from: Option<ResumePoint>,

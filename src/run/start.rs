@@ -9,7 +9,7 @@ use rand_pcg::Pcg64;
 use crate::log::StateRecord;
 use crate::log::read::read_log;
 use crate::scene::plan::Plan;
-use crate::scene::{Scene, Start};
+use crate::scene::{Scene, Start, ValidScene};
 use crate::space::periodic_box::BoxError;
 use crate::state::start::{lattice, random_insertion};
 use crate::state::{Particle, StateError, System};
@@ -67,7 +67,7 @@ pub(super) fn layered(system: System, axis: usize) -> Result<System, StateError>
 /// Whether the scene's start can be made before anything runs: a
 /// `Resume` start's log is read and its last state checked against the
 /// scene (what `run` would refuse, `check` refuses too).
-pub fn check_start(scene: &Scene) -> Result<(), RunError> {
+pub fn check_start(scene: &ValidScene) -> Result<(), RunError> {
     if let Start::Resume(path) = &scene.start {
         let plan = Plan::of(scene);
         resumed_start(path, &plan)?;
@@ -91,7 +91,7 @@ pub(super) fn resumed_start(path: &str, plan: &Plan) -> Result<System, RunError>
         .metadata
         .get("scene_resolved")
         .and_then(|text| Scene::parse(text).ok());
-    let logged_first_jam = logged.as_ref().and_then(Scene::first_jam);
+    let logged_first_jam = logged.as_ref().and_then(|s| s.first_jam());
     // Grown bodies are this scene's only if they were grown from its
     // species: any species would otherwise fit them by some factor.
     let grown = record.stage == "jam" || logged_first_jam.is_some_and(|j| j <= record.stage_index);

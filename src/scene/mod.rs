@@ -12,7 +12,68 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::Shape;
 use outline::Outline;
 
-/// A scene: what to simulate, in which stages, logged where.
+/// A scene that passed every check of [`Scene::parse`] or
+/// [`Scene::validated`]: only this can be planned or run. It reads as the
+/// scene it holds; to edit it, take the scene out with
+/// [`ValidScene::into_scene`] and validate it again.
+///
+/// A scene taken out to edit is not accepted by a run until it is checked
+/// again (this does not compile):
+///
+/// ```compile_fail,E0308
+/// use hardbody::run::{Silent, run_scene};
+/// use hardbody::scene::Scene;
+///
+/// let text = r#"Scene(
+///     box: (8.0, 8.0, 8.0),
+///     species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+///     stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
+/// )"#;
+/// let mut edited = Scene::parse(text).unwrap().into_scene();
+/// edited.species[0].count = 0;
+/// let stop = std::sync::atomic::AtomicBool::new(false);
+/// run_scene(&edited, text, "out.mcap".as_ref(), &mut Silent, &stop);
+/// ```
+///
+/// Checked again, it is refused by name:
+///
+/// ```
+/// # use hardbody::scene::{Scene, SceneError};
+/// # let text = r#"Scene(
+/// #     box: (8.0, 8.0, 8.0),
+/// #     species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
+/// #     stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
+/// # )"#;
+/// let mut edited = Scene::parse(text).unwrap().into_scene();
+/// edited.species[0].count = 0;
+/// assert!(matches!(edited.validated(), Err(SceneError::Invalid { field, .. }) if field == "species[0].count"));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(transparent)]
+pub struct ValidScene(Scene);
+
+impl std::ops::Deref for ValidScene {
+    type Target = Scene;
+    fn deref(&self) -> &Scene {
+        &self.0
+    }
+}
+
+impl ValidScene {
+    /// The scene, to edit (it must be validated again to run).
+    pub fn into_scene(self) -> Scene {
+        self.0
+    }
+
+    /// The same scene with another seed (every seed is valid).
+    pub fn with_seed(mut self, seed: u64) -> ValidScene {
+        self.0.seed = seed;
+        self
+    }
+}
+
+/// A scene as written: what to simulate, in which stages, logged where.
+/// It is checked by [`Scene::validated`] before anything plans or runs it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
@@ -459,7 +520,7 @@ impl Scene {
     /// assert!(matches!(bad, Err(SceneError::Invalid { field, .. }) if field == "stages[0].sweeps"));
     /// # Ok::<(), SceneError>(())
     /// ```
-    pub fn parse(text: &str) -> Result<Scene, SceneError> {
+    pub fn parse(text: &str) -> Result<ValidScene, SceneError> {
         // A byte-order mark some editors write is no part of the scene.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let options = ron::Options::default()
@@ -477,19 +538,21 @@ impl Scene {
                 field,
                 message,
             })?;
-        Ok(scene)
+        Ok(ValidScene(scene))
     }
 
     /// Validates a scene built in code (or deserialized from another
-    /// format) as [`Scene::parse`] validates a scene file; the error names
-    /// the field, without a line.
-    pub fn check(&self) -> Result<(), SceneError> {
+    /// format, or edited after [`ValidScene::into_scene`]) as
+    /// [`Scene::parse`] validates a scene file; the error names the field,
+    /// without a line.
+    pub fn validated(self) -> Result<ValidScene, SceneError> {
         self.validate()
             .map_err(|(field, message)| SceneError::Invalid {
                 field,
                 line: None,
                 message,
-            })
+            })?;
+        Ok(ValidScene(self))
     }
 
     /// The scene as RON (what the log's metadata records).
@@ -693,10 +756,10 @@ mod tests {
         assert!(s.species[0].rotation);
         // Round trip through the serialised form the log records.
         assert_eq!(Scene::parse(&s.to_ron()).unwrap(), s);
-        assert_eq!(s.check(), Ok(()));
-        let mut bad = s.clone();
+        assert_eq!(s.clone().into_scene().validated().as_ref(), Ok(&s));
+        let mut bad = s.into_scene();
         bad.species[0].count = 0;
-        match bad.check() {
+        match bad.validated() {
             Err(SceneError::Invalid { field, line, .. }) => {
                 assert_eq!((field.as_str(), line), ("species[0].count", None));
             }

@@ -8,7 +8,7 @@ use std::fmt;
 
 use crate::mc::box_moves::BoxMoves;
 
-use super::{Ensemble, Neighbours, Scene, Stage, Start};
+use super::{Ensemble, Neighbours, Stage, Start, ValidScene};
 use crate::analysis::order::molecular_axis;
 use crate::geometry::pair::{contact_sum, kernel_names};
 use crate::mc::tuning::TuningSpan;
@@ -82,7 +82,7 @@ pub struct Plan {
 
 impl Plan {
     /// The plan of a validated scene.
-    pub fn of(scene: &Scene) -> Plan {
+    pub fn of(scene: &ValidScene) -> Plan {
         let species: Vec<SpeciesPlan> = scene
             .mc_species()
             .into_iter()
@@ -195,7 +195,7 @@ impl Plan {
 /// The plan and the stages of a scene, as `hardbody check` prints them.
 pub struct Report<'a> {
     /// The scene.
-    pub scene: &'a Scene,
+    pub scene: &'a ValidScene,
     /// Its plan.
     pub plan: &'a Plan,
 }
@@ -550,8 +550,9 @@ impl fmt::Display for Report<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Scene;
 
-    fn scene(species: &str) -> Scene {
+    fn scene(species: &str) -> ValidScene {
         Scene::parse(&format!(
             "Scene(box: (20.0, 20.0, 20.0), species: [{species}], stages: [Dynamics(duration: 1.0)])"
         ))

@@ -14,7 +14,7 @@ use crate::geometry::Shape;
 use crate::log::averages::{ReplicaAverage, StageAverages, stage_averages, stages_over_replicas};
 use crate::log::partial_path;
 use crate::log::read::{LogContents, read_log};
-use crate::scene::{Ensemble, Scene, Stage};
+use crate::scene::{Ensemble, Scene, Stage, ValidScene};
 
 /// Where a job stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -45,7 +45,7 @@ pub struct JobResult {
     /// Its stages' averages, when finished.
     pub stages: Option<Vec<StageAverages>>,
     /// Its scene.
-    pub scene: Option<Scene>,
+    pub scene: Option<ValidScene>,
 }
 
 /// One state point: the replicas of one set of values.

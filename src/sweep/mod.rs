@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value};
 
-use crate::scene::Scene;
+use crate::scene::{Scene, ValidScene};
 
 /// Why a sweep cannot be made.
 #[derive(Debug, thiserror::Error)]
@@ -379,10 +379,9 @@ fn name_swept(swept: &mut [Swept]) {
     }
 }
 
-fn scene_of(value: Value) -> Result<Scene, ValueError> {
+fn scene_of(value: Value) -> Result<ValidScene, ValueError> {
     let scene: Scene = serde_json::from_value(value)?;
-    scene.check()?;
-    Ok(scene)
+    Ok(scene.validated()?)
 }
 
 /// One job of a sweep: its state point, its id and its scene.
@@ -393,8 +392,8 @@ pub struct Job {
     /// signac's id of the state point.
     pub id: String,
     /// The template with the values and the seed set, logging to
-    /// `log.mcap` in the job's folder.
-    pub scene: Scene,
+    /// `log.mcap` in the job's folder, validated again.
+    pub scene: ValidScene,
 }
 
 /// The most jobs one sweep may make (each a folder of the workspace).
