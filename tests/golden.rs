@@ -228,3 +228,54 @@ fn the_plan_says_what_the_run_does() {
         "{aligned} {cells} {lists}"
     );
 }
+
+/// `hardbody check --json` is the plan the run then used: on every shipped
+/// scene, each stage's entry of the plan equals what the run recorded of
+/// that stage as its driver was built (the log's `hardbody.stage`
+/// metadata: the Monte Carlo system's neighbour structure, the dynamics'
+/// lists or cells). A default changed on either side alone fails here.
+#[test]
+fn check_json_is_the_plan_the_run_records() {
+    use hardbody::log::read::read_log;
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden-plans");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut compared = BTreeMap::<String, usize>::new();
+    for (name, scene, out) in shortened_runs() {
+        let file = dir.join(format!("{name}.ron"));
+        std::fs::write(&file, scene.to_ron()).unwrap();
+        let check = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+            .args(["check", "--json"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        assert!(check.status.success(), "{name}: {check:?}");
+        let plan: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+        let log = read_log(out, false).unwrap();
+        let stages = plan["stages"].as_array().unwrap();
+        assert_eq!(stages.len(), scene.stages.len(), "{name}");
+        for planned in stages {
+            let index = planned["stage"].as_u64().unwrap() as usize;
+            let recorded: serde_json::Value = serde_json::from_str(
+                log.stage_plans
+                    .get(&index)
+                    .unwrap_or_else(|| panic!("{name}: no record of stage {index}")),
+            )
+            .unwrap();
+            let kind = planned["kind"].as_str().unwrap().to_string();
+            assert_eq!(recorded["kind"], planned["kind"], "{name}: stage {index}");
+            if planned["neighbours"] == "decided at the stage's start" {
+                assert!(recorded["neighbours"].is_object(), "{name}: stage {index}");
+                continue;
+            }
+            assert_eq!(
+                &recorded, planned,
+                "{name}: stage {index}: the run's record, then the plan"
+            );
+            *compared.entry(kind).or_default() += 1;
+        }
+    }
+    for kind in ["compress", "monte_carlo", "dynamics", "jam"] {
+        assert!(compared.get(kind).is_some_and(|&n| n > 0), "{compared:?}");
+    }
+}

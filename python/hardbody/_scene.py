@@ -457,6 +457,13 @@ class Scene:
         `SceneError` naming the field."""
         _core.scene_from_json(self._json())
 
+    def plan(self) -> dict:
+        """The plan, as `hardbody check --json` prints it: species, pair
+        kernels, effects, and per stage the neighbour structure its driver
+        will be built with (a run records the same entry per stage in its
+        log's `hardbody.stage` metadata). Raises `SceneError` as `check`."""
+        return json.loads(_core.scene_plan(self._json()))
+
     @classmethod
     def _from_json(cls, text: str) -> "Scene":
         d = json.loads(text)

@@ -41,6 +41,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene::scene_from_ron, m)?)?;
     m.add_function(wrap_pyfunction!(scene::scene_from_json, m)?)?;
     m.add_function(wrap_pyfunction!(scene::scene_to_ron, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::scene_plan, m)?)?;
     m.add_function(wrap_pyfunction!(run::run_scene, m)?)?;
     m.add_function(wrap_pyfunction!(run::resume_log, m)?)?;
     m.add_function(wrap_pyfunction!(free_energy::free_energy_json, m)?)?;

@@ -47,6 +47,14 @@ pub fn scene_from_json(py: Python<'_>, json: &str) -> PyResult<String> {
     Ok(to_json(&scene))
 }
 
+/// The plan of the scene (JSON, as `scene_from_json` takes), as JSON:
+/// what `hardbody check --json` prints.
+#[pyfunction]
+pub fn scene_plan(py: Python<'_>, json: &str) -> PyResult<String> {
+    let scene = parse_json(py, json)?;
+    Ok(hardbody::scene::plan::Plan::of(&scene).to_json().to_string())
+}
+
 /// The scene (JSON, as `scene_from_json` takes) as RON text.
 #[pyfunction]
 pub fn scene_to_ron(py: Python<'_>, json: &str) -> PyResult<String> {

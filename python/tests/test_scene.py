@@ -1,10 +1,14 @@
 """Scenes between Python and RON: round trips, and refusals raised as
 `SceneError` naming the field."""
 
+import json
+import subprocess
+
 import pytest
 
 import hardbody as hb
 from conftest import SCENES, small_scene
+from test_run import hardbody_cli
 
 
 def test_a_scene_built_in_python_round_trips_through_ron(scene):
@@ -36,6 +40,15 @@ def test_every_shipped_scene_loads_and_round_trips(path):
     )
     assert rebuilt == scene
     assert hb.Scene.from_ron(rebuilt.to_ron()) == scene
+
+
+@pytest.mark.parametrize("path", sorted(SCENES.glob("*.ron")), ids=lambda p: p.name)
+def test_the_plan_is_the_one_the_command_line_prints(path):
+    plan = hb.Scene.load(path).plan()
+    printed = subprocess.run([hardbody_cli(), "check", "--json", str(path)], capture_output=True, text=True)
+    assert printed.returncode == 0, printed.stderr
+    assert plan == json.loads(printed.stdout)
+    assert [s["stage"] for s in plan["stages"]] == list(range(len(hb.Scene.load(path).stages)))
 
 
 def test_every_shape_and_stage_kind_is_spelled_as_in_ron():

@@ -76,6 +76,10 @@ enum Command {
     Check {
         /// Scene file (RON).
         scene: PathBuf,
+        /// Print the plan as JSON: what each stage's driver will be built
+        /// with, as the run then records it in the log's metadata.
+        #[arg(long)]
+        json: bool,
     },
     /// Run a scene, then find the free energy of the state it ends in:
     /// a crystal's (the scene starts from Crystal) by Frenkel–Ladd
@@ -351,7 +355,7 @@ pub fn main() -> ExitCode {
             (None, _) => bad_input("sweep: give a TEMPLATE scene (or: sweep collect DIR)"),
             (_, None) => bad_input("sweep: give --workspace DIR"),
         },
-        Command::Check { scene } => check(&scene),
+        Command::Check { scene, json } => check(&scene, json),
         Command::Inspect { log } => inspect(&log),
         Command::Analyze {
             log,

@@ -251,7 +251,7 @@ pub(super) fn preflight(
     Ok(())
 }
 
-pub(super) fn check(path: &std::path::Path) -> ExitCode {
+pub(super) fn check(path: &std::path::Path, json: bool) -> ExitCode {
     let (scene, text) = match load_scene(path) {
         Ok(s) => s,
         Err(e) => return bad_input(e),
@@ -260,6 +260,10 @@ pub(super) fn check(path: &std::path::Path) -> ExitCode {
         return bad_input(e);
     }
     let plan = Plan::of(&scene);
+    if json {
+        print_json(&plan.to_json());
+        return ExitCode::SUCCESS;
+    }
     say(&format!("{}: valid", path.display()));
     say(&Report {
         scene: &scene,

@@ -50,6 +50,9 @@ pub const NS_PER_SWEEP: u64 = 1_000_000;
 pub const NS_PER_TIME_UNIT: f64 = 1e9;
 /// The frame id of every `/scene` entity.
 pub const FRAME_ID: &str = "hardbody";
+/// The name of the metadata records in which a run notes what each
+/// stage's driver was built with ([`LogWriter::stage_plan`]).
+pub const STAGE_PLAN_METADATA: &str = "hardbody.stage";
 
 /// One `/stats` message. Fields that a stage does not measure are null.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -626,6 +629,23 @@ impl LogWriter {
     pub fn stats(&mut self, log_time: u64, stats: &Stats) -> Result<(), LogError> {
         let data = serde_json::to_vec(stats).expect("stats serialise");
         self.write(self.stats, log_time, &data)
+    }
+
+    /// What stage `index`'s driver was built with (`entry`, JSON), as a
+    /// metadata record `hardbody.stage` (keys `index` and `plan`) written
+    /// as the stage starts: the plan the run used, beside what `hardbody
+    /// check --json` planned.
+    pub fn stage_plan(&mut self, index: usize, entry: &serde_json::Value) -> Result<(), LogError> {
+        let metadata = BTreeMap::from([
+            ("index".to_string(), index.to_string()),
+            ("plan".to_string(), entry.to_string()),
+        ]);
+        self.attempt(|w| {
+            w.write_metadata(&mcap::records::Metadata {
+                name: STAGE_PLAN_METADATA.into(),
+                metadata,
+            })
+        })
     }
 
     /// A frame at `log_time`: `/scene` for viewers and `/state` for

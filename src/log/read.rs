@@ -151,6 +151,10 @@ impl std::fmt::Display for Damage {
 pub struct LogContents {
     /// The `hardbody` metadata record (version, scene text, log time).
     pub metadata: BTreeMap<String, String>,
+    /// What each stage run into this log was built with, by stage index
+    /// (JSON; the `hardbody.stage` metadata records, the last of an index
+    /// where a resume wrote it again).
+    pub stage_plans: BTreeMap<usize, String>,
     /// Messages per topic.
     pub counts: BTreeMap<String, u64>,
     /// Every `/stats` message, with its log time.
@@ -232,6 +236,7 @@ pub fn read_log_bytes(
     }
     let mut contents = LogContents {
         metadata: BTreeMap::new(),
+        stage_plans: BTreeMap::new(),
         counts: BTreeMap::new(),
         stats: Vec::new(),
         last_state: None,
@@ -246,6 +251,13 @@ pub fn read_log_bytes(
         Item::Metadata(m) => {
             if m.name == "hardbody" {
                 metadata = Some(m.metadata);
+            } else if m.name == super::STAGE_PLAN_METADATA
+                && let (Some(index), Some(plan)) = (
+                    m.metadata.get("index").and_then(|i| i.parse().ok()),
+                    m.metadata.get("plan"),
+                )
+            {
+                contents.stage_plans.insert(index, plan.clone());
             }
             Ok(())
         }

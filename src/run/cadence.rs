@@ -7,6 +7,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::log::{LogWriter, StateRecord, Stats};
+use crate::scene::plan::{dynamics_neighbours_json, mc_neighbours_json};
+use crate::state::NeighbourPlan;
 
 use super::{Phase, Progress, Runner, StageError, StageResult};
 
@@ -42,6 +44,43 @@ pub(super) trait StageRun {
     /// The state handed on and the stage's line; `stopped` when the run was
     /// stopped before the stage's end.
     fn finish(self, runner: &mut Runner, stopped: bool) -> (Phase, String);
+    /// What the stage's driver was built with, as data: the log records it
+    /// (metadata `hardbody.stage`) beside the plan `check` printed, in the
+    /// form of the plan's stage entries ([`crate::scene::plan::Plan::to_json`]).
+    fn built_with(&self) -> StagePlan;
+}
+
+/// What one stage's driver was built with, as the run records it.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct StagePlan {
+    /// The stage's index in the scene.
+    pub(super) index: usize,
+    /// The JSON entry: `stage`, `kind`, and `mc_neighbours` (Monte Carlo
+    /// and compression) or `neighbours` (dynamics).
+    pub(super) entry: serde_json::Value,
+}
+
+impl StagePlan {
+    /// A Monte Carlo or compression stage (`kind`) sweeping a system that
+    /// keeps `neighbours`.
+    pub(super) fn monte_carlo(index: usize, kind: &str, neighbours: &NeighbourPlan) -> Self {
+        let mut entry = serde_json::json!({ "stage": index, "kind": kind });
+        entry["mc_neighbours"] = mc_neighbours_json(neighbours);
+        StagePlan { index, entry }
+    }
+
+    /// A dynamics stage with neighbour lists of `shell` (`None`: cells).
+    pub(super) fn dynamics(index: usize, shell: Option<f64>) -> Self {
+        let mut entry = serde_json::json!({ "stage": index, "kind": "dynamics" });
+        entry["neighbours"] = dynamics_neighbours_json(shell);
+        StagePlan { index, entry }
+    }
+
+    /// A jam stage (its chunks choose their neighbours as they grow).
+    pub(super) fn jam(index: usize) -> Self {
+        let entry = serde_json::json!({ "stage": index, "kind": "jam" });
+        StagePlan { index, entry }
+    }
 }
 
 impl Runner {
@@ -54,6 +93,8 @@ impl Runner {
         progress: &mut dyn Progress,
         stop: &AtomicBool,
     ) -> StageResult {
+        let built = stage.built_with();
+        log.stage_plan(built.index, &built.entry)?;
         let stopped = loop {
             let mark = match stage.advance(self) {
                 Ok(mark) => mark,

@@ -10,7 +10,7 @@ use crate::mc::moves::Counts;
 use crate::number::Num;
 use crate::state::System;
 
-use super::cadence::{Mark, StageRun};
+use super::cadence::{Mark, StagePlan, StageRun};
 use super::*;
 
 /// A compression under way.
@@ -85,6 +85,10 @@ impl<'a> CompressStage<'a> {
 }
 
 impl StageRun for CompressStage<'_> {
+    fn built_with(&self) -> StagePlan {
+        StagePlan::monte_carlo(self.index, "compress", self.system.plan())
+    }
+
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let (step, strains) =
             counting_strains(|| self.compressor.sweep(&mut self.system, self.rng));

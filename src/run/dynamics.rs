@@ -12,7 +12,7 @@ use crate::number::Num;
 use crate::scene::{DYNAMICS_COLLISIONS_PER_BODY, Stage};
 use crate::state::System;
 
-use super::cadence::{Mark, StageRun};
+use super::cadence::{Mark, StagePlan, StageRun};
 use super::records::Interval;
 use super::*;
 
@@ -293,6 +293,10 @@ impl DynamicsStage {
 }
 
 impl StageRun for DynamicsStage {
+    fn built_with(&self) -> StagePlan {
+        StagePlan::dynamics(self.index, self.dynamics.neighbour_shell())
+    }
+
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let next_stats = (self.k_stats as f64 * self.stats_dt).min(self.duration);
         let next_frame = (self.k_frames as f64 * self.frames_dt).min(self.duration);

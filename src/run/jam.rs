@@ -15,7 +15,7 @@ use crate::mc::moves::Counts;
 use crate::number::Num;
 use crate::scene::{JAM_COLLISIONS_PER_BODY, Stage};
 
-use super::cadence::{Mark, StageRun};
+use super::cadence::{Mark, StagePlan, StageRun};
 use super::records::Interval;
 use super::*;
 
@@ -165,6 +165,10 @@ fn record(runner: &Runner, run: &JamRun, index: usize, complete: bool) -> StateR
 }
 
 impl StageRun for JamStage {
+    fn built_with(&self) -> StagePlan {
+        StagePlan::jam(self.index)
+    }
+
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let figures = self.run.chunk()?;
         let time = self.time(runner);

@@ -15,7 +15,7 @@ use crate::number::Num;
 use crate::scene::Ensemble;
 use crate::state::System;
 
-use super::cadence::{Mark, StageRun};
+use super::cadence::{Mark, StagePlan, StageRun};
 use super::*;
 
 /// The scale distribution's widest window and its bins (HOOMD's x_max
@@ -190,6 +190,10 @@ impl<'a> MonteCarloStage<'a> {
 }
 
 impl StageRun for MonteCarloStage<'_> {
+    fn built_with(&self) -> StagePlan {
+        StagePlan::monte_carlo(self.index, "monte_carlo", self.system.plan())
+    }
+
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {
         let settled = runner.drift.settled;
         let pause = runner

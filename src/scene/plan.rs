@@ -78,6 +78,8 @@ pub struct Plan {
     /// The first jam stage: from it on the bodies are the species grown
     /// (all by one factor), not the scene's.
     pub first_jam: Option<usize>,
+    /// Each stage's index and kind (`Stage::kind`).
+    pub stage_kinds: Vec<(usize, &'static str)>,
 }
 
 impl Plan {
@@ -178,6 +180,7 @@ impl Plan {
                 Start::Resume(_) | Start::Crystal { .. } => None,
             },
             first_jam,
+            stage_kinds: scene.stages.iter().map(Stage::kind).enumerate().collect(),
         }
     }
 
@@ -189,6 +192,94 @@ impl Plan {
     /// Masses per species.
     pub fn masses(&self) -> Vec<f64> {
         self.species.iter().map(|s| s.mass).collect()
+    }
+
+    /// The plan as data (`hardbody check --json`). Each stage's entry is
+    /// what a run records of that stage as its driver built it (the log's
+    /// `hardbody.stage` metadata), where the plan can know it before
+    /// running: Monte Carlo stages their neighbour structure, dynamics
+    /// stages theirs (`"decided at the stage's start"` where it depends on
+    /// a packing fraction only the run will know).
+    pub fn to_json(&self) -> serde_json::Value {
+        use serde_json::json;
+        let species: Vec<_> = self
+            .species
+            .iter()
+            .map(|s| {
+                json!({
+                    "name": s.species.name,
+                    "shape": s.species.shape.to_string(),
+                    "count": s.count,
+                    "mass": s.mass,
+                    "rotation": s.species.rotation,
+                    "rotation_reason": s.rotation_reason,
+                })
+            })
+            .collect();
+        let pairs: Vec<_> = self
+            .pairs
+            .iter()
+            .map(|p| {
+                json!({
+                    "species": [p.species.0, p.species.1],
+                    "overlap": p.overlap,
+                    "distance": p.distance,
+                    "prediction": p.prediction,
+                })
+            })
+            .collect();
+        let mut stages = Vec::new();
+        for (index, kind) in &self.stage_kinds {
+            let mut stage = json!({ "stage": index, "kind": kind });
+            if *kind == "dynamics" {
+                let shell = self.dynamics_shells.iter().find(|(i, _)| i == index);
+                stage["neighbours"] = match shell.map(|(_, s)| *s) {
+                    Some(Some(shell)) => dynamics_neighbours_json(shell),
+                    _ => json!("decided at the stage's start"),
+                };
+            } else if *kind != "jam" {
+                stage["mc_neighbours"] = mc_neighbours_json(&self.mc_neighbours);
+            }
+            stages.push(stage);
+        }
+        json!({
+            "species": species,
+            "pairs": pairs,
+            "walls": self.walls,
+            "nematic_order": self.nematic_order,
+            "msd": self.msd,
+            "c2": self.c2,
+            "random_orientations": self.random_orientations,
+            "first_jam": self.first_jam,
+            "stages": stages,
+        })
+    }
+}
+
+/// A Monte Carlo neighbour structure as data: the same in the plan and in
+/// a run's record of its stages.
+pub fn mc_neighbours_json(n: &NeighbourPlan) -> serde_json::Value {
+    let structure = if n.per_species {
+        "a grid per species"
+    } else if n.aabb_cells {
+        "cells of bounding boxes"
+    } else {
+        "cells"
+    };
+    serde_json::json!({
+        "structure": structure,
+        "aabb_width": n.aabb_cells.then_some(n.aabb_width),
+        "sphere_skin": n.sphere_skin,
+        "capsule_pad": n.capsule_pad,
+    })
+}
+
+/// A dynamics neighbour structure as data (`shell`: the lists' shell, or
+/// `None` for cells): the same in the plan and in a run's record.
+pub fn dynamics_neighbours_json(shell: Option<f64>) -> serde_json::Value {
+    match shell {
+        None => serde_json::json!({ "structure": "cells" }),
+        Some(shell) => serde_json::json!({ "structure": "lists", "shell": shell }),
     }
 }
 

@@ -316,6 +316,12 @@ impl Dynamics {
         &self.options
     }
 
+    /// The shell of the neighbour lists the dynamics built, or `None`
+    /// where it runs on cells alone.
+    pub fn neighbour_shell(&self) -> Option<f64> {
+        self.neighbours.as_ref().map(|n| n.shell)
+    }
+
     /// The species with the bodies' shapes now (scaled, if they grow).
     pub fn species_now(&self) -> Vec<Species> {
         scaled_species(&self.species, self.scale_now())
