@@ -358,3 +358,85 @@ fn every_source_file_is_named_in_its_folders_note() {
         "files their notes do not name: {unnamed:#?}"
     );
 }
+
+/// The top-level modules each module's files import (its own left out).
+fn module_imports() -> BTreeMap<String, BTreeSet<String>> {
+    let mut imports: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (module, targets) in file_imports() {
+        let Some(top) = module.first() else { continue };
+        let entry = imports.entry(top.clone()).or_default();
+        for target in targets.iter().filter_map(|t| t.first()) {
+            if target != top {
+                entry.insert(target.clone());
+            }
+        }
+    }
+    imports
+}
+
+/// The modules a folder's note says it imports: its line `Imports:`,
+/// naming each in backticks (`Imports: nothing of the crate.` for none).
+fn imports_in_note(text: &str) -> Option<BTreeSet<String>> {
+    let line = text.lines().find(|l| l.starts_with("Imports:"))?;
+    Some(
+        line.split('`')
+            .skip(1)
+            .step_by(2)
+            .map(str::to_string)
+            .collect(),
+    )
+}
+
+/// Each folder's note says which modules its files import, and says it
+/// truly: its `Imports:` line names exactly the modules its files import,
+/// and each of them is on a floor below the module's (the floors the test
+/// above enforces), so a note cannot allow what the layout forbids.
+#[test]
+fn each_note_names_the_imports_its_files_make() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let floor_of = |name: &str| FLOORS.iter().position(|floor| floor.contains(&name));
+    let mut wrong = Vec::new();
+    let imports = module_imports();
+    for floor in FLOORS {
+        for &module in *floor {
+            let note = src.join(module).join("ARCHITECTURE.md");
+            if !note.exists() {
+                continue;
+            }
+            let text = std::fs::read_to_string(&note).unwrap();
+            let Some(said) = imports_in_note(&text) else {
+                wrong.push(format!("{}: no `Imports:` line", note.display()));
+                continue;
+            };
+            let made = imports.get(module).cloned().unwrap_or_default();
+            if said != made {
+                wrong.push(format!(
+                    "{module}: the note says {said:?}, the files import {made:?}"
+                ));
+            }
+            for target in &said {
+                let below = floor_of(target)
+                    .zip(floor_of(module))
+                    .is_some_and(|(to, from)| to < from);
+                if !below {
+                    wrong.push(format!(
+                        "{module}: the note allows {target}, not on a floor below"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "notes against their imports: {wrong:#?}");
+}
+
+#[test]
+fn the_note_reader_finds_the_imports_line() {
+    let note = "# x\n\nProse naming `state`.\n\nImports: `geometry`, `space`.\n";
+    let said = imports_in_note(note).unwrap();
+    assert_eq!(said, ["geometry", "space"].map(String::from).into());
+    assert_eq!(
+        imports_in_note("Imports: nothing of the crate.\n"),
+        Some(BTreeSet::new())
+    );
+    assert_eq!(imports_in_note("It imports `state`.\n"), None);
+}

@@ -52,7 +52,9 @@ pub fn scene_from_json(py: Python<'_>, json: &str) -> PyResult<String> {
 #[pyfunction]
 pub fn scene_plan(py: Python<'_>, json: &str) -> PyResult<String> {
     let scene = parse_json(py, json)?;
-    Ok(hardbody::scene::plan::Plan::of(&scene).to_json().to_string())
+    Ok(hardbody::scene::plan::Plan::of(&scene)
+        .to_json()
+        .to_string())
 }
 
 /// The scene (JSON, as `scene_from_json` takes) as RON text.

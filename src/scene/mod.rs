@@ -2,6 +2,7 @@
 //! rejected, then validated field by field; every error names the field
 //! path and its line in the text.
 
+mod error;
 pub mod outline;
 pub mod plan;
 pub mod space;
@@ -10,6 +11,7 @@ mod validate;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::Shape;
+pub use error::{Problem, SceneError};
 use outline::Outline;
 
 /// A scene that passed every check of [`Scene::parse`] or
@@ -468,32 +470,6 @@ impl Default for Accuracy {
     }
 }
 
-/// What is wrong with a scene, and where.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SceneError {
-    /// The text is not a scene (syntax, unknown or missing fields, types,
-    /// shapes with bad sizes).
-    #[error("line {line}, column {column}: {message}")]
-    Syntax {
-        /// 1-based.
-        line: usize,
-        /// 1-based.
-        column: usize,
-        /// What the parser says.
-        message: String,
-    },
-    /// A field holds a value the scene cannot use.
-    #[error("{}{field}: {message}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
-    Invalid {
-        /// Path of the field, e.g. `species[1].count`.
-        field: String,
-        /// 1-based line of the field (or of the nearest enclosing one).
-        line: Option<usize>,
-        /// What is wrong.
-        message: String,
-    },
-}
-
 impl Scene {
     /// The index of the first `Jam` stage: its frames and those of the
     /// stages after it hold the grown species.
@@ -533,11 +509,7 @@ impl Scene {
         let outline = Outline::of(text);
         scene
             .validate()
-            .map_err(|(field, message)| SceneError::Invalid {
-                line: outline.line_of(&field),
-                field,
-                message,
-            })?;
+            .map_err(|problems| SceneError::invalid(problems, |field| outline.line_of(field)))?;
         Ok(ValidScene(scene))
     }
 
@@ -547,11 +519,7 @@ impl Scene {
     /// without a line.
     pub fn validated(self) -> Result<ValidScene, SceneError> {
         self.validate()
-            .map_err(|(field, message)| SceneError::Invalid {
-                field,
-                line: None,
-                message,
-            })?;
+            .map_err(|problems| SceneError::invalid(problems, |_| None))?;
         Ok(ValidScene(self))
     }
 
@@ -745,6 +713,44 @@ mod tests {
     ],
     log: Log(path: "run.mcap", stats_every: 100, frames_every: 1000),
 )"#;
+
+    /// A scene wrong in several parts is refused with the first problem of
+    /// each part, every one with its field and line, in the order of the
+    /// scene; the stages, which need a valid start, are left unchecked
+    /// while the species are wrong.
+    #[test]
+    fn every_part_that_is_wrong_is_named_with_its_line() {
+        let text = GOOD
+            .replace("count: 256", "count: 0")
+            .replace("\"run.mcap\"", "\"\"")
+            .replace("frames_every: 1000", "frames_every: 0")
+            .replace("sweeps: 20000", "sweeps: 0");
+        let Err(SceneError::Invalid {
+            field, line, more, ..
+        }) = Scene::parse(&text)
+        else {
+            panic!("refused");
+        };
+        assert_eq!((field.as_str(), line), ("species[0].count", Some(6)));
+        let more: Vec<_> = more.iter().map(|p| (p.field.as_str(), p.line)).collect();
+        // One problem a part: the log's path, not its frames too; no
+        // stage problem while the species are wrong.
+        assert_eq!(more, [("log.path", Some(15))]);
+        let shown = Scene::parse(&text).unwrap_err().to_string();
+        assert_eq!(shown.lines().count(), 2, "{shown}");
+        assert!(
+            shown.ends_with("line 15: log.path: must not be empty"),
+            "{shown}"
+        );
+        // With the species mended, the stages are checked and named.
+        let Err(SceneError::Invalid { field, more, .. }) =
+            Scene::parse(&text.replace("count: 0", "count: 256"))
+        else {
+            panic!("refused");
+        };
+        assert_eq!(field, "stages[1].sweeps");
+        assert_eq!(more.len(), 1);
+    }
 
     #[test]
     fn the_design_example_parses() {

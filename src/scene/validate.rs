@@ -34,7 +34,34 @@ impl Scene {
         Ok(())
     }
 
-    pub(super) fn validate(&self) -> Result<(), (String, String)> {
+    /// Checks every part of the scene; on failure each part's first
+    /// problem (field path, what is wrong), in the order of the scene. The
+    /// start is checked only with a valid box and species, the stages only
+    /// with a valid start as well (they need its packing fraction).
+    pub(super) fn validate(&self) -> Result<(), Vec<(String, String)>> {
+        let mut problems = Vec::new();
+        let mut holds = |part: Result<(), (String, String)>| match part {
+            Ok(()) => true,
+            Err(problem) => {
+                problems.push(problem);
+                false
+            }
+        };
+        let frame = holds(self.validate_box()) & holds(self.validate_species());
+        if frame && holds(self.validate_start()) {
+            holds(self.validate_stages());
+        }
+        holds(self.validate_log());
+        holds(self.validate_accuracy());
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(problems)
+        }
+    }
+
+    /// The box and the walls.
+    fn validate_box(&self) -> Result<(), (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
         let crystal = matches!(self.start, Start::Crystal { .. });
         match (crystal, self.box_spec) {
@@ -97,6 +124,12 @@ impl Scene {
                 return bad("walls", format!("{a:?} is listed twice"));
             }
         }
+        Ok(())
+    }
+
+    /// The species: names, counts, masses, sizes.
+    fn validate_species(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, message: String| Err((field.to_string(), message));
         if self.species.is_empty() {
             return bad("species", "at least one species is needed".into());
         }
@@ -145,6 +178,14 @@ impl Scene {
                 "at least 2 particles are needed in all (counts sum to 1)".into(),
             );
         }
+        Ok(())
+    }
+
+    /// The start: the crystal, the lattice or random insertion, or the log resumed from; the box against the largest body.
+    fn validate_start(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, message: String| Err((field.to_string(), message));
+        let crystal = matches!(self.start, Start::Crystal { .. });
+        let n = self.particle_count();
         if let Some(crystal) = self.crystal() {
             let built = crystal.and_then(|c| c.build(&self.mc_species(), &self.counts()));
             match built {
@@ -255,6 +296,16 @@ impl Scene {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// The stages, in order, with the packing fraction each starts from where it is known before running.
+    fn validate_stages(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, message: String| Err((field.to_string(), message));
+        let diameter = 2.0 * self.largest_bounding_radius();
+        let box_ = self.periodic_box();
+        let shortest = box_.heights().min();
+        let phi0 = self.particle_volume() / box_.volume();
         if self.stages.is_empty() {
             return bad("stages", "at least one stage is needed".into());
         }
@@ -479,6 +530,12 @@ impl Scene {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// The log: its path and cadence.
+    fn validate_log(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, message: String| Err((field.to_string(), message));
         if self.log.path.trim().is_empty() {
             return bad("log.path", "must not be empty".into());
         }
@@ -512,6 +569,12 @@ impl Scene {
         if self.log.frames_every == 0 {
             return bad("log.frames_every", "must be at least 1 sweep".into());
         }
+        Ok(())
+    }
+
+    /// The accuracy settings of the dynamics.
+    fn validate_accuracy(&self) -> Result<(), (String, String)> {
+        let bad = |field: &str, message: String| Err((field.to_string(), message));
         let a = &self.accuracy;
         if !(a.grazing_threshold > 0.0 && a.grazing_threshold < 1.0) {
             return bad(

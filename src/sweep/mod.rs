@@ -130,9 +130,10 @@ pub enum ValueError {
     /// The value does not fit the field's type.
     #[error("{0}")]
     Type(#[from] serde_json::Error),
-    /// The scene it makes does not pass its check.
+    /// The scene it makes does not pass its check (boxed: every part's
+    /// problem is in it).
     #[error("{0}")]
-    Scene(#[from] crate::scene::SceneError),
+    Scene(Box<crate::scene::SceneError>),
     /// The same value twice for one key.
     #[error("given twice")]
     GivenTwice,
@@ -381,7 +382,9 @@ fn name_swept(swept: &mut [Swept]) {
 
 fn scene_of(value: Value) -> Result<ValidScene, ValueError> {
     let scene: Scene = serde_json::from_value(value)?;
-    Ok(scene.validated()?)
+    scene
+        .validated()
+        .map_err(|e| ValueError::Scene(Box::new(e)))
 }
 
 /// One job of a sweep: its state point, its id and its scene.
