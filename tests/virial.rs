@@ -66,6 +66,17 @@ fn spheroid(a: f64, c: f64) -> Minkowski {
     }
 }
 
+/// Spherocylinder of radius `r` and cylinder length `l`: the segment of
+/// length l (M = πl, no volume or area) swept by the ball of radius r
+/// (Steiner: S = 2πrl + 4πr², M = πl + 4πr).
+fn spherocylinder(r: f64, l: f64) -> Minkowski {
+    Minkowski {
+        v: PI * r * r * l + 4.0 / 3.0 * PI * r.powi(3),
+        s: 2.0 * PI * r * l + 4.0 * PI * r * r,
+        m: PI * l + 4.0 * PI * r,
+    }
+}
+
 fn isihara_hadwiger(x: &Minkowski, y: &Minkowski) -> f64 {
     x.v + y.v + (x.m * y.s + y.m * x.s) / (4.0 * PI)
 }
@@ -162,6 +173,45 @@ fn spheroid_spheroid() {
         "Ellipsoid(a: 1.0, b: 1.0, c: 0.5)",
         isihara_hadwiger(&prolate, &oblate),
         7,
+    );
+}
+
+/// Spherocylinders with each other (Onsager's closed form for two equal
+/// ones, 32πr³/3 + 8πlr² + πl²r, checked against Isihara–Hadwiger first),
+/// with spheres, cuboids and spheroids: the closed-form segment test and
+/// GJK alike.
+#[test]
+fn spherocylinder_pairs() {
+    let (r, l) = (0.5, 2.0);
+    let rod = spherocylinder(r, l);
+    let onsager = 32.0 * PI * r.powi(3) / 3.0 + 8.0 * PI * l * r * r + PI * l * l * r;
+    assert!((isihara_hadwiger(&rod, &rod) - onsager).abs() < 1e-12 * onsager);
+    let text = "Spherocylinder(radius: 0.5, length: 2.0)";
+    check(text, text, onsager, 11);
+    let short = "Spherocylinder(radius: 0.3, length: 0.4)";
+    check(
+        text,
+        short,
+        isihara_hadwiger(&rod, &spherocylinder(0.3, 0.4)),
+        12,
+    );
+    check(
+        text,
+        "Sphere(radius: 0.7)",
+        isihara_hadwiger(&rod, &sphere(0.7)),
+        13,
+    );
+    check(
+        text,
+        "Cuboid(a: 0.5, b: 0.4, c: 0.3)",
+        isihara_hadwiger(&rod, &cuboid(0.5, 0.4, 0.3)),
+        14,
+    );
+    check(
+        "Ellipsoid(a: 1.0, b: 1.0, c: 0.5)",
+        text,
+        isihara_hadwiger(&spheroid(1.0, 0.5), &rod),
+        15,
     );
 }
 

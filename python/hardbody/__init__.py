@@ -50,6 +50,7 @@ from ._scene import (
     Scene,
     Species,
     Sphere,
+    Spherocylinder,
     Superellipsoid,
 )
 
@@ -59,6 +60,6 @@ __all__ = [
     "Accuracy", "Auto", "Bcc", "Cells", "Crystal", "Custom", "Densest", "Fcc", "Hcp",
     "SimpleCubic", "Triclinic", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
-    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere",
+    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder",
     "Superellipsoid", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
 ]

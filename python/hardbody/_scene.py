@@ -119,7 +119,16 @@ class Cuboid:
     c: float
 
 
-Shape = Union[Sphere, Ellipsoid, Superellipsoid, Cuboid]
+@_variant
+@dataclass
+class Spherocylinder:
+    """A cylinder of `length` along body z capped by hemispheres of `radius`."""
+
+    radius: float
+    length: float
+
+
+Shape = Union[Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder]
 
 
 @dataclass

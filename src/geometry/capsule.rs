@@ -53,6 +53,10 @@ pub fn bounding_capsule(shape: &Shape) -> (usize, Capsule) {
     let capsule = match shape {
         Shape::Sphere(_) => sphere,
         Shape::Ellipsoid(_) => Capsule::bounding_ellipsoid(h[k], b.max(c)),
+        Shape::Spherocylinder(s) => Capsule {
+            half_length: s.half_length(),
+            radius: s.radius(),
+        },
         Shape::Superellipsoid(_) | Shape::Cuboid(_) => Capsule {
             half_length: h[k],
             radius: (b * b + c * c).sqrt(),

@@ -9,7 +9,10 @@
 use nalgebra::{Matrix3, Vector3};
 use statrs::function::gamma::ln_gamma;
 
-use super::roots::{brent_minimize, power, solve_power_sum};
+use super::roots::brent_minimize;
+
+mod support;
+pub use support::Support;
 
 /// A shape that cannot be built, with the parameter at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -158,7 +161,35 @@ impl Cuboid {
     }
 }
 
-/// One of the four shapes. The set is closed: the pair dispatch matches on
+/// A spherocylinder: the points within `radius` of the segment of length
+/// `length` along the body z axis through the centre (a cylinder capped
+/// by two hemispheres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spherocylinder {
+    radius: f64,
+    half_length: f64,
+}
+
+impl Spherocylinder {
+    /// A spherocylinder of radius `radius` whose axis segment (the
+    /// cylinder's length) is `length`, both > 0.
+    pub fn new(radius: f64, length: f64) -> Result<Self, ShapeError> {
+        Ok(Self {
+            radius: positive("Spherocylinder", "radius", radius)?,
+            half_length: positive("Spherocylinder", "length", length)? / 2.0,
+        })
+    }
+    /// Radius of the caps and the cylinder.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+    /// Half the length of the axis segment.
+    pub fn half_length(&self) -> f64 {
+        self.half_length
+    }
+}
+
+/// One of the five shapes. The set is closed: the pair dispatch matches on
 /// every combination, so an unhandled pair is a compile error. It is
 /// written and read as its [`super::spec::ShapeSpec`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -171,6 +202,8 @@ pub enum Shape {
     Superellipsoid(Superellipsoid),
     /// A cuboid.
     Cuboid(Cuboid),
+    /// A spherocylinder along the body z axis.
+    Spherocylinder(Spherocylinder),
 }
 
 /// ∫ |x|^{k_x} |y|^{k_y} |z|^{k_z} dV over |x/a|ⁿ + |y/b|ᵐ + |z/c|ᵖ ≤ 1, by
@@ -228,6 +261,7 @@ impl Shape {
             Shape::Ellipsoid(_) => "ellipsoid",
             Shape::Superellipsoid(_) => "superellipsoid",
             Shape::Cuboid(_) => "cuboid",
+            Shape::Spherocylinder(_) => "spherocylinder",
         }
     }
 
@@ -239,6 +273,10 @@ impl Shape {
             Shape::Ellipsoid(e) => 4.0 / 3.0 * PI * e.semi_axes.product(),
             Shape::Superellipsoid(s) => superellipsoid_moment(&s.semi_axes, &s.exponents, [0.0; 3]),
             Shape::Cuboid(c) => 8.0 * c.half_extents.product(),
+            Shape::Spherocylinder(s) => {
+                let (r, h) = (s.radius, s.half_length);
+                PI * r * r * (2.0 * h + 4.0 / 3.0 * r)
+            }
         }
     }
 
@@ -261,6 +299,23 @@ impl Shape {
             Shape::Cuboid(c) => {
                 let v = self.volume();
                 c.half_extents.map(|a| v * a * a / 3.0)
+            }
+            Shape::Spherocylinder(s) => {
+                use std::f64::consts::PI;
+                // The cylinder (length 2h) and the two caps, each a
+                // hemisphere whose flat face is at z = ±h: ∫x² over the
+                // cylinder is V_c r²/4, over a ball 4πr⁵/15; ∫z² over the
+                // cylinder V_c h²/3, over the two caps (shifted by h)
+                // 4πr⁵/15 + 2h·(3r/8)·(2πr³/3)·2 + h²·(4πr³/3).
+                let (r, h) = (s.radius, s.half_length);
+                let cylinder = PI * r * r * 2.0 * h;
+                let ball = 4.0 / 3.0 * PI * r.powi(3);
+                let across = cylinder * r * r / 4.0 + ball * r * r / 5.0;
+                let along = cylinder * h * h / 3.0
+                    + ball * r * r / 5.0
+                    + 2.0 * h * (3.0 * r / 8.0) * ball
+                    + h * h * ball;
+                Vector3::new(across, across, along)
             }
         }
     }
@@ -301,6 +356,10 @@ impl Shape {
             Shape::Cuboid(c) => Shape::Cuboid(Cuboid {
                 half_extents: c.half_extents * factor,
             }),
+            Shape::Spherocylinder(s) => Shape::Spherocylinder(Spherocylinder {
+                radius: s.radius * factor,
+                half_length: s.half_length * factor,
+            }),
         }
     }
 
@@ -311,6 +370,7 @@ impl Shape {
             Shape::Ellipsoid(e) => e.semi_axes.max(),
             Shape::Superellipsoid(s) => s.bounding_radius,
             Shape::Cuboid(c) => c.half_extents.norm(),
+            Shape::Spherocylinder(s) => s.radius + s.half_length,
         }
     }
 
@@ -331,6 +391,9 @@ impl Shape {
                 (h.norm_squared() - h.min() * h.min()).sqrt()
             }
             Shape::Superellipsoid(_) => self.bounding_radius(),
+            // On the cylinder x × n = z e_z × n, on a cap x × n = c × n
+            // with c = ±h e_z: at most h, reached at the rims.
+            Shape::Spherocylinder(s) => s.half_length,
         }
     }
 
@@ -392,6 +455,19 @@ impl Shape {
                 curvature: 0.0,
                 lipschitz,
             },
+            // h = r + h_s |u_z|: the cuboid's bound along one axis, the
+            // radius a constant.
+            Shape::Spherocylinder(s) => SupportGrowth {
+                value: s.radius + s.half_length * u.z.abs(),
+                slope: 0.0,
+                kinks: [
+                    (s.half_length, u.z, u_dot.z),
+                    (0.0, 0.0, 0.0),
+                    (0.0, 0.0, 0.0),
+                ],
+                curvature: s.half_length * accel,
+                lipschitz,
+            },
         }
     }
 
@@ -403,6 +479,7 @@ impl Shape {
             Shape::Ellipsoid(e) => e.semi_axes,
             Shape::Superellipsoid(s) => s.semi_axes,
             Shape::Cuboid(c) => c.half_extents,
+            Shape::Spherocylinder(s) => Vector3::new(s.radius, s.radius, s.radius + s.half_length),
         }
     }
 
@@ -420,6 +497,7 @@ impl Shape {
             Shape::Ellipsoid(e) => e.support(dir),
             Shape::Superellipsoid(s) => s.support(dir),
             Shape::Cuboid(c) => c.support(dir),
+            Shape::Spherocylinder(s) => s.support(dir),
         }
     }
 
@@ -440,95 +518,6 @@ impl Shape {
     /// irrelevant (only the sphere).
     pub fn is_sphere(&self) -> bool {
         matches!(self, Shape::Sphere(_))
-    }
-}
-
-/// A convex body described by its support mapping (body frame).
-pub trait Support {
-    /// The point of the body farthest along `dir` (`dir` ≠ 0).
-    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64>;
-}
-
-impl Support for Shape {
-    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
-        Shape::support(self, dir)
-    }
-}
-
-impl Support for Sphere {
-    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
-        let n = dir.norm();
-        if n > 0.0 {
-            dir * (self.radius / n)
-        } else {
-            Vector3::new(self.radius, 0.0, 0.0)
-        }
-    }
-}
-
-impl Support for Ellipsoid {
-    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
-        // x = A² d / sqrt(dᵀ A² d), A = diag(a, b, c).
-        let a2d = self
-            .semi_axes
-            .component_mul(&self.semi_axes)
-            .component_mul(dir);
-        let q = dir.dot(&a2d);
-        if q > 0.0 {
-            a2d / q.sqrt()
-        } else {
-            Vector3::new(self.semi_axes.x, 0.0, 0.0)
-        }
-    }
-}
-
-impl Support for Cuboid {
-    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
-        Vector3::new(
-            self.half_extents.x.copysign(dir.x),
-            self.half_extents.y.copysign(dir.y),
-            self.half_extents.z.copysign(dir.z),
-        )
-    }
-}
-
-impl Support for Superellipsoid {
-    fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {
-        // Maximise Σ eᵢ yᵢ over Σ |yᵢ|^{nᵢ} ≤ 1 with yᵢ = xᵢ/aᵢ, eᵢ = aᵢ dᵢ.
-        // KKT: |yᵢ| = (t |eᵢ| / nᵢ)^{1/(nᵢ-1)} with t fixed by the constraint
-        // Σ (t |eᵢ|/nᵢ)^{qᵢ} = 1, qᵢ = nᵢ/(nᵢ-1).
-        let e = self.semi_axes.component_mul(dir).abs();
-        let emax = e.max();
-        if emax <= 0.0 {
-            return Vector3::new(self.semi_axes.x, 0.0, 0.0);
-        }
-        let e = e / emax; // scale-free
-        let n = self.exponents;
-        if n.x == n.y && n.y == n.z {
-            // Equal exponents, closed form: yᵢ ∝ eᵢ^{1/(n−1)} normalised so
-            // that Σ yᵢⁿ = 1 (yᵢⁿ = eᵢ yᵢ).
-            let r = 1.0 / (n.x - 1.0);
-            let y = e.map(|v| if v > 0.0 { power(v, r) } else { 0.0 });
-            let norm = power(e.dot(&y), -1.0 / n.x);
-            return Vector3::new(
-                (self.semi_axes.x * y.x * norm).copysign(dir.x),
-                (self.semi_axes.y * y.y * norm).copysign(dir.y),
-                (self.semi_axes.z * y.z * norm).copysign(dir.z),
-            );
-        }
-        let q = n.map(|n| n / (n - 1.0));
-        let c = Vector3::new(
-            power(e.x / n.x, q.x),
-            power(e.y / n.y, q.y),
-            power(e.z / n.z, q.z),
-        );
-        let t = solve_power_sum(&c, &q);
-        let mut x = Vector3::zeros();
-        for i in 0..3 {
-            let y = power(t * e[i] / n[i], 1.0 / (n[i] - 1.0));
-            x[i] = (self.semi_axes[i] * y).copysign(dir[i]);
-        }
-        x
     }
 }
 
@@ -555,6 +544,7 @@ fn superellipsoid_bounding_radius(a: &Vector3<f64>, exponents: &Vector3<f64>) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::roots::solve_power_sum;
     use std::f64::consts::PI;
 
     /// One body of each kind, the ellipsoids prolate-ish and flat.

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::shape::{Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Superellipsoid};
+use super::shape::{Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Spherocylinder, Superellipsoid};
 
 /// The scene spelling of a shape (docs/CONVENTIONS.md), before validation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -44,6 +44,15 @@ pub enum ShapeSpec {
         /// Half-length along body z.
         c: f64,
     },
+    /// `Spherocylinder(radius: , length: )`: a cylinder of `length` along
+    /// body z capped by hemispheres of `radius`.
+    Spherocylinder {
+        /// Radius of the cylinder and the caps.
+        radius: f64,
+        /// Length of the cylinder (the axis segment between the caps'
+        /// centres).
+        length: f64,
+    },
 }
 
 impl TryFrom<ShapeSpec> for Shape {
@@ -56,6 +65,9 @@ impl TryFrom<ShapeSpec> for Shape {
                 Shape::Superellipsoid(Superellipsoid::new(a, b, c, exponents)?)
             }
             ShapeSpec::Cuboid { a, b, c } => Shape::Cuboid(Cuboid::new(a, b, c)?),
+            ShapeSpec::Spherocylinder { radius, length } => {
+                Shape::Spherocylinder(Spherocylinder::new(radius, length)?)
+            }
         })
     }
 }
@@ -82,6 +94,10 @@ impl From<Shape> for ShapeSpec {
                 let [a, b, c] = q.half_extents().into();
                 ShapeSpec::Cuboid { a, b, c }
             }
+            Shape::Spherocylinder(s) => ShapeSpec::Spherocylinder {
+                radius: s.radius(),
+                length: 2.0 * s.half_length(),
+            },
         }
     }
 }

@@ -21,7 +21,7 @@ use hoomd_gsd::file_layer::GsdFile;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use super::read::LogContents;
-use super::view::superellipsoid_mesh;
+use super::view::body_mesh;
 use super::{LogError, StateRecord, Stats};
 use crate::edmd::dynamics::top_moments;
 use crate::geometry::Shape;
@@ -57,8 +57,16 @@ pub fn type_shape(shape: &Shape) -> String {
                 vertices.join(", ")
             )
         }
+        // A segment swept by a sphere: HOOMD's rounded polyhedron of two
+        // vertices.
+        Shape::Spherocylinder(s) => format!(
+            r#"{{"type": "ConvexPolyhedron", "rounding_radius": {}, "vertices": [[0, 0, {}], [0, 0, {}]]}}"#,
+            s.radius(),
+            -s.half_length(),
+            s.half_length()
+        ),
         Shape::Superellipsoid(_) => {
-            let (points, indices) = superellipsoid_mesh(shape);
+            let (points, indices) = body_mesh(shape);
             let vertices: Vec<String> = points
                 .iter()
                 .map(|p| format!("[{:.6}, {:.6}, {:.6}]", p.x, p.y, p.z))

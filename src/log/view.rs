@@ -61,8 +61,7 @@ impl SceneView {
                 Look {
                     shape: s.shape,
                     color: Color { r, g, b, a: 1.0 },
-                    mesh: matches!(s.shape, Shape::Superellipsoid(_))
-                        .then(|| superellipsoid_mesh(&s.shape)),
+                    mesh: has_mesh(&s.shape).then(|| body_mesh(&s.shape)),
                 }
             })
             .collect();
@@ -95,8 +94,7 @@ impl SceneView {
             .iter()
             .zip(&shapes)
             .map(|(look, shape)| {
-                (matches!(shape, Shape::Superellipsoid(_)) && *shape != look.shape)
-                    .then(|| superellipsoid_mesh(shape))
+                (has_mesh(shape) && *shape != look.shape).then(|| body_mesh(shape))
             })
             .collect();
         for ((p, q), &s) in state
@@ -144,7 +142,7 @@ impl SceneView {
                     size: size(c.half_extents()),
                     color,
                 }),
-                Shape::Superellipsoid(_) => {
+                Shape::Superellipsoid(_) | Shape::Spherocylinder(_) => {
                     let (points, indices) = grown_meshes[s as usize]
                         .clone()
                         .or_else(|| look.mesh.clone())
@@ -217,17 +215,43 @@ impl SceneView {
     }
 }
 
-/// A body-frame triangle mesh of a superellipsoid surface: directions on a
-/// latitude–longitude grid, each scaled to the surface (the t with
-/// Σ |t uᵢ / aᵢ|^{eᵢ} = 1).
-pub(crate) fn superellipsoid_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
-    let Shape::Superellipsoid(s) = shape else {
-        unreachable!("meshes are made for superellipsoids only")
-    };
-    let (axes, exps) = (s.semi_axes(), s.exponents());
+/// Whether the shape is drawn as a triangle mesh (no Foxglove primitive
+/// fits it).
+fn has_mesh(shape: &Shape) -> bool {
+    matches!(shape, Shape::Superellipsoid(_) | Shape::Spherocylinder(_))
+}
+
+/// How far from the centre along the unit direction `u` (body frame) the
+/// surface of a body drawn as a mesh lies: for a superellipsoid the t with
+/// Σ |t uᵢ / aᵢ|^{eᵢ} = 1; for a spherocylinder (radius r, half-length h)
+/// t = r/|u⊥| on the cylinder, else the cap's root of
+/// t² − 2th|u_z| + h² − r² = 0.
+fn radial_extent(shape: &Shape, u: &Vector3<f64>) -> f64 {
+    match shape {
+        Shape::Superellipsoid(s) => {
+            let (axes, exps) = (s.semi_axes(), s.exponents());
+            let c = Vector3::from_fn(|i, _| (u[i] / axes[i]).abs().powf(exps[i]));
+            solve_power_sum(&c, &exps)
+        }
+        Shape::Spherocylinder(s) => {
+            let (r, h) = (s.radius(), s.half_length());
+            let across = (u.x * u.x + u.y * u.y).sqrt();
+            if across * h >= r * u.z.abs() {
+                return r / across;
+            }
+            let along = h * u.z.abs();
+            along + (along * along - h * h + r * r).sqrt()
+        }
+        _ => unreachable!("meshes are made for superellipsoids and spherocylinders only"),
+    }
+}
+
+/// A body-frame triangle mesh of a body's surface (superellipsoids and
+/// spherocylinders): directions on a latitude–longitude grid, each scaled
+/// to the surface by [`radial_extent`].
+pub(crate) fn body_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
     let surface = |u: Vector3<f64>| {
-        let c = Vector3::from_fn(|i, _| (u[i] / axes[i]).abs().powf(exps[i]));
-        let t = solve_power_sum(&c, &exps);
+        let t = radial_extent(shape, &u);
         Point3 {
             x: t * u.x,
             y: t * u.y,
@@ -279,7 +303,7 @@ mod tests {
         let shape: Shape = "Superellipsoid(a: 1.0, b: 0.7, c: 0.5, exponents: (4.0, 4.0, 6.0))"
             .parse()
             .unwrap();
-        let (points, indices) = superellipsoid_mesh(&shape);
+        let (points, indices) = body_mesh(&shape);
         assert_eq!(points.len(), 2 + (MESH_RINGS - 1) * MESH_SECTORS);
         assert_eq!(indices.len() % 3, 0);
         assert!(indices.iter().all(|&i| (i as usize) < points.len()));

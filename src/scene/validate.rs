@@ -318,6 +318,19 @@ impl Scene {
         };
         for (i, st) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stages[{i}].{name}");
+            if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
+                && let Some(s) = (self.species.iter())
+                    .find(|s| matches!(s.shape, crate::geometry::Shape::Spherocylinder(_)))
+            {
+                return bad(
+                    &format!("stages[{i}]"),
+                    format!(
+                        "species \"{}\" is a spherocylinder, which Monte Carlo stages simulate but {} stages do not yet (their contact times need an exact distance for it)",
+                        s.name,
+                        st.kind()
+                    ),
+                );
+            }
             match st {
                 Stage::Jam {
                     growth_rate,

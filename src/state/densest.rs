@@ -50,6 +50,9 @@ impl UnitCell {
             Shape::Sphere(_) => Ok(Self::fcc()),
             Shape::Ellipsoid(e) => Ok(stretched(Self::fcc(), e.semi_axes())),
             Shape::Cuboid(c) => Ok(stretched(Self::simple_cubic(), c.half_extents())),
+            Shape::Spherocylinder(_) => Err(CrystalError::NoDensest(format!(
+                "{shape}: the densest packings of spherocylinders are not lattices this tool builds yet; give the lattice with Custom"
+            ))),
             Shape::Superellipsoid(s) => {
                 let n = s.exponents();
                 if n.x != n.y || n.y != n.z {

@@ -187,7 +187,7 @@ pub fn cuboid_smooth_oracle(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         Shape::Sphere(s) => box_min_implicit(&h, s, rel) <= 0.0,
         Shape::Ellipsoid(e) => box_min_implicit(&h, e, rel) <= 0.0,
         Shape::Superellipsoid(q) => box_min_implicit(&h, q, rel) <= 0.0,
-        Shape::Cuboid(_) => panic!("B must be smooth"),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) => panic!("B must be smooth"),
     }
 }
 
@@ -200,7 +200,7 @@ pub fn newton_oracle(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
             Shape::Sphere(y) => decide(a, y, rel),
             Shape::Ellipsoid(y) => decide(a, y, rel),
             Shape::Superellipsoid(y) => decide(a, y, rel),
-            Shape::Cuboid(_) => None,
+            Shape::Cuboid(_) | Shape::Spherocylinder(_) => None,
         }
     }
     fn decide<A: SmoothSurface, B: SmoothSurface>(a: &A, b: &B, rel: &Relative) -> Option<bool> {
@@ -239,7 +239,7 @@ pub fn newton_oracle(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
         Shape::Sphere(x) => inner(x, b, rel),
         Shape::Ellipsoid(x) => inner(x, b, rel),
         Shape::Superellipsoid(x) => inner(x, b, rel),
-        Shape::Cuboid(_) => None,
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) => None,
     }
 }
 
@@ -259,7 +259,9 @@ pub fn reference_overlap(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
         (Sphere(_) | Ellipsoid(_) | Superellipsoid(_), Cuboid(_)) => {
             Some(cuboid_smooth_oracle(b, a, &rel.inverse()))
         }
-        (Cuboid(_), Cuboid(_)) => Some(gjk_oracle(a, b, rel)),
+        (Cuboid(_), Cuboid(_)) | (Spherocylinder(_), _) | (_, Spherocylinder(_)) => {
+            Some(gjk_oracle(a, b, rel))
+        }
         _ => newton_oracle(a, b, rel),
     }
 }

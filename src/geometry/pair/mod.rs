@@ -15,6 +15,7 @@ mod cuboid_sphere;
 mod quadric_quadric;
 mod smooth_smooth;
 mod sphere_sphere;
+mod spherocylinder;
 mod strains;
 
 use nalgebra::{Matrix3, Vector3};
@@ -79,7 +80,8 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
     // the exact tests (Perram–Wertheim, GJK) that cost far more.
     let needs_obb = matches!(
         (a, b),
-        (Ellipsoid(_) | Superellipsoid(_), _) | (_, Ellipsoid(_) | Superellipsoid(_))
+        (Ellipsoid(_) | Superellipsoid(_) | Spherocylinder(_), _)
+            | (_, Ellipsoid(_) | Superellipsoid(_) | Spherocylinder(_))
     );
     if needs_obb
         && !crate::geometry::obb::boxes_overlap(
@@ -92,6 +94,7 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         return false;
     }
     match (a, b) {
+        (Spherocylinder(_), _) | (_, Spherocylinder(_)) => spherocylinder::overlap(a, b, rel),
         (Sphere(p), Sphere(q)) => sphere_sphere::overlap(p, q, rel),
         (Cuboid(c), Sphere(s)) => cuboid_sphere::overlap(c, s, rel),
         (Sphere(s), Cuboid(c)) => cuboid_sphere::overlap(c, s, &rel.inverse()),
@@ -192,6 +195,9 @@ pub fn distance(
 ) -> Contact {
     use Shape::*;
     match (a, b) {
+        (Spherocylinder(_), _) | (_, Spherocylinder(_)) => {
+            spherocylinder::distance(a, b, rel, opts)
+        }
         (Sphere(p), Sphere(q)) => sphere_sphere::distance(p, q, rel),
         (Cuboid(c), Sphere(s)) => cuboid_sphere::distance(c, s, rel),
         (Sphere(s), Cuboid(c)) => cuboid_sphere::distance(c, s, &rel.inverse()).swapped(rel),
@@ -395,6 +401,14 @@ pub use sphere_sphere::grown_contact_time_from_products as grown_sphere_contact_
 pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
     use Shape::*;
     match (a, b) {
+        (Spherocylinder(_), Spherocylinder(_) | Sphere(_)) | (Sphere(_), Spherocylinder(_)) => (
+            "OBB, then segment distance",
+            "closed form (closest points of the axis segments)",
+        ),
+        (Spherocylinder(_), _) | (_, Spherocylinder(_)) => (
+            "OBB, then GJK on support points (the distance where GJK cannot decide)",
+            "GJK/EPA",
+        ),
         (Sphere(_), Sphere(_)) => ("centre distance", "closed form"),
         (Cuboid(_), Sphere(_)) | (Sphere(_), Cuboid(_)) => {
             ("OCSI (Tonti & Patti)", "OCSI closest point")

@@ -36,7 +36,9 @@ pub fn distance(
         Shape::Sphere(x) => with_b(x, a, b, rel, opts, warm),
         Shape::Ellipsoid(x) => with_b(x, a, b, rel, opts, warm),
         Shape::Superellipsoid(x) => with_b(x, a, b, rel, opts, warm),
-        Shape::Cuboid(_) => unreachable!("smooth_smooth::distance called with a cuboid"),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) => {
+            unreachable!("smooth_smooth::distance called with a cuboid or a spherocylinder")
+        }
     }
 }
 
@@ -52,7 +54,9 @@ fn with_b<A: SmoothSurface>(
         Shape::Sphere(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
         Shape::Ellipsoid(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
         Shape::Superellipsoid(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
-        Shape::Cuboid(_) => unreachable!("smooth_smooth::distance called with a cuboid"),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) => {
+            unreachable!("smooth_smooth::distance called with a cuboid or a spherocylinder")
+        }
     }
 }
 
@@ -159,8 +163,15 @@ fn is_quadric(s: &Shape) -> bool {
 /// `None` unless the pair is smooth with a superellipsoid (spheres and
 /// ellipsoids start from the Perram–Wertheim contact point).
 pub fn support_points_start(a: &Shape, b: &Shape, rel: &Relative, hint: &V3) -> Option<WarmStart> {
-    let smooth = !matches!(a, Shape::Cuboid(_)) && !matches!(b, Shape::Cuboid(_));
-    if !smooth || (is_quadric(a) && is_quadric(b)) {
+    // Newton's surfaces only (a spherocylinder has none: GJK finds its
+    // contacts).
+    let newton = |s: &Shape| {
+        matches!(
+            s,
+            Shape::Sphere(_) | Shape::Ellipsoid(_) | Shape::Superellipsoid(_)
+        )
+    };
+    if !(newton(a) && newton(b)) || (is_quadric(a) && is_quadric(b)) {
         return None;
     }
     let (_, n) = super::support_gap_ascent(a, b, rel, *hint, 1e-3);
@@ -170,7 +181,7 @@ pub fn support_points_start(a: &Shape, b: &Shape, rel: &Relative, hint: &V3) -> 
         Shape::Sphere(q) => q.implicit(x).gradient.norm(),
         Shape::Ellipsoid(q) => q.implicit(x).gradient.norm(),
         Shape::Superellipsoid(q) => q.implicit(x).gradient.norm(),
-        Shape::Cuboid(_) => unreachable!(),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) => unreachable!(),
     };
     Some(balanced_start(
         xa,
