@@ -141,6 +141,7 @@ const BALL: &str = "Sphere(radius: 0.4)";
 const TRIAXIAL: &str = "Ellipsoid(a: 1.0, b: 0.6, c: 0.3)";
 const BRICK: &str = "Cuboid(a: 0.6, b: 0.4, c: 0.25)";
 const TRIAXIAL_SUPER: &str = "Superellipsoid(a: 1.0, b: 0.6, c: 0.4, exponents: (4.0, 4.0, 4.0))";
+const ROD: &str = "Spherocylinder(radius: 0.4, length: 1.2)";
 
 #[test]
 fn prolate_ellipsoids_at_0_50() {
@@ -165,6 +166,22 @@ fn cubes_at_0_50() {
 #[test]
 fn cuboid_sphere_mixture_at_0_45() {
     run(&[CUBE, BALL], 6, 0.45, 20_000, 0.02, 5);
+}
+
+/// Spherocylinders (their contacts in closed form on the axis segments),
+/// alone and with spheres, on cells and on lists, as spherical tops and
+/// with their own tensors (symmetric tops).
+#[test]
+fn spherocylinders_alone_and_with_spheres() {
+    run(&[ROD], 6, 0.45, 20_000, 0.05, 6);
+    run(&[ROD, BALL], 6, 0.40, 10_000, 0.05, 7);
+    run_with(&[ROD], 6, 0.45, 5_000, 0.05, 26, Some(0.2));
+    let system = compressed_state(&[ROD], 6, 0.45, 8);
+    let own = DynamicsOptions {
+        true_inertia: true,
+        ..DynamicsOptions::default()
+    };
+    run_from_options(&system, &[ROD], 0.45, 10_000, (0.05, 2_000), 8, &own);
 }
 
 /// Every system again with neighbour lists (shells of 0.1 and 0.3 of the
@@ -478,6 +495,26 @@ fn soak_superellipsoids() {
 #[ignore = "soak: about 3 minutes in release mode"]
 fn soak_cubes() {
     run(&[CUBE], 6, 0.50, soak_length(), 0.2, 14);
+}
+
+#[test]
+#[ignore = "soak: about 3 minutes per 10^6 collisions in release mode"]
+fn soak_spherocylinders() {
+    let system = compressed_state(&[ROD], 6, 0.45, 16);
+    let own = DynamicsOptions {
+        true_inertia: true,
+        ..DynamicsOptions::default()
+    };
+    let drift = run_from_options(
+        &system,
+        &[ROD],
+        0.45,
+        soak_length(),
+        (0.5, 20_000),
+        16,
+        &own,
+    );
+    eprintln!("spherocylinders: energy drift {drift:.1e}");
 }
 
 #[test]

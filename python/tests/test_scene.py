@@ -85,14 +85,15 @@ def test_every_shape_and_stage_kind_is_spelled_as_in_ron():
     assert hb.Scene.from_ron(text) == scene
 
 
-def test_a_spherocylinder_round_trips_and_is_refused_for_dynamics():
+def test_a_spherocylinder_round_trips_and_is_refused_for_dynamics_with_a_cuboid():
     rods = [hb.Species("rod", hb.Spherocylinder(radius=0.5, length=2.0), 8)]
-    scene = hb.Scene(box=(12, 12, 12), species=rods, stages=[hb.MonteCarlo(hb.Nvt(), sweeps=10)])
+    scene = hb.Scene(box=(12, 12, 12), species=rods, stages=[hb.Dynamics(duration=1.0)])
     assert "Spherocylinder(" in scene.to_ron()
     assert hb.Scene.from_ron(scene.to_ron()) == scene
     assert scene.plan()["pairs"][0]["distance"].startswith("closed form")
     with pytest.raises(hb.SceneError) as e:
-        hb.Scene(box=(12, 12, 12), species=rods, stages=[hb.Dynamics(duration=1.0)])
+        bricks = [hb.Species("brick", hb.Cuboid(0.5, 0.4, 0.3), 8)]
+        hb.Scene(box=(12, 12, 12), species=rods + bricks, stages=[hb.Dynamics(duration=1.0)])
     assert e.value.field == "stages[0]"
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(12, 12, 12), species=[hb.Species("rod", hb.Spherocylinder(0.5, 0.0), 8)], stages=[])

@@ -318,15 +318,24 @@ impl Scene {
         };
         for (i, st) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stages[{i}].{name}");
+            // The contact-time search needs every pair's exact distance:
+            // a spherocylinder has it in closed form with spheres and
+            // spherocylinders only (GJK's, with the other shapes, is not
+            // exact enough).
+            use crate::geometry::Shape;
+            let rod = (self.species.iter()).find(|s| matches!(s.shape, Shape::Spherocylinder(_)));
+            let other = (self.species.iter())
+                .find(|s| !matches!(s.shape, Shape::Spherocylinder(_) | Shape::Sphere(_)));
             if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
-                && let Some(s) = (self.species.iter())
-                    .find(|s| matches!(s.shape, crate::geometry::Shape::Spherocylinder(_)))
+                && let (Some(rod), Some(other)) = (rod, other)
             {
                 return bad(
                     &format!("stages[{i}]"),
                     format!(
-                        "species \"{}\" is a spherocylinder, which Monte Carlo stages simulate but {} stages do not yet (their contact times need an exact distance for it)",
-                        s.name,
+                        "species \"{}\" is a spherocylinder and \"{}\" a {}: {} stages simulate spherocylinders with spheres and spherocylinders only so far (their contact times need the pair's exact distance), Monte Carlo stages with every shape",
+                        rod.name,
+                        other.name,
+                        other.shape.kind(),
                         st.kind()
                     ),
                 );

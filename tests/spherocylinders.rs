@@ -1,7 +1,9 @@
-//! Hard spherocylinders in Monte Carlo: compressed to a dense isotropic
-//! fluid and swept there, no pair of the final state overlaps by an
+//! Hard spherocylinders: compressed to a dense isotropic fluid and swept
+//! there by Monte Carlo, no pair of the final state overlaps by an
 //! independent test (GJK on the support mappings, run to a generous cap),
-//! and the fluid of short rods stays isotropic.
+//! and the fluid of short rods stays isotropic; three routes to its
+//! equation of state agree (the scale distribution, the dynamics'
+//! collision virial, NPT).
 
 mod common;
 
@@ -67,15 +69,16 @@ fn a_dense_fluid_of_spherocylinders_stays_overlap_free_and_isotropic() {
 }
 
 /// Runs the stages `stages` on 128 rods (aspect 3: radius 0.5, length 2)
-/// and returns stage `index`'s average of `name`, over two replicas.
-fn rods_average(seed: u64, stages: &str, index: usize, name: &str) -> (f64, f64, bool) {
+/// and returns, for each (stage index, observable) of `wanted`, its
+/// average over two replicas: mean, error, whether both equilibrated.
+fn rods_averages(seed: u64, stages: &str, wanted: &[(usize, &str)]) -> Vec<(f64, f64, bool)> {
     use hardbody::log::averages::{over_replicas, stage_averages};
     use hardbody::log::read::read_log;
     use hardbody::run::{Silent, run_scene};
     use hardbody::scene::Scene;
     let dir = std::env::temp_dir().join(format!("hardbody-rods-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let estimates: Vec<_> = (0..2)
+    let runs: Vec<Vec<_>> = (0..2)
         .map(|replica| {
             let text = format!(
                 r#"Scene(
@@ -87,7 +90,7 @@ fn rods_average(seed: u64, stages: &str, index: usize, name: &str) -> (f64, f64,
 )"#,
                 seed + replica
             );
-            let log = dir.join(format!("{seed}-{replica}-{index}.mcap"));
+            let log = dir.join(format!("{seed}-{replica}.mcap"));
             let scene = Scene::parse(&text).unwrap();
             run_scene(&scene, &text, &log, &mut Silent, &AtomicBool::new(false)).unwrap();
             let stats: Vec<_> = (read_log(&log, false).unwrap().stats.into_iter())
@@ -95,38 +98,55 @@ fn rods_average(seed: u64, stages: &str, index: usize, name: &str) -> (f64, f64,
                 .collect();
             let _ = std::fs::remove_file(&log);
             let averages = stage_averages(&stats);
-            let stage = averages.iter().find(|s| s.stage_index == index).unwrap();
-            stage.observables[name].estimate
+            (wanted.iter())
+                .map(|&(index, name)| {
+                    let stage = averages.iter().find(|s| s.stage_index == index).unwrap();
+                    stage.observables[name].estimate
+                })
+                .collect()
         })
         .collect();
-    let a = over_replicas(&estimates);
-    (a.mean, a.error, a.equilibrated)
+    (0..wanted.len())
+        .map(|k| {
+            let a = over_replicas(&[runs[0][k], runs[1][k]]);
+            (a.mean, a.error, a.equilibrated)
+        })
+        .collect()
 }
 
-/// Two routes to the isotropic fluid's equation of state of rods of
+/// Three routes to the isotropic fluid's equation of state of rods of
 /// aspect 3 at φ = 0.30: the scale-distribution pressure of NVT sweeps,
-/// and the density NPT sweeps settle at under that pressure, agree within
-/// three combined errors; the pressure lies above the second-virial
-/// value 1 + B₂ρ (B₂ by Onsager's closed form; every further virial
-/// coefficient of a convex body's fluid is positive at this density).
+/// the collision virial of the dynamics from the same states, and the
+/// density NPT sweeps settle at under that pressure, agree within three
+/// combined errors; the pressure lies above the second-virial value
+/// 1 + B₂ρ (B₂ by Onsager's closed form; the further virial coefficients
+/// of a convex body's fluid are positive at this density).
 #[test]
-fn the_scale_distribution_and_npt_routes_agree_for_rods() {
+fn three_routes_to_the_rods_pressure_agree() {
     let phi = 0.30;
     let start =
         format!("Compress(packing_fraction: {phi}), MonteCarlo(ensemble: Nvt, sweeps: 4000)");
-    let (pressure, pressure_error, settled) = rods_average(
-        40,
-        &format!("{start}, MonteCarlo(ensemble: Nvt, sweeps: 6000)"),
-        2,
-        "pressure",
+    let nvt = format!(
+        "{start}, MonteCarlo(ensemble: Nvt, sweeps: 6000), Dynamics(duration: 20.0, stats_every: 0.25, true_inertia: false)"
     );
-    assert!(settled, "NVT not equilibrated");
-    let (density, density_error, settled) = rods_average(
+    let routes = rods_averages(40, &nvt, &[(2, "pressure"), (3, "pressure")]);
+    let [
+        (pressure, pressure_error, settled),
+        (virial, virial_error, dynamics_settled),
+    ] = routes[..]
+    else {
+        unreachable!("two routes asked for")
+    };
+    assert!(settled && dynamics_settled, "not equilibrated");
+    assert!(
+        (virial - pressure).abs() < 3.0 * virial_error.hypot(pressure_error),
+        "scale distribution {pressure} ± {pressure_error}, collision virial {virial} ± {virial_error}"
+    );
+    let (density, density_error, settled) = rods_averages(
         50,
         &format!("{start}, MonteCarlo(ensemble: Npt(pressure: {pressure}), sweeps: 20000)"),
-        2,
-        "packing_fraction",
-    );
+        &[(2, "packing_fraction")],
+    )[0];
     assert!(settled, "NPT not equilibrated");
     // The NPT density's error carries the pressure's through the
     // compressibility: dφ/dβP from the two ends of a short secant.
