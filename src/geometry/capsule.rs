@@ -86,6 +86,14 @@ impl Capsule {
 /// minimum over the rectangle).
 #[inline(always)]
 pub fn segment_distance_squared(d: &V3, u: &V3, l1: f64, v: &V3, l2: f64) -> f64 {
+    let (s, t) = closest_segment_parameters(d, u, l1, v, l2);
+    (d + v * t - u * s).norm_squared()
+}
+
+/// The parameters (s, t) of the closest points c₁ + s u and c₂ + t v of
+/// the segments of [`segment_distance_squared`], found as it says.
+#[inline(always)]
+pub fn closest_segment_parameters(d: &V3, u: &V3, l1: f64, v: &V3, l2: f64) -> (f64, f64) {
     let b = u.dot(v);
     let c = u.dot(d);
     let f = v.dot(d);
@@ -101,7 +109,7 @@ pub fn segment_distance_squared(d: &V3, u: &V3, l1: f64, v: &V3, l2: f64) -> f64
     };
     let t = (b * s - f).clamp(-l2, l2);
     let s = (c + b * t).clamp(-l1, l1);
-    (d + v * t - u * s).norm_squared()
+    (s, t)
 }
 
 #[cfg(test)]

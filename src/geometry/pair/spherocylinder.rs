@@ -7,7 +7,7 @@
 //! signed distance is GJK/EPA's for every pair.
 
 use super::convex;
-use crate::geometry::capsule::segment_distance_squared;
+use crate::geometry::capsule::{closest_segment_parameters, segment_distance_squared};
 use crate::geometry::contact::{Method, Status};
 use crate::geometry::{Contact, DistanceOptions, Relative, Shape};
 
@@ -66,18 +66,9 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
 }
 
 /// The closest points (A's frame) of A's axis segment ±ℓ₁ e_z and B's,
-/// `d` ± ℓ₂ `v`: the clamped minimisers of [`segment_distance_squared`].
+/// `d` ± ℓ₂ `v`.
 fn closest_on_segments(d: &V3, l1: f64, v: &V3, l2: f64) -> (V3, V3) {
-    let b = v.z;
-    let (c, f) = (d.z, v.dot(d));
-    let det = 1.0 - b * b;
-    let s = if det > 1e-300 {
-        ((c - b * f) / det).clamp(-l1, l1)
-    } else {
-        c.clamp(-l1, l1)
-    };
-    let t = (b * s - f).clamp(-l2, l2);
-    let s = (c + b * t).clamp(-l1, l1);
+    let (s, t) = closest_segment_parameters(d, &V3::z(), l1, v, l2);
     (V3::new(0.0, 0.0, s), d + v * t)
 }
 
