@@ -1,4 +1,5 @@
-//! The four convex shapes: sphere, triaxial ellipsoid, superellipsoid, cuboid.
+//! The five convex shapes: sphere, triaxial ellipsoid, superellipsoid, cuboid,
+//! spherocylinder.
 //!
 //! Every shape is centred at its body origin with its semi-axes along body
 //! x, y, z (docs/CONVENTIONS.md). Constructors validate their
@@ -321,7 +322,7 @@ impl Shape {
     }
 
     /// Inertia tensor of a uniform solid of mass `mass`, in the body frame
-    /// (diagonal: the body axes are principal axes for all four shapes).
+    /// (diagonal: the body axes are principal axes for every shape).
     pub fn inertia_tensor(&self, mass: f64) -> Matrix3<f64> {
         let m2 = self.second_moments() * (mass / self.volume());
         Matrix3::from_diagonal(&Vector3::new(m2.y + m2.z, m2.x + m2.z, m2.x + m2.y))
