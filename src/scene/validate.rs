@@ -6,6 +6,7 @@ use crate::mc::box_moves::BoxMoves;
 
 use super::*;
 use crate::number::Num;
+use crate::space::PeriodicBox;
 
 impl Scene {
     /// Checks every field; on failure the field path and what is wrong.
@@ -48,8 +49,12 @@ impl Scene {
             }
         };
         let frame = holds(self.validate_box()) & holds(self.validate_species());
-        if frame && holds(self.validate_start()) {
-            holds(self.validate_stages());
+        if frame {
+            let start = self.validate_start();
+            if let Ok(box_) = &start {
+                holds(self.validate_stages(box_));
+            }
+            holds(start.map(|_| ()));
         }
         holds(self.validate_log());
         holds(self.validate_accuracy());
@@ -181,8 +186,10 @@ impl Scene {
         Ok(())
     }
 
-    /// The start: the crystal, the lattice or random insertion, or the log resumed from; the box against the largest body.
-    fn validate_start(&self) -> Result<(), (String, String)> {
+    /// The start: the crystal, the lattice or random insertion, or the log
+    /// resumed from; the box against the largest body. The starting box
+    /// (a crystal's built once), for the stages.
+    fn validate_start(&self) -> Result<PeriodicBox, (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
         let crystal = matches!(self.start, Start::Crystal { .. });
         let n = self.particle_count();
@@ -296,16 +303,24 @@ impl Scene {
                 }
             }
         }
-        Ok(())
+        Ok(box_)
     }
 
-    /// The stages, in order, with the packing fraction each starts from where it is known before running.
-    fn validate_stages(&self) -> Result<(), (String, String)> {
+    /// The stages, in order, with the packing fraction each starts from
+    /// where it is known before running (from `box_`, the starting box).
+    fn validate_stages(&self, box_: &PeriodicBox) -> Result<(), (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
         let diameter = 2.0 * self.largest_bounding_radius();
-        let box_ = self.periodic_box();
         let shortest = box_.heights().min();
         let phi0 = self.particle_volume() / box_.volume();
+        // The contact-time search needs every pair's exact distance: a
+        // spherocylinder has it in closed form with spheres and
+        // spherocylinders only (GJK's, with the other shapes, is not exact
+        // enough).
+        use crate::geometry::Shape;
+        let rod = (self.species.iter()).find(|s| matches!(s.shape, Shape::Spherocylinder(_)));
+        let other = (self.species.iter())
+            .find(|s| !matches!(s.shape, Shape::Spherocylinder(_) | Shape::Sphere(_)));
         if self.stages.is_empty() {
             return bad("stages", "at least one stage is needed".into());
         }
@@ -318,14 +333,6 @@ impl Scene {
         };
         for (i, st) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stages[{i}].{name}");
-            // The contact-time search needs every pair's exact distance:
-            // a spherocylinder has it in closed form with spheres and
-            // spherocylinders only (GJK's, with the other shapes, is not
-            // exact enough).
-            use crate::geometry::Shape;
-            let rod = (self.species.iter()).find(|s| matches!(s.shape, Shape::Spherocylinder(_)));
-            let other = (self.species.iter())
-                .find(|s| !matches!(s.shape, Shape::Spherocylinder(_) | Shape::Sphere(_)));
             if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
                 && let (Some(rod), Some(other)) = (rod, other)
             {
