@@ -7,8 +7,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::log::{LogWriter, StateRecord, Stats};
-use crate::scene::plan::{dynamics_neighbours_json, mc_neighbours_json};
-use crate::state::NeighbourPlan;
+use crate::scene::plan::{StageBuild, stage_entry};
 
 use super::{Phase, Progress, Runner, StageError, StageResult};
 
@@ -61,25 +60,12 @@ pub(super) struct StagePlan {
 }
 
 impl StagePlan {
-    /// A Monte Carlo or compression stage (`kind`) sweeping a system that
-    /// keeps `neighbours`.
-    pub(super) fn monte_carlo(index: usize, kind: &str, neighbours: &NeighbourPlan) -> Self {
-        let mut entry = serde_json::json!({ "stage": index, "kind": kind });
-        entry["mc_neighbours"] = mc_neighbours_json(neighbours);
-        StagePlan { index, entry }
-    }
-
-    /// A dynamics stage with neighbour lists of `shell` (`None`: cells).
-    pub(super) fn dynamics(index: usize, shell: Option<f64>) -> Self {
-        let mut entry = serde_json::json!({ "stage": index, "kind": "dynamics" });
-        entry["neighbours"] = dynamics_neighbours_json(shell);
-        StagePlan { index, entry }
-    }
-
-    /// A jam stage (its chunks choose their neighbours as they grow).
-    pub(super) fn jam(index: usize) -> Self {
-        let entry = serde_json::json!({ "stage": index, "kind": "jam" });
-        StagePlan { index, entry }
+    /// Stage `index` (of kind `kind`) as its driver was built.
+    pub(super) fn new(index: usize, kind: &str, built: StageBuild) -> Self {
+        StagePlan {
+            index,
+            entry: stage_entry(index, kind, built),
+        }
     }
 }
 

@@ -12,6 +12,7 @@ use crate::state::System;
 
 use super::cadence::{Mark, StagePlan, StageRun};
 use super::*;
+use crate::scene::plan::StageBuild;
 
 /// A compression under way.
 pub(super) struct CompressStage<'a> {
@@ -86,7 +87,11 @@ impl<'a> CompressStage<'a> {
 
 impl StageRun for CompressStage<'_> {
     fn built_with(&self) -> StagePlan {
-        StagePlan::monte_carlo(self.index, "compress", self.system.plan())
+        StagePlan::new(
+            self.index,
+            "compress",
+            StageBuild::MonteCarlo(self.system.plan()),
+        )
     }
 
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {

@@ -15,6 +15,7 @@ use crate::state::System;
 use super::cadence::{Mark, StagePlan, StageRun};
 use super::records::Interval;
 use super::*;
+use crate::scene::plan::StageBuild;
 
 impl Runner {
     /// The phase a logged frame continues: the system, or for a dynamics
@@ -294,7 +295,11 @@ impl DynamicsStage {
 
 impl StageRun for DynamicsStage {
     fn built_with(&self) -> StagePlan {
-        StagePlan::dynamics(self.index, self.dynamics.neighbour_shell())
+        StagePlan::new(
+            self.index,
+            "dynamics",
+            StageBuild::Dynamics(self.dynamics.neighbour_shell()),
+        )
     }
 
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {

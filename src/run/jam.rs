@@ -18,6 +18,7 @@ use crate::scene::{JAM_COLLISIONS_PER_BODY, Stage};
 use super::cadence::{Mark, StagePlan, StageRun};
 use super::records::Interval;
 use super::*;
+use crate::scene::plan::StageBuild;
 
 /// Chunks between frames.
 const FRAME_CHUNKS: u64 = 10;
@@ -166,7 +167,7 @@ fn record(runner: &Runner, run: &JamRun, index: usize, complete: bool) -> StateR
 
 impl StageRun for JamStage {
     fn built_with(&self) -> StagePlan {
-        StagePlan::jam(self.index)
+        StagePlan::new(self.index, "jam", StageBuild::Jam)
     }
 
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {

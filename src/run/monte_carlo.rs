@@ -17,6 +17,7 @@ use crate::state::System;
 
 use super::cadence::{Mark, StagePlan, StageRun};
 use super::*;
+use crate::scene::plan::StageBuild;
 
 /// The scale distribution's widest window and its bins (HOOMD's x_max
 /// and bins of 10⁻⁴), for the pressure and the pressure tensor alike.
@@ -191,7 +192,11 @@ impl<'a> MonteCarloStage<'a> {
 
 impl StageRun for MonteCarloStage<'_> {
     fn built_with(&self) -> StagePlan {
-        StagePlan::monte_carlo(self.index, "monte_carlo", self.system.plan())
+        StagePlan::new(
+            self.index,
+            "monte_carlo",
+            StageBuild::MonteCarlo(self.system.plan()),
+        )
     }
 
     fn advance(&mut self, runner: &mut Runner) -> Result<Mark, StageError> {

@@ -228,20 +228,19 @@ impl Plan {
                 })
             })
             .collect();
-        let mut stages = Vec::new();
-        for (index, kind) in &self.stage_kinds {
-            let mut stage = json!({ "stage": index, "kind": kind });
-            if *kind == "dynamics" {
-                let shell = self.dynamics_shells.iter().find(|(i, _)| i == index);
-                stage["neighbours"] = match shell.map(|(_, s)| *s) {
-                    Some(Some(shell)) => dynamics_neighbours_json(shell),
-                    _ => json!("decided at the stage's start"),
+        let stages: Vec<_> = (self.stage_kinds.iter())
+            .map(|&(index, kind)| {
+                let built = match kind {
+                    "dynamics" => match self.dynamics_shells.iter().find(|(i, _)| *i == index) {
+                        Some((_, Some(shell))) => StageBuild::Dynamics(*shell),
+                        _ => StageBuild::DynamicsUndecided,
+                    },
+                    "jam" => StageBuild::Jam,
+                    _ => StageBuild::MonteCarlo(&self.mc_neighbours),
                 };
-            } else if *kind != "jam" {
-                stage["mc_neighbours"] = mc_neighbours_json(&self.mc_neighbours);
-            }
-            stages.push(stage);
-        }
+                stage_entry(index, kind, built)
+            })
+            .collect();
         json!({
             "species": species,
             "pairs": pairs,
@@ -256,9 +255,39 @@ impl Plan {
     }
 }
 
-/// A Monte Carlo neighbour structure as data: the same in the plan and in
-/// a run's record of its stages.
-pub fn mc_neighbours_json(n: &NeighbourPlan) -> serde_json::Value {
+/// What a stage's driver is built with, as the plan and a run's record of
+/// the stage both state it.
+#[derive(Debug, Clone, Copy)]
+pub enum StageBuild<'a> {
+    /// Monte Carlo sweeps (or a compression) on these neighbours.
+    MonteCarlo(&'a NeighbourPlan),
+    /// Dynamics on neighbour lists of this shell (`None`: on cells).
+    Dynamics(Option<f64>),
+    /// Dynamics whose neighbours depend on a packing fraction only the run
+    /// will know (the plan's word for it).
+    DynamicsUndecided,
+    /// A jam, whose chunks choose their neighbours as they grow.
+    Jam,
+}
+
+/// Stage `index` (of kind `kind`, `Stage::kind`) built as `built`, as data:
+/// `stage`, `kind`, and `mc_neighbours` or `neighbours`. The plan's
+/// entries and a run's records are both made here.
+pub fn stage_entry(index: usize, kind: &str, built: StageBuild) -> serde_json::Value {
+    let mut entry = serde_json::json!({ "stage": index, "kind": kind });
+    match built {
+        StageBuild::MonteCarlo(n) => entry["mc_neighbours"] = mc_neighbours_json(n),
+        StageBuild::Dynamics(shell) => entry["neighbours"] = dynamics_neighbours_json(shell),
+        StageBuild::DynamicsUndecided => {
+            entry["neighbours"] = serde_json::json!("decided at the stage's start")
+        }
+        StageBuild::Jam => {}
+    }
+    entry
+}
+
+/// A Monte Carlo neighbour structure as data.
+fn mc_neighbours_json(n: &NeighbourPlan) -> serde_json::Value {
     let structure = if n.per_species {
         "a grid per species"
     } else if n.aabb_cells {
@@ -275,8 +304,8 @@ pub fn mc_neighbours_json(n: &NeighbourPlan) -> serde_json::Value {
 }
 
 /// A dynamics neighbour structure as data (`shell`: the lists' shell, or
-/// `None` for cells): the same in the plan and in a run's record.
-pub fn dynamics_neighbours_json(shell: Option<f64>) -> serde_json::Value {
+/// `None` for cells).
+fn dynamics_neighbours_json(shell: Option<f64>) -> serde_json::Value {
     match shell {
         None => serde_json::json!({ "structure": "cells" }),
         Some(shell) => serde_json::json!({ "structure": "lists", "shell": shell }),
