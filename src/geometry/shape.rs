@@ -549,12 +549,13 @@ mod tests {
     use std::f64::consts::PI;
 
     /// One body of each kind, the ellipsoids prolate-ish and flat.
-    const SHAPES: [&str; 5] = [
+    const SHAPES: [&str; 6] = [
         "Sphere(radius: 0.7)",
         "Ellipsoid(a: 1.3, b: 0.7, c: 0.4)",
         "Ellipsoid(a: 0.2, b: 2.0, c: 2.0)",
         "Superellipsoid(a: 1.0, b: 0.6, c: 0.3, exponents: (4.0, 4.0, 4.0))",
         "Cuboid(a: 1.0, b: 0.6, c: 0.3)",
+        "Spherocylinder(radius: 0.4, length: 1.5)",
     ];
 
     /// The support value of a body turning at a constant body-frame ω
@@ -717,6 +718,41 @@ mod tests {
         );
         assert!((q.volume() / 6.0 - 1.0).abs() < 0.01);
         assert!((q.bounding_radius() / c.bounding_radius() - 1.0).abs() < 0.01);
+    }
+
+    /// A spherocylinder's volume and second moments against a Monte Carlo
+    /// integration over its bounding box (a point is inside when it lies
+    /// within the radius of the axis segment): the caps' offset terms of
+    /// the closed form are what this can catch.
+    #[test]
+    fn spherocylinder_volume_and_inertia_match_sampling() {
+        let rod = Spherocylinder::new(0.4, 1.5).unwrap();
+        let (r, h) = (rod.radius(), rod.half_length());
+        let half = Vector3::new(r, r, r + h);
+        let mut u = crate::test_support::uniform(29);
+        let samples = 2_000_000;
+        let (mut inside, mut moments) = (0_u64, Vector3::zeros());
+        for _ in 0..samples {
+            let x = Vector3::new(u() - 0.5, u() - 0.5, u() - 0.5).component_mul(&half) * 2.0;
+            let on_axis = Vector3::new(0.0, 0.0, x.z.clamp(-h, h));
+            if (x - on_axis).norm() <= r {
+                inside += 1;
+                moments += x.component_mul(&x);
+            }
+        }
+        let cell = 8.0 * half.product() / samples as f64;
+        let shape = Shape::Spherocylinder(rod);
+        let volume = inside as f64 * cell;
+        assert!((volume / shape.volume() - 1.0).abs() < 0.005, "{volume}");
+        let expected = shape.second_moments();
+        for k in 0..3 {
+            let sampled = moments[k] * cell;
+            assert!(
+                (sampled / expected[k] - 1.0).abs() < 0.01,
+                "axis {k}: sampled {sampled}, closed form {}",
+                expected[k]
+            );
+        }
     }
 
     #[test]
