@@ -318,6 +318,30 @@ mod tests {
         }
     }
 
+    /// A spherocylinder's mesh points lie at its radius from its axis
+    /// segment, on the cylinder and on the caps alike.
+    #[test]
+    fn spherocylinder_mesh_points_lie_on_the_surface() {
+        let shape: Shape = "Spherocylinder(radius: 0.4, length: 1.5)".parse().unwrap();
+        let Shape::Spherocylinder(rod) = shape else {
+            unreachable!()
+        };
+        let (points, _) = body_mesh(&shape);
+        let (mut on_caps, mut on_cylinder) = (0, 0);
+        for p in points {
+            let x = Vector3::new(p.x, p.y, p.z);
+            let axis = Vector3::new(0.0, 0.0, x.z.clamp(-rod.half_length(), rod.half_length()));
+            let d = (x - axis).norm();
+            assert!((d - rod.radius()).abs() < 1e-12, "{x}: {d}");
+            if x.z.abs() > rod.half_length() {
+                on_caps += 1;
+            } else {
+                on_cylinder += 1;
+            }
+        }
+        assert!(on_caps > 0 && on_cylinder > 0, "{on_caps} {on_cylinder}");
+    }
+
     #[test]
     fn one_entity_holds_every_particle_with_its_pose() {
         let species: Vec<Species> = [
