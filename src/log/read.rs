@@ -266,9 +266,9 @@ pub fn read_log_bytes(
             log_time,
             data,
         } => {
-            let decode_error = |reason: String| Fault::Message {
+            let decode_error = |reason: DecodeError| Fault::Message {
                 topic: topic.to_string(),
-                reason,
+                reason: reason.to_string(),
             };
             match topic {
                 "/stats" => {
@@ -601,9 +601,20 @@ fn visit_record(
 
 /// A JSON message decoded, or why not with the field and the place:
 /// `angular_velocities[3][0]: number out of range at line 1 column 345`.
-fn decode<T: serde::de::DeserializeOwned>(data: &[u8]) -> Result<T, String> {
+fn decode<T: serde::de::DeserializeOwned>(data: &[u8]) -> Result<T, DecodeError> {
     let mut json = serde_json::Deserializer::from_slice(data);
-    let value = serde_path_to_error::deserialize(&mut json).map_err(|e| e.to_string())?;
-    json.end().map_err(|e| e.to_string())?;
+    let value = serde_path_to_error::deserialize(&mut json)?;
+    json.end().map_err(DecodeError::Trailing)?;
     Ok(value)
+}
+
+/// Why a message's JSON does not decode.
+#[derive(Debug, thiserror::Error)]
+enum DecodeError {
+    /// A field is missing or of the wrong type (named by its path).
+    #[error("{0}")]
+    Field(#[from] serde_path_to_error::Error<serde_json::Error>),
+    /// Something follows the message's one value.
+    #[error("{0}")]
+    Trailing(serde_json::Error),
 }

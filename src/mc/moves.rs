@@ -222,7 +222,7 @@ impl SizesOf for [MoveSizes] {
 /// whether it was a rotation, and whether it was kept.
 #[inline]
 pub(crate) fn particle_moves<R: Rng>(
-    system: &mut System,
+    target: &mut (impl MoveTarget + ?Sized),
     count: usize,
     mut pick: impl FnMut(&mut R) -> usize,
     sizes: &(impl SizesOf + ?Sized),
@@ -232,18 +232,19 @@ pub(crate) fn particle_moves<R: Rng>(
 ) -> Counts {
     let mut counts = Counts::default();
     // Systems where nothing turns skip the species lookup of every move.
-    let any_rotates = system.species.iter().any(|s| s.rotation);
+    let any_rotates = target.system().species.iter().any(|s| s.rotation);
     for _ in 0..count {
         let i = pick(rng);
+        let system = target.system();
         let species = system.particles[i].species as usize;
         let rotates = any_rotates && system.species[species].rotation;
         let size = *sizes.of(system, i);
         if rotates && rng.r#gen::<bool>() {
-            let moved = rotate(system, i, size.rotate, rng);
+            let moved = rotate_on(target, i, size.rotate, rng);
             counts.rotate.record(moved);
             tried(i, species, true, moved);
         } else {
-            let moved = translate_within(system, i, size.translate, rng, &inside);
+            let moved = translate_on(target, i, size.translate, rng, &inside);
             counts.translate.record(moved);
             tried(i, species, false, moved);
         }
@@ -329,24 +330,101 @@ pub fn translate_within<R: Rng>(
     rng: &mut R,
     inside: impl Fn(&Vector3<f64>) -> bool,
 ) -> bool {
-    let position = propose_translation(&system.positions[i], size, rng);
-    if !inside(&position) || system.trial_overlaps(i, &position, None) {
-        return false;
-    }
-    // The orientation is read only for the moves that are kept.
-    let (orientation, rotation) = (system.particles[i].orientation, system.rotations[i]);
-    system.place(i, position, orientation, rotation);
-    true
+    translate_on(system, i, size, rng, inside)
 }
 
 /// Rotation about a uniformly random axis by a bounded angle.
 pub fn rotate<R: Rng>(system: &mut System, i: usize, max_angle: f64, rng: &mut R) -> bool {
-    let p = system.particles[i];
-    let orientation = propose_rotation(&p.orientation, max_angle, rng);
-    let rotation = orientation.to_rotation_matrix().into_inner();
-    if system.trial_overlaps(i, &p.position, Some(&rotation)) {
+    rotate_on(system, i, max_angle, rng)
+}
+
+/// What trial moves act on: a system they read whole, whose particles
+/// they place one at a time once a move is checked. A [`System`] is one;
+/// a parallel sweep's member is another, which places only the particles
+/// it owns.
+pub(crate) trait MoveTarget {
+    /// The system the moves read.
+    fn system(&self) -> &System;
+    /// Whether particle `i` at `position` (turned to `rotation`, or as it
+    /// is) would overlap another ([`System::trial_overlaps`]: it may
+    /// reorder `i`'s own list).
+    fn trial_overlaps(
+        &mut self,
+        i: usize,
+        position: &Vector3<f64>,
+        rotation: Option<&nalgebra::Matrix3<f64>>,
+    ) -> bool;
+    /// Moves particle `i` to a pose the caller has checked overlaps
+    /// nothing.
+    fn place(
+        &mut self,
+        i: usize,
+        position: Vector3<f64>,
+        orientation: UnitQuaternion<f64>,
+        rotation: nalgebra::Matrix3<f64>,
+    );
+}
+
+impl MoveTarget for System {
+    #[inline]
+    fn system(&self) -> &System {
+        self
+    }
+    #[inline]
+    fn trial_overlaps(
+        &mut self,
+        i: usize,
+        position: &Vector3<f64>,
+        rotation: Option<&nalgebra::Matrix3<f64>>,
+    ) -> bool {
+        System::trial_overlaps(self, i, position, rotation)
+    }
+    #[inline]
+    fn place(
+        &mut self,
+        i: usize,
+        position: Vector3<f64>,
+        orientation: UnitQuaternion<f64>,
+        rotation: nalgebra::Matrix3<f64>,
+    ) {
+        System::place(self, i, position, orientation, rotation)
+    }
+}
+
+/// [`translate_within`] on any [`MoveTarget`].
+#[inline]
+fn translate_on<R: Rng>(
+    target: &mut (impl MoveTarget + ?Sized),
+    i: usize,
+    size: f64,
+    rng: &mut R,
+    inside: impl Fn(&Vector3<f64>) -> bool,
+) -> bool {
+    let position = propose_translation(&target.system().positions[i], size, rng);
+    if !inside(&position) || target.trial_overlaps(i, &position, None) {
         return false;
     }
-    system.place(i, p.position, orientation, rotation);
+    // The orientation is read only for the moves that are kept.
+    let system = target.system();
+    let (orientation, rotation) = (system.particles[i].orientation, system.rotations[i]);
+    target.place(i, position, orientation, rotation);
+    true
+}
+
+/// [`rotate`] on any [`MoveTarget`].
+#[inline]
+fn rotate_on<R: Rng>(
+    target: &mut (impl MoveTarget + ?Sized),
+    i: usize,
+    max_angle: f64,
+    rng: &mut R,
+) -> bool {
+    let p = target.system().particles[i];
+    let orientation = propose_rotation(&p.orientation, max_angle, rng);
+    let rotation = orientation.to_rotation_matrix().into_inner();
+    if target.trial_overlaps(i, &p.position, Some(&rotation)) {
+        return false;
+    }
+    target.place(i, p.position, orientation, rotation);
     true
 }

@@ -69,15 +69,15 @@ impl Dynamics {
         };
         let wrapped = self.box_.wrap(&centre);
         self.cells.update(i, &wrapped);
-        let spheres = self
-            .neighbours
-            .as_mut()
-            .expect("escapes come with neighbour lists");
-        spheres.centres[i] = wrapped;
-        if let (Regions::Boxes { axes, .. }, Some(q)) = (&mut spheres.regions, orientation) {
-            axes[i] = q.to_rotation_matrix().into_inner();
+        // Only bodies with neighbour lists schedule escapes; without lists
+        // the refresh is of the cells alone.
+        if let Some(spheres) = self.neighbours.as_mut() {
+            spheres.centres[i] = wrapped;
+            if let (Regions::Boxes { axes, .. }, Some(q)) = (&mut spheres.regions, orientation) {
+                axes[i] = q.to_rotation_matrix().into_inner();
+            }
+            link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
         }
-        link_overlapping(i, false, &self.box_, &self.cells, &self.bodies, spheres);
         // A sphere's trajectory and its events stand (its search stopped
         // at this escape, and runs again over the new list); a body's
         // events are dropped.

@@ -7,7 +7,7 @@ use std::sync::RwLock;
 
 use super::*;
 use crate::mc::moves::ensemble_box_move;
-use crate::mc::moves::{Counts, MoveSizes, particle_moves, sweep};
+use crate::mc::moves::{Counts, MoveSizes, MoveTarget, particle_moves, sweep};
 use crate::state::System;
 
 /// The barrier and the outboxes through which a team's members hand each
@@ -122,7 +122,7 @@ pub(super) fn member_sweeps(
 /// (`seed`, `index`, colour, slab) and every move confined to its slab;
 /// `accepted` hears of each particle moved.
 pub(super) fn colour_moves(
-    system: &mut System,
+    target: &mut (impl MoveTarget + ?Sized),
     slab_members: &[Vec<usize>],
     (slabs, colour): (&Slabs, usize),
     (seed, index): (u64, u64),
@@ -136,9 +136,9 @@ pub(super) fn colour_moves(
             continue;
         }
         let mut rng = stream(seed, index, colour as u64, k as u64);
-        let box_ = *system.periodic_box();
+        let box_ = *target.system().periodic_box();
         counts += particle_moves(
-            system,
+            target,
             members.len(),
             |rng: &mut Pcg64| members[rng.gen_range(0..members.len())],
             sizes,

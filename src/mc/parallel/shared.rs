@@ -2,13 +2,13 @@
 //! be for members to touch disjoint storage, the members' copies of the
 //! header, and the lists' review folded in between sweeps.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::Rng;
 
 use super::replicas::{Scratch, colour_moves};
 use super::*;
 use crate::mc::moves::ensemble_box_move;
-use crate::mc::moves::{Counts, Ensemble};
+use crate::mc::moves::{Counts, Ensemble, MoveTarget};
 use crate::state::{Neighbours, SPHERE_LISTS_REVIEW, System};
 
 type V3 = Vector3<f64>;
@@ -156,47 +156,110 @@ impl Slabs {
 /// (see the module docs).
 pub(super) struct SharedSystem(*mut System);
 
-// SAFETY: the members touch the system only as `member_copy` and `whole`
-// say.
+// SAFETY: the members touch the system only through [`MemberView`] and
+// `whole`, as they say.
 unsafe impl Sync for SharedSystem {}
 
 impl SharedSystem {
-    /// A member's own header over the shared storage: the same vectors
-    /// (positions, cells, lists), its own scalars. Its review window
-    /// starts empty and is not reviewed (the review is made for the team
-    /// between sweeps), and its cells and lists panic rather than grow
-    /// (which would move storage from under the others). Never dropped:
-    /// the storage is the system's.
-    ///
-    /// SAFETY: no member may be writing the system's header (between
-    /// barriers, where only the storage changes), and the copy is used
-    /// only until the next change of it (to the next barrier); members
-    /// moving particles of slabs that [`Slabs::shareable`] allows touch
-    /// disjoint storage.
-    unsafe fn member_copy(&self) -> std::mem::ManuallyDrop<System> {
-        // SAFETY: as the caller promises; the copy is never dropped.
-        let mut copy = std::mem::ManuallyDrop::new(unsafe { std::ptr::read(self.0) });
-        copy.review_deferred = true;
-        copy.list_window_base = copy.list_window.0;
-        copy.list_window = (0, 0.0);
-        copy.changed = false;
-        if let Neighbours::Cells(cells) = &mut copy.cells {
-            cells.fix_capacity();
-        }
-        if let Some(lists) = &mut copy.sphere_lists {
-            lists.fix_capacity();
-        }
-        copy
-    }
-
     /// The system itself, for the one member that works on it while the
-    /// others wait at a barrier holding no copy they will use again.
+    /// others wait at a barrier holding no view they will use again.
     ///
     /// SAFETY: as said; the reference is dropped before the barrier.
     #[allow(clippy::mut_from_ref)]
     unsafe fn whole(&self) -> &mut System {
         // SAFETY: as the caller promises.
         unsafe { &mut *self.0 }
+    }
+}
+
+/// A member's view of the shared system between two barriers: it reads
+/// the whole system, and writes only the particles of the slabs it is
+/// sweeping, each kept inside its slab ([`MoveTarget::place`] refuses any
+/// other, and no `&mut System` can be had from it). Its header (the
+/// scalars: the lists' review window, whether anything moved) is its own;
+/// the vectors are the system's. Its review window starts empty and is
+/// not reviewed (the review is made for the team between sweeps), and its
+/// cells and lists panic rather than grow (which would move storage from
+/// under the others). It never drops the storage, which is the system's.
+pub(super) struct MemberView {
+    header: std::mem::ManuallyDrop<System>,
+    /// The slabs of the sweep, the colour being swept, and this member and
+    /// its team: which particles it may place. Nothing while between
+    /// colours.
+    sweeping: Option<(Slabs, usize, (usize, usize))>,
+}
+
+impl MemberView {
+    /// The view of member `me` of a team of `team` over `shared`.
+    ///
+    /// SAFETY: no member may be writing the system's header (between
+    /// barriers, where only the storage changes), and the view is used
+    /// only until the next change of it (to the next barrier); members
+    /// placing particles of slabs that [`Slabs::shareable`] allows touch
+    /// disjoint storage.
+    unsafe fn new(shared: &SharedSystem) -> Self {
+        // SAFETY: as the caller promises; the copy is never dropped.
+        let mut header = std::mem::ManuallyDrop::new(unsafe { std::ptr::read(shared.0) });
+        header.review_deferred = true;
+        header.list_window_base = header.list_window.0;
+        header.list_window = (0, 0.0);
+        header.changed = false;
+        if let Neighbours::Cells(cells) = &mut header.cells {
+            cells.fix_capacity();
+        }
+        if let Some(lists) = &mut header.sphere_lists {
+            lists.fix_capacity();
+        }
+        Self {
+            header,
+            sweeping: None,
+        }
+    }
+
+    /// The moves and changes this view made since it was last asked,
+    /// handed over.
+    fn take_pending(&mut self) -> Pending {
+        let pending = Pending {
+            moves: self.header.list_window.0,
+            sum: self.header.list_window.1,
+            changed: self.header.changed,
+        };
+        (self.header.list_window, self.header.changed) = ((0, 0.0), false);
+        pending
+    }
+}
+
+impl MoveTarget for MemberView {
+    fn system(&self) -> &System {
+        &self.header
+    }
+
+    /// Spheres keep no capsule lists: the trial only reads.
+    fn trial_overlaps(&mut self, i: usize, position: &V3, rotation: Option<&Matrix3<f64>>) -> bool {
+        self.header.trial_overlaps(i, position, rotation)
+    }
+
+    /// Places particle `i` if it lies in a slab of the colour this member
+    /// sweeps and stays in it; panics otherwise (a member writing what it
+    /// does not own would race with another).
+    fn place(
+        &mut self,
+        i: usize,
+        position: V3,
+        orientation: UnitQuaternion<f64>,
+        rotation: Matrix3<f64>,
+    ) {
+        let Some((slabs, colour, (me, team))) = self.sweeping else {
+            panic!("a member places particles only while it sweeps a colour");
+        };
+        let box_ = self.header.periodic_box();
+        let from = slabs.slab_of(&self.header.positions[i]);
+        let to = slabs.slab_of(&box_.wrap_near(&position));
+        assert!(
+            from == to && from % 2 == colour && slabs.owner(from, team) == me,
+            "member {me} may not move particle {i} from slab {from} to {to}"
+        );
+        self.header.place(i, position, orientation, rotation);
     }
 }
 
@@ -257,14 +320,15 @@ pub(super) fn shared_member_sweeps(
     let mut sharing = SharedCounts::default();
     let mut scratch = Scratch::default();
     // SAFETY: before the first sweep, where no one writes the header.
-    let mut local = unsafe { shared.member_copy() };
+    let mut local = unsafe { MemberView::new(shared) };
     let mut pending = Pending::default();
     let npt = matches!(ensemble, Ensemble::Npt { .. });
     for (j, &seed) in seeds.iter().enumerate() {
         let index = first_index + j as u64;
         let last = j + 1 == seeds.len();
         let mut master = stream(seed, index, u64::MAX, u64::MAX);
-        let slabs = Slabs::of_sweep(&local, threads, &mut master).filter(|s| s.shareable(&local));
+        let system = local.system();
+        let slabs = Slabs::of_sweep(system, threads, &mut master).filter(|s| s.shareable(system));
         let Some(slabs) = slabs else {
             // Once every member has read what it decided on.
             barrier.wait();
@@ -283,15 +347,16 @@ pub(super) fn shared_member_sweeps(
             pending = Pending::default();
             barrier.wait();
             // SAFETY: after the barrier, member 0 done with the header.
-            local = unsafe { shared.member_copy() };
+            local = unsafe { MemberView::new(shared) };
             continue;
         };
-        scratch.sort(&local, &slabs, me, team);
+        scratch.sort(local.system(), &slabs, me, team);
         // Sorting reads every centre: no member moves one before all have
         // sorted.
         barrier.wait();
         let first = usize::from(master.r#gen::<bool>());
         for colour in [first, 1 - first] {
+            local.sweeping = Some((slabs, colour, (me, team)));
             counts += colour_moves(
                 &mut local,
                 &scratch.slab_members,
@@ -300,13 +365,9 @@ pub(super) fn shared_member_sweeps(
                 sizes,
                 |_| {},
             );
+            local.sweeping = None;
             if colour != first {
-                *reports[me].lock().expect("no member panicked") = Pending {
-                    moves: local.list_window.0,
-                    sum: local.list_window.1,
-                    changed: local.changed,
-                };
-                (local.list_window, local.changed) = ((0, 0.0), false);
+                *reports[me].lock().expect("no member panicked") = local.take_pending();
             }
             barrier.wait();
         }
@@ -317,8 +378,9 @@ pub(super) fn shared_member_sweeps(
             pending.add(&report.lock().expect("no member panicked"));
         }
         sharing.shared += u64::from(me == 0);
-        let review_due = local.plan.sphere_skin.is_some()
-            && local.list_window_base + pending.moves >= SPHERE_LISTS_REVIEW * local.len();
+        let system = local.system();
+        let review_due = system.plan.sphere_skin.is_some()
+            && system.list_window_base + pending.moves >= SPHERE_LISTS_REVIEW * system.len();
         if !(npt || review_due || last) {
             continue;
         }
@@ -338,7 +400,7 @@ pub(super) fn shared_member_sweeps(
         if !last {
             barrier.wait();
             // SAFETY: after the barrier, member 0 done with the header.
-            local = unsafe { shared.member_copy() };
+            local = unsafe { MemberView::new(shared) };
         }
     }
     (counts, sharing)
@@ -369,4 +431,51 @@ pub(super) fn shared_sweeps(
     });
     let counts = per_thread.iter().fold(Counts::default(), |a, c| a + c.0);
     (counts, per_thread[0].1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::panic::{AssertUnwindSafe, catch_unwind};
+
+    /// A member's view places the particles of its own slabs of the colour
+    /// it sweeps, inside them, and refuses every other: one in the other
+    /// member's slab, one of the other colour, one that would leave its
+    /// slab, and any while it sweeps no colour.
+    #[test]
+    fn a_member_places_only_what_it_owns() {
+        let sphere: crate::geometry::Shape = "Sphere(radius: 0.5)".parse().unwrap();
+        let mut system = crate::bench::mc::dense_start(&sphere, 4096, 0.5).unwrap();
+        let slabs = Slabs::of_sweep(&system, 2, &mut stream(1, 0, 0, 0)).unwrap();
+        assert_eq!(slabs.count, 4);
+        let in_slab = |system: &System, k: usize| {
+            (0..system.len())
+                .find(|&i| slabs.slab_of(&system.positions[i]) == k)
+                .unwrap()
+        };
+        let ones: Vec<usize> = (0..4).map(|k| in_slab(&system, k)).collect();
+        let shared = SharedSystem(&mut system);
+        // SAFETY: one view, on this thread alone.
+        let mut view = unsafe { MemberView::new(&shared) };
+        let pose = |view: &MemberView, i: usize| {
+            let s = view.system();
+            (s.positions[i], s.particles[i].orientation, s.rotations[i])
+        };
+        let mut refused = |view: &mut MemberView, i: usize, shift: f64| {
+            let (mut r, q, m) = pose(view, i);
+            r[slabs.axis] += shift;
+            catch_unwind(AssertUnwindSafe(|| view.place(i, r, q, m))).is_err()
+        };
+        // Member 0 of two owns slabs 0 (even) and 1 (odd).
+        assert!(refused(&mut view, ones[0], 0.0), "between colours");
+        view.sweeping = Some((slabs, 0, (0, 2)));
+        assert!(!refused(&mut view, ones[0], 0.0), "its own");
+        assert!(refused(&mut view, ones[2], 0.0), "the other member's");
+        assert!(refused(&mut view, ones[1], 0.0), "the other colour");
+        let width = slabs.length / slabs.count as f64;
+        assert!(refused(&mut view, ones[0], width), "leaving its slab");
+        view.sweeping = Some((slabs, 1, (0, 2)));
+        assert!(!refused(&mut view, ones[1], 0.0), "its own, odd");
+        assert!(refused(&mut view, ones[3], 0.0), "the other member's, odd");
+    }
 }
