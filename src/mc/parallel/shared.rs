@@ -461,7 +461,7 @@ mod tests {
             let s = view.system();
             (s.positions[i], s.particles[i].orientation, s.rotations[i])
         };
-        let mut refused = |view: &mut MemberView, i: usize, shift: f64| {
+        let refused = |view: &mut MemberView, i: usize, shift: f64| {
             let (mut r, q, m) = pose(view, i);
             r[slabs.axis] += shift;
             catch_unwind(AssertUnwindSafe(|| view.place(i, r, q, m))).is_err()
