@@ -1,11 +1,14 @@
 //! The predictor of contacts between bodies that are not two spheres: its
-//! accuracy knobs, the solver work it counts, and the signed distance at
-//! one pose. The search for the first contact in time is in
-//! [`super::search`].
+//! accuracy knobs, the solver work it counts, the signed distance at one
+//! pose, and the first contact in time of a pair; the steps of that
+//! search are in [`super::search`].
 
 use std::cell::Cell;
 
+use super::outcome::{Found, Progress, Rotor, Search, SearchError};
 use crate::geometry::{Contact, DistanceOptions, Method, Relative, Shape, WarmStart, distance};
+
+type V3 = nalgebra::Vector3<f64>;
 
 /// Knobs of the prediction, lengths relative to the smaller body's
 /// smallest half-extent.
@@ -183,6 +186,64 @@ impl Predictor {
     /// The signed distance and contact of a pair at one pose.
     pub fn contact(&self, a: &Shape, b: &Shape, rel: &Relative) -> Contact {
         self.contact_from(a, b, rel, None)
+    }
+
+    /// The first time τ in [0, `horizon`] at which the bodies touch, their
+    /// centres separated by `d + dv τ` (B − A) and each turning at its
+    /// angular velocity; `Ok(None)` if they do not touch by then. An error
+    /// says why the distance could not be followed (solver failure, or the
+    /// pair already overlapping).
+    pub fn contact_time(
+        &self,
+        a: Rotor,
+        b: Rotor,
+        d: &V3,
+        dv: &V3,
+        horizon: f64,
+    ) -> Result<Option<f64>, SearchError> {
+        match self.search(a, b, d, dv, None, horizon, u32::MAX)? {
+            Search::Contact(t) => Ok(Some(t)),
+            Search::Apart => Ok(None),
+            Search::Unfinished(_) => unreachable!("an unlimited search finishes"),
+        }
+    }
+
+    /// [`Predictor::contact_time`] with at most about `budget` steps: a
+    /// search that runs out says how far it got, so that it can be resumed
+    /// (`resume`, with the same pair and motion), perhaps with a shorter
+    /// horizon, once cheaper pairs have been searched.
+    #[allow(clippy::too_many_arguments)]
+    pub fn search(
+        &self,
+        a: Rotor,
+        b: Rotor,
+        d: &V3,
+        dv: &V3,
+        resume: Option<&Progress>,
+        horizon: f64,
+        budget: u32,
+    ) -> Result<Search, SearchError> {
+        let mut stopped = None;
+        Ok(
+            match self.search_into(
+                a,
+                b,
+                (0.0, 0.0),
+                None,
+                d,
+                dv,
+                resume,
+                horizon,
+                budget,
+                &mut stopped,
+            )? {
+                Found::Contact(t) => Search::Contact(t),
+                Found::Apart => Search::Apart,
+                Found::Stopped(_) => {
+                    Search::Unfinished(stopped.expect("a stopped search's progress"))
+                }
+            },
+        )
     }
 }
 

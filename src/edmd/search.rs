@@ -41,64 +41,6 @@ type V3 = Vector3<f64>;
 pub use super::outcome::{Found, Growth, Progress, Rotor, Search, SearchError};
 
 impl Predictor {
-    /// The first time τ in [0, `horizon`] at which the bodies touch, their
-    /// centres separated by `d + dv τ` (B − A) and each turning at its
-    /// angular velocity; `Ok(None)` if they do not touch by then. An error
-    /// says why the distance could not be followed (solver failure, or the
-    /// pair already overlapping).
-    pub fn contact_time(
-        &self,
-        a: Rotor,
-        b: Rotor,
-        d: &V3,
-        dv: &V3,
-        horizon: f64,
-    ) -> Result<Option<f64>, SearchError> {
-        match self.search(a, b, d, dv, None, horizon, u32::MAX)? {
-            Search::Contact(t) => Ok(Some(t)),
-            Search::Apart => Ok(None),
-            Search::Unfinished(_) => unreachable!("an unlimited search finishes"),
-        }
-    }
-
-    /// [`Predictor::contact_time`] with at most about `budget` steps: a
-    /// search that runs out says how far it got, so that it can be resumed
-    /// (`resume`, with the same pair and motion), perhaps with a shorter
-    /// horizon, once cheaper pairs have been searched.
-    #[allow(clippy::too_many_arguments)]
-    pub fn search(
-        &self,
-        a: Rotor,
-        b: Rotor,
-        d: &V3,
-        dv: &V3,
-        resume: Option<&Progress>,
-        horizon: f64,
-        budget: u32,
-    ) -> Result<Search, SearchError> {
-        let mut stopped = None;
-        Ok(
-            match self.search_into(
-                a,
-                b,
-                (0.0, 0.0),
-                None,
-                d,
-                dv,
-                resume,
-                horizon,
-                budget,
-                &mut stopped,
-            )? {
-                Found::Contact(t) => Search::Contact(t),
-                Found::Apart => Search::Apart,
-                Found::Stopped(_) => {
-                    Search::Unfinished(stopped.expect("a stopped search's progress"))
-                }
-            },
-        )
-    }
-
     /// Whether the bounding spheres of `a` and `b`, at separation `d` (B − A)
     /// closing at `dv`, meet before `horizon`: where they do not, a search
     /// ends at once, and the caller need not build the bodies' rotations.

@@ -6,6 +6,7 @@ mod error;
 pub mod outline;
 pub mod plan;
 pub mod space;
+mod valid;
 mod validate;
 
 use serde::{Deserialize, Serialize};
@@ -13,66 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::Shape;
 pub use error::{Problem, SceneError};
 use outline::Outline;
-
-/// A scene that passed every check of [`Scene::parse`] or
-/// [`Scene::validated`]: only this can be planned or run. It reads as the
-/// scene it holds; to edit it, take the scene out with
-/// [`ValidScene::into_scene`] and validate it again.
-///
-/// A scene taken out to edit is not accepted by a run until it is checked
-/// again (this does not compile):
-///
-/// ```compile_fail,E0308
-/// use hardbody::run::{Silent, run_scene};
-/// use hardbody::scene::Scene;
-///
-/// let text = r#"Scene(
-///     box: (8.0, 8.0, 8.0),
-///     species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
-///     stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
-/// )"#;
-/// let mut edited = Scene::parse(text).unwrap().into_scene();
-/// edited.species[0].count = 0;
-/// let stop = std::sync::atomic::AtomicBool::new(false);
-/// run_scene(&edited, text, "out.mcap".as_ref(), &mut Silent, &stop);
-/// ```
-///
-/// Checked again, it is refused by name:
-///
-/// ```
-/// # use hardbody::scene::{Scene, SceneError};
-/// # let text = r#"Scene(
-/// #     box: (8.0, 8.0, 8.0),
-/// #     species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 64)],
-/// #     stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
-/// # )"#;
-/// let mut edited = Scene::parse(text).unwrap().into_scene();
-/// edited.species[0].count = 0;
-/// assert!(matches!(edited.validated(), Err(SceneError::Invalid { field, .. }) if field == "species[0].count"));
-/// ```
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(transparent)]
-pub struct ValidScene(Scene);
-
-impl std::ops::Deref for ValidScene {
-    type Target = Scene;
-    fn deref(&self) -> &Scene {
-        &self.0
-    }
-}
-
-impl ValidScene {
-    /// The scene, to edit (it must be validated again to run).
-    pub fn into_scene(self) -> Scene {
-        self.0
-    }
-
-    /// The same scene with another seed (every seed is valid).
-    pub fn with_seed(mut self, seed: u64) -> ValidScene {
-        self.0.seed = seed;
-        self
-    }
-}
+pub use valid::ValidScene;
 
 /// A scene as written: what to simulate, in which stages, logged where.
 /// It is checked by [`Scene::validated`] before anything plans or runs it.
