@@ -279,3 +279,26 @@ fn check_json_is_the_plan_the_run_records() {
         assert!(compared.get(kind).is_some_and(|&n| n > 0), "{compared:?}");
     }
 }
+
+/// The README's tutorial shows what `hardbody check` prints for its
+/// scene, to the character: a default or a message changed without the
+/// README fails here.
+#[test]
+fn the_readme_shows_what_check_prints() {
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let scene = "data/scenes/tutorial_rods.ron";
+    let check = std::process::Command::new(env!("CARGO_BIN_EXE_hardbody"))
+        .args(["check", scene])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(check.status.success(), "{check:?}");
+    let printed = String::from_utf8(check.stdout).unwrap();
+    let shown = readme
+        .split("```text\n")
+        .filter_map(|block| block.split("\n```").next())
+        .find(|block| block.starts_with(&format!("{scene}: valid")))
+        .expect("the README shows the tutorial scene's check");
+    assert_eq!(shown, printed.trim_end(), "README, then what check prints");
+}
