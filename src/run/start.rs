@@ -17,7 +17,11 @@ use crate::state::{Particle, StateError, System};
 use super::*;
 
 /// The first state of a scene.
-pub(super) fn start_state(scene: &Scene, plan: &Plan, rng: &mut Pcg64) -> Result<System, RunError> {
+pub(super) fn start_state(
+    scene: &ValidScene,
+    plan: &Plan,
+    rng: &mut Pcg64,
+) -> Result<System, RunError> {
     let species = plan.mc_species();
     let counts: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
     match &scene.start {

@@ -522,8 +522,9 @@ impl Scene {
             .collect()
     }
 
-    /// The starting box's edges.
-    pub fn box_vector(&self) -> nalgebra::Vector3<f64> {
+    /// The starting box's edges (of a scene whose box and start passed
+    /// validation: see [`ValidScene::box_vector`]).
+    fn box_vector(&self) -> nalgebra::Vector3<f64> {
         self.periodic_box().lengths()
     }
 
@@ -561,7 +562,7 @@ impl Scene {
     /// before running: the start's (not a resumed state's), then each
     /// compression's target; unknown after an NPT stage, or after a
     /// compression that may end elsewhere (to a pressure, or to the jam).
-    pub fn packing_fraction_before(&self, index: usize) -> Option<f64> {
+    fn packing_fraction_before(&self, index: usize) -> Option<f64> {
         let mut phi = match &self.start {
             Start::Resume(_) => None,
             Start::Crystal {
@@ -617,8 +618,9 @@ impl Scene {
         w
     }
 
-    /// The starting box, with its walls (of a validated scene).
-    pub fn periodic_box(&self) -> crate::space::PeriodicBox {
+    /// The starting box, with its walls (of a scene whose box and start
+    /// passed validation: see [`ValidScene::periodic_box`]).
+    fn periodic_box(&self) -> crate::space::PeriodicBox {
         if let Some(crystal) = self.crystal() {
             let species = self.mc_species();
             return (crystal

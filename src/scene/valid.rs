@@ -57,6 +57,24 @@ impl ValidScene {
         self.0
     }
 
+    /// The starting box, with its walls.
+    pub fn periodic_box(&self) -> crate::space::PeriodicBox {
+        self.0.periodic_box()
+    }
+
+    /// The starting box's edges.
+    pub fn box_vector(&self) -> nalgebra::Vector3<f64> {
+        self.0.box_vector()
+    }
+
+    /// The packing fraction stage `index` starts at, where it is known
+    /// before running: the start's (not a resumed state's), then each
+    /// compression's target; unknown after an NPT stage, or after a
+    /// compression that may end elsewhere (to a pressure, or to the jam).
+    pub fn packing_fraction_before(&self, index: usize) -> Option<f64> {
+        self.0.packing_fraction_before(index)
+    }
+
     /// The same scene with another seed (every seed is valid).
     pub fn with_seed(mut self, seed: u64) -> ValidScene {
         self.0.seed = seed;
