@@ -321,6 +321,19 @@ impl PeriodicBox {
         if self.tilted {
             return self.minimum_image_near_tilted(d);
         }
+        self.minimum_image_near_as::<false>(d)
+    }
+
+    /// [`PeriodicBox::minimum_image_near`] for a box known to be tilted
+    /// (`TILTED`) or not, so that a loop over many separations asks once
+    /// (`if b.is_tilted() { loop::<true> } else { loop::<false> }`) and
+    /// its untilted form carries no test per separation.
+    #[inline(always)]
+    pub fn minimum_image_near_as<const TILTED: bool>(&self, d: &V3) -> V3 {
+        debug_assert_eq!(TILTED, self.tilted);
+        if TILTED {
+            return self.minimum_image_near_tilted(d);
+        }
         // Branch-free: the shifts are selected, not jumped to (separations
         // are random, so branches would mispredict).
         let mut r = *d;

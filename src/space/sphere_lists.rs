@@ -144,10 +144,27 @@ impl SphereLists {
         box_: &PeriodicBox,
         keep: impl Fn(usize) -> bool,
     ) -> bool {
+        if box_.is_tilted() {
+            self.touches_listed_in::<true>(i, centre, positions, box_, keep)
+        } else {
+            self.touches_listed_in::<false>(i, centre, positions, box_, keep)
+        }
+    }
+
+    /// [`Self::touches_listed`] in a box tilted (`TILTED`) or not.
+    #[inline(always)]
+    fn touches_listed_in<const TILTED: bool>(
+        &self,
+        i: usize,
+        centre: &V3,
+        positions: &(impl Index<usize, Output = V3> + ?Sized),
+        box_: &PeriodicBox,
+        keep: impl Fn(usize) -> bool,
+    ) -> bool {
         let ri = self.radii[i];
         self.lists.of(i).iter().any(|&j| {
             let j = j as usize;
-            let d = box_.minimum_image_near(&(positions[j] - centre));
+            let d = box_.minimum_image_near_as::<TILTED>(&(positions[j] - centre));
             let reach = ri + self.radii[j];
             d.norm_squared() <= reach * reach && keep(j)
         })
