@@ -11,6 +11,7 @@ pub mod newton;
 pub mod obb;
 pub mod ocsi;
 pub mod pair;
+pub mod polyhedron;
 pub mod roots;
 pub mod shape;
 pub mod spec;
