@@ -21,14 +21,16 @@ fn solve(a: &Shape, b: &Shape, rel: &Relative, opts: &NewtonOptions) -> Contact 
             Shape::Sphere(y) => newton_distance(a, y, rel, o, None),
             Shape::Ellipsoid(y) => newton_distance(a, y, rel, o, None),
             Shape::Superellipsoid(y) => newton_distance(a, y, rel, o, None),
-            Shape::Cuboid(_) | Shape::Spherocylinder(_) => unreachable!(),
+            Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => {
+                unreachable!()
+            }
         }
     }
     match a {
         Shape::Sphere(x) => with_b(x, b, rel, opts),
         Shape::Ellipsoid(x) => with_b(x, b, rel, opts),
         Shape::Superellipsoid(x) => with_b(x, b, rel, opts),
-        Shape::Cuboid(_) | Shape::Spherocylinder(_) => unreachable!(),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => unreachable!(),
     }
 }
 

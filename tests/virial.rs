@@ -215,6 +215,69 @@ fn spherocylinder_pairs() {
     );
 }
 
+/// Regular tetrahedron of edge `a`: V = a³/(6√2), S = √3 a², and M =
+/// ½ Σ_edges L (π − θ) with the dihedral angle θ = arccos(1/3).
+fn tetrahedron(a: f64) -> Minkowski {
+    Minkowski {
+        v: a.powi(3) / (6.0 * 2f64.sqrt()),
+        s: 3f64.sqrt() * a * a,
+        m: 0.5 * 6.0 * a * (PI - (1.0f64 / 3.0).acos()),
+    }
+}
+
+/// Regular octahedron of edge `a`: V = √2 a³/3, S = 2√3 a², dihedral
+/// angle arccos(−1/3) at each of 12 edges.
+fn octahedron(a: f64) -> Minkowski {
+    Minkowski {
+        v: 2f64.sqrt() * a.powi(3) / 3.0,
+        s: 2.0 * 3f64.sqrt() * a * a,
+        m: 0.5 * 12.0 * a * (PI - (-1.0f64 / 3.0).acos()),
+    }
+}
+
+/// Convex polyhedra (GJK on their corners) with each other and with
+/// every other shape: a tetrahedron of edge 2√2 (alternate corners of the
+/// cube of side 2), an octahedron of edge √2 (the unit axes), and a
+/// cube given by its corners against the cuboid's own result.
+#[test]
+fn polyhedron_pairs() {
+    let tetra = "ConvexPolyhedron(vertices: [(1.0, 1.0, 1.0), (1.0, -1.0, -1.0), \
+                 (-1.0, 1.0, -1.0), (-1.0, -1.0, 1.0)])";
+    let octa = "ConvexPolyhedron(vertices: [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), \
+                (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)])";
+    let cube = "ConvexPolyhedron(vertices: [(0.5, 0.5, 0.5), (0.5, 0.5, -0.5), (0.5, -0.5, 0.5), \
+                (0.5, -0.5, -0.5), (-0.5, 0.5, 0.5), (-0.5, 0.5, -0.5), (-0.5, -0.5, 0.5), \
+                (-0.5, -0.5, -0.5)])";
+    let (t, o) = (tetrahedron(8f64.sqrt()), octahedron(2f64.sqrt()));
+    check(tetra, tetra, isihara_hadwiger(&t, &t), 21);
+    check(octa, octa, isihara_hadwiger(&o, &o), 22);
+    check(tetra, octa, isihara_hadwiger(&t, &o), 23);
+    check(
+        tetra,
+        "Sphere(radius: 0.6)",
+        isihara_hadwiger(&t, &sphere(0.6)),
+        24,
+    );
+    check(
+        octa,
+        "Spherocylinder(radius: 0.3, length: 1.0)",
+        isihara_hadwiger(&o, &spherocylinder(0.3, 1.0)),
+        25,
+    );
+    check(
+        "Ellipsoid(a: 1.0, b: 1.0, c: 0.5)",
+        tetra,
+        isihara_hadwiger(&spheroid(1.0, 0.5), &t),
+        26,
+    );
+    check(
+        cube,
+        "Cuboid(a: 0.5, b: 0.4, c: 0.3)",
+        isihara_hadwiger(&cuboid(0.5, 0.5, 0.5), &cuboid(0.5, 0.4, 0.3)),
+        27,
+    );
+}
+
 /// The command line end to end: JSON with the documented keys, and a clear
 /// error for a bad shape.
 #[test]

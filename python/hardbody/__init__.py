@@ -34,6 +34,7 @@ from ._scene import (
     SimpleCubic,
     Triclinic,
     Compress,
+    ConvexPolyhedron,
     Cuboid,
     Dynamics,
     Ellipsoid,
@@ -60,6 +61,6 @@ __all__ = [
     "Accuracy", "Auto", "Bcc", "Cells", "Crystal", "Custom", "Densest", "Fcc", "Hcp",
     "SimpleCubic", "Triclinic", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
-    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder",
+    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder", "ConvexPolyhedron",
     "Superellipsoid", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
 ]

@@ -128,7 +128,16 @@ class Spherocylinder:
     length: float
 
 
-Shape = Union[Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder]
+@_variant
+@dataclass
+class ConvexPolyhedron:
+    """The convex hull of `vertices` (4 to 64 points (x, y, z)), which must
+    hold the body origin; the body's centre is the hull's centroid."""
+
+    vertices: List[Tuple[float, float, float]]
+
+
+Shape = Union[Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder, ConvexPolyhedron]
 
 
 @dataclass

@@ -100,6 +100,22 @@ def test_a_spherocylinder_round_trips_and_is_refused_for_dynamics_with_a_cuboid(
     assert "length must be" in str(e.value)
 
 
+def test_a_convex_polyhedron_round_trips_and_bad_vertices_are_refused():
+    tetra = hb.ConvexPolyhedron([(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)])
+    scene = hb.Scene(box=(12, 12, 12), species=[hb.Species("t", tetra, 8)],
+                     stages=[hb.MonteCarlo(ensemble=hb.Nvt(), sweeps=10)])
+    assert "ConvexPolyhedron(" in scene.to_ron()
+    assert hb.Scene.from_ron(scene.to_ron()) == scene
+    assert scene.plan()["pairs"][0]["distance"] == "GJK/EPA"
+    with pytest.raises(hb.SceneError) as e:
+        flat = hb.ConvexPolyhedron([(1, 0, 0), (0, 1, 0), (-1, 0, 0), (0, -1, 0)])
+        hb.Scene(box=(12, 12, 12), species=[hb.Species("f", flat, 8)], stages=[])
+    assert "one plane" in str(e.value)
+    with pytest.raises(hb.SceneError) as e:
+        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", tetra, 8)], stages=[hb.Dynamics(duration=1.0)])
+    assert e.value.field == "stages[0]"
+
+
 def test_refusals_name_the_field_as_the_command_line_does():
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(8, 8, 8), species=[hb.Species("a", hb.Sphere(0.5), 0)], stages=[])

@@ -171,7 +171,7 @@ pub fn degrees_of_freedom(shape: &Shape) -> usize {
         Shape::Sphere(_) => 3,
         Shape::Ellipsoid(e) => round(e.semi_axes(), V3::repeat(2.0)),
         Shape::Superellipsoid(s) => round(s.semi_axes(), s.exponents()),
-        Shape::Cuboid(_) => 0,
+        Shape::Cuboid(_) | Shape::ConvexPolyhedron(_) => 0,
         // Round about its axis only.
         Shape::Spherocylinder(_) => 1,
     };

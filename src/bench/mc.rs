@@ -83,7 +83,10 @@ pub fn dense_start(shape: &Shape, n: usize, phi: f64) -> Result<System, StateErr
                 }
             }
         }
-        Shape::Cuboid(_) | Shape::Superellipsoid(_) | Shape::Spherocylinder(_) => {
+        Shape::Cuboid(_)
+        | Shape::Superellipsoid(_)
+        | Shape::Spherocylinder(_)
+        | Shape::ConvexPolyhedron(_) => {
             let cells = (n as f64).cbrt().round() as usize;
             let h = shape.obb_half_extents() * 2.0;
             let spacing = (v / phi / h.product()).cbrt();

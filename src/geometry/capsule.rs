@@ -57,7 +57,7 @@ pub fn bounding_capsule(shape: &Shape) -> (usize, Capsule) {
             half_length: s.half_length(),
             radius: s.radius(),
         },
-        Shape::Superellipsoid(_) | Shape::Cuboid(_) => Capsule {
+        Shape::Superellipsoid(_) | Shape::Cuboid(_) | Shape::ConvexPolyhedron(_) => Capsule {
             half_length: h[k],
             radius: (b * b + c * c).sqrt(),
         },

@@ -21,5 +21,8 @@ pub use contact::{Contact, Failure, Method, Relative, Status, WarmStart};
 pub use newton::{NewtonOptions, NewtonSystem, SteepestDescent};
 pub use obb::Obb;
 pub use pair::{DistanceOptions, Placed, distance, overlap, placed_overlap};
-pub use shape::{Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Spherocylinder, Superellipsoid};
+pub use polyhedron::{Polyhedron, PolyhedronError};
+pub use shape::{
+    ConvexPolyhedron, Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Spherocylinder, Superellipsoid,
+};
 pub use spec::{ShapeParseError, ShapeSpec};

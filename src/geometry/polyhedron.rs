@@ -75,6 +75,8 @@ pub struct Face {
 /// solid's centroid; see [`Polyhedron::shift`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Polyhedron {
+    /// The points as given (what the shape is written as).
+    given: Vec<V3>,
     vertices: Vec<V3>,
     faces: Vec<Face>,
     edges: Vec<(usize, usize)>,
@@ -147,6 +149,13 @@ impl Polyhedron {
                 centroid: [centroid.x, centroid.y, centroid.z],
             });
         }
+        // Points centred already (within rounding) are kept as given, so
+        // that a hull's own corners give back the same hull to the bit.
+        let centroid = if centroid.norm() <= tol {
+            V3::zeros()
+        } else {
+            centroid
+        };
         let vertices: Vec<V3> = given.iter().map(|v| v - centroid).collect();
         let faces: Vec<Face> = faces
             .into_iter()
@@ -166,6 +175,7 @@ impl Polyhedron {
             }
         }
         let mut polyhedron = Self {
+            given: points.to_vec(),
             vertices,
             faces,
             edges,
@@ -183,6 +193,11 @@ impl Polyhedron {
         polyhedron.mean_curvature = polyhedron.integral_mean_curvature();
         polyhedron.second_moment = polyhedron.second_moment_about_origin();
         Ok(polyhedron)
+    }
+
+    /// The points as given, before the hull and the shift.
+    pub fn given(&self) -> &[V3] {
+        &self.given
     }
 
     /// The hull's corners, about the centroid.
@@ -307,6 +322,81 @@ impl Polyhedron {
         }
         sum
     }
+}
+
+/// The convex polyhedron shape: a hull kept for the life of the program
+/// (so that the shape stays a small `Copy` value, as every shape is), at
+/// a scale (a growing body's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConvexPolyhedron {
+    hull: &'static Polyhedron,
+    scale: f64,
+}
+
+impl ConvexPolyhedron {
+    /// The polyhedron of `points` at scale 1 ([`Polyhedron::new`]'s
+    /// refusals). Polyhedra of the same points share one hull.
+    pub fn new(points: &[V3]) -> Result<Self, PolyhedronError> {
+        Ok(Self {
+            hull: intern(points)?,
+            scale: 1.0,
+        })
+    }
+
+    /// The hull at scale 1.
+    pub fn hull(&self) -> &'static Polyhedron {
+        self.hull
+    }
+
+    /// The factor every length of the hull is multiplied by.
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// The same body `factor` times larger: the polyhedron of its corners
+    /// scaled (so that it is, to the bit, the shape its record reads back
+    /// to; each new size is a new hull kept for the program's life).
+    pub fn scaled(&self, factor: f64) -> Self {
+        let scale = self.scale * factor;
+        let corners: Vec<V3> = self.hull.vertices.iter().map(|v| v * scale).collect();
+        match intern(&corners) {
+            Ok(hull) => Self { hull, scale: 1.0 },
+            // Sizes so far from 1 that the corners underflow or overflow.
+            Err(_) => Self {
+                hull: self.hull,
+                scale,
+            },
+        }
+    }
+
+    /// The corner farthest along `dir`.
+    #[inline]
+    pub fn support(&self, dir: &V3) -> V3 {
+        self.hull.support(dir) * self.scale
+    }
+}
+
+/// The hull of `points`, built once per distinct set of points (compared
+/// bit for bit) and kept for the life of the program.
+fn intern(points: &[V3]) -> Result<&'static Polyhedron, PolyhedronError> {
+    static HULLS: std::sync::Mutex<Vec<&'static Polyhedron>> = std::sync::Mutex::new(Vec::new());
+    let same = |p: &Polyhedron| {
+        p.given.len() == points.len()
+            && (p.given.iter().zip(points)).all(|(a, b)| {
+                a.iter()
+                    .zip(b.iter())
+                    .all(|(x, y)| x.to_bits() == y.to_bits())
+            })
+    };
+    let mut hulls = HULLS
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some(known) = hulls.iter().find(|p| same(p)) {
+        return Ok(known);
+    }
+    let hull: &'static Polyhedron = Box::leak(Box::new(Polyhedron::new(points)?));
+    hulls.push(hull);
+    Ok(hull)
 }
 
 /// The triangles (a, b, c) of each face's fan, counter-clockwise seen

@@ -4,10 +4,14 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::shape::{Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Spherocylinder, Superellipsoid};
+use super::shape::{
+    ConvexPolyhedron, Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Spherocylinder, Superellipsoid,
+};
+
+type V3 = nalgebra::Vector3<f64>;
 
 /// The scene spelling of a shape (docs/CONVENTIONS.md), before validation.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum ShapeSpec {
     /// `Sphere(radius: r)`
@@ -53,6 +57,13 @@ pub enum ShapeSpec {
         /// centres).
         length: f64,
     },
+    /// `ConvexPolyhedron(vertices: [(x, y, z), ...])`: the convex hull of
+    /// the points, which must hold the body origin; the body's centre is
+    /// the hull's centroid.
+    ConvexPolyhedron {
+        /// The points (4 to 64) whose hull the body is.
+        vertices: Vec<(f64, f64, f64)>,
+    },
 }
 
 impl TryFrom<ShapeSpec> for Shape {
@@ -67,6 +78,10 @@ impl TryFrom<ShapeSpec> for Shape {
             ShapeSpec::Cuboid { a, b, c } => Shape::Cuboid(Cuboid::new(a, b, c)?),
             ShapeSpec::Spherocylinder { radius, length } => {
                 Shape::Spherocylinder(Spherocylinder::new(radius, length)?)
+            }
+            ShapeSpec::ConvexPolyhedron { vertices } => {
+                let points: Vec<V3> = vertices.iter().map(|&(x, y, z)| V3::new(x, y, z)).collect();
+                Shape::ConvexPolyhedron(ConvexPolyhedron::new(&points)?)
             }
         })
     }
@@ -97,6 +112,14 @@ impl From<Shape> for ShapeSpec {
             Shape::Spherocylinder(s) => ShapeSpec::Spherocylinder {
                 radius: s.radius(),
                 length: 2.0 * s.half_length(),
+            },
+            Shape::ConvexPolyhedron(p) => ShapeSpec::ConvexPolyhedron {
+                vertices: (p.hull().given().iter())
+                    .map(|v| {
+                        let v = v * p.scale();
+                        (v.x, v.y, v.z)
+                    })
+                    .collect(),
             },
         }
     }

@@ -65,6 +65,18 @@ pub fn type_shape(shape: &Shape) -> String {
             -s.half_length(),
             s.half_length()
         ),
+        Shape::ConvexPolyhedron(p) => {
+            let vertices: Vec<String> = (p.hull().vertices().iter())
+                .map(|v| {
+                    let v = v * p.scale();
+                    format!("[{}, {}, {}]", v.x, v.y, v.z)
+                })
+                .collect();
+            format!(
+                r#"{{"type": "ConvexPolyhedron", "rounding_radius": 0, "vertices": [{}]}}"#,
+                vertices.join(", ")
+            )
+        }
         Shape::Superellipsoid(_) => {
             let (points, indices) = body_mesh(shape);
             let vertices: Vec<String> = points

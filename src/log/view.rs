@@ -142,7 +142,9 @@ impl SceneView {
                     size: size(c.half_extents()),
                     color,
                 }),
-                Shape::Superellipsoid(_) | Shape::Spherocylinder(_) => {
+                Shape::Superellipsoid(_)
+                | Shape::Spherocylinder(_)
+                | Shape::ConvexPolyhedron(_) => {
                     let (points, indices) = grown_meshes[s as usize]
                         .clone()
                         .or_else(|| look.mesh.clone())
@@ -218,7 +220,10 @@ impl SceneView {
 /// Whether the shape is drawn as a triangle mesh (no Foxglove primitive
 /// fits it).
 fn has_mesh(shape: &Shape) -> bool {
-    matches!(shape, Shape::Superellipsoid(_) | Shape::Spherocylinder(_))
+    matches!(
+        shape,
+        Shape::Superellipsoid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_)
+    )
 }
 
 /// How far from the centre along the unit direction `u` (body frame) the
@@ -246,10 +251,28 @@ fn radial_extent(shape: &Shape, u: &Vector3<f64>) -> f64 {
     }
 }
 
-/// A body-frame triangle mesh of a body's surface (superellipsoids and
-/// spherocylinders): directions on a latitude–longitude grid, each scaled
-/// to the surface by [`radial_extent`].
+/// A body-frame triangle mesh of a body's surface: a polyhedron's faces
+/// as fans of triangles; for superellipsoids and spherocylinders,
+/// directions on a latitude–longitude grid, each scaled to the surface by
+/// [`radial_extent`].
 pub(crate) fn body_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
+    if let Shape::ConvexPolyhedron(p) = shape {
+        let points = (p.hull().vertices().iter())
+            .map(|v| Point3 {
+                x: v.x * p.scale(),
+                y: v.y * p.scale(),
+                z: v.z * p.scale(),
+            })
+            .collect();
+        let indices = (p.hull().faces().iter())
+            .flat_map(|f| {
+                (1..f.vertices.len() - 1)
+                    .flat_map(move |k| [f.vertices[0], f.vertices[k], f.vertices[k + 1]])
+            })
+            .map(|i| i as u32)
+            .collect();
+        return (points, indices);
+    }
     let surface = |u: Vector3<f64>| {
         let t = radial_extent(shape, &u);
         Point3 {

@@ -331,8 +331,22 @@ impl Scene {
             Start::Resume(_) => None,
             _ => Some(phi0),
         };
+        let polyhedron =
+            (self.species.iter()).find(|s| matches!(s.shape, Shape::ConvexPolyhedron(_)));
         for (i, st) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stages[{i}].{name}");
+            if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
+                && let Some(polyhedron) = polyhedron
+            {
+                return bad(
+                    &format!("stages[{i}]"),
+                    format!(
+                        "species \"{}\" is a convex polyhedron: {} stages do not simulate polyhedra yet (Monte Carlo stages do)",
+                        polyhedron.name,
+                        st.kind()
+                    ),
+                );
+            }
             if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
                 && let (Some(rod), Some(other)) = (rod, other)
             {

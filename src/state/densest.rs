@@ -53,6 +53,9 @@ impl UnitCell {
             Shape::Spherocylinder(_) => Err(CrystalError::NoDensest(format!(
                 "{shape}: the densest packings of spherocylinders are not lattices this tool builds yet; give the lattice with Custom"
             ))),
+            Shape::ConvexPolyhedron(_) => Err(CrystalError::NoDensest(format!(
+                "{shape}: the densest lattice packings of polyhedra are not built by this tool yet; give the lattice with Custom"
+            ))),
             Shape::Superellipsoid(s) => {
                 let n = s.exponents();
                 if n.x != n.y || n.y != n.z {

@@ -187,7 +187,9 @@ pub fn cuboid_smooth_oracle(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         Shape::Sphere(s) => box_min_implicit(&h, s, rel) <= 0.0,
         Shape::Ellipsoid(e) => box_min_implicit(&h, e, rel) <= 0.0,
         Shape::Superellipsoid(q) => box_min_implicit(&h, q, rel) <= 0.0,
-        Shape::Cuboid(_) | Shape::Spherocylinder(_) => panic!("B must be smooth"),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => {
+            panic!("B must be smooth")
+        }
     }
 }
 
@@ -200,7 +202,7 @@ pub fn newton_oracle(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
             Shape::Sphere(y) => decide(a, y, rel),
             Shape::Ellipsoid(y) => decide(a, y, rel),
             Shape::Superellipsoid(y) => decide(a, y, rel),
-            Shape::Cuboid(_) | Shape::Spherocylinder(_) => None,
+            Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => None,
         }
     }
     fn decide<A: SmoothSurface, B: SmoothSurface>(a: &A, b: &B, rel: &Relative) -> Option<bool> {
@@ -239,7 +241,7 @@ pub fn newton_oracle(a: &Shape, b: &Shape, rel: &Relative) -> Option<bool> {
         Shape::Sphere(x) => inner(x, b, rel),
         Shape::Ellipsoid(x) => inner(x, b, rel),
         Shape::Superellipsoid(x) => inner(x, b, rel),
-        Shape::Cuboid(_) | Shape::Spherocylinder(_) => None,
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => None,
     }
 }
 

@@ -12,6 +12,7 @@ mod cuboid_cuboid;
 mod cuboid_patch;
 mod cuboid_smooth;
 mod cuboid_sphere;
+mod polyhedron;
 mod quadric_quadric;
 mod smooth_smooth;
 mod sphere_sphere;
@@ -80,8 +81,13 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
     // the exact tests (Perram–Wertheim, GJK) that cost far more.
     let needs_obb = matches!(
         (a, b),
-        (Ellipsoid(_) | Superellipsoid(_) | Spherocylinder(_), _)
-            | (_, Ellipsoid(_) | Superellipsoid(_) | Spherocylinder(_))
+        (
+            Ellipsoid(_) | Superellipsoid(_) | Spherocylinder(_) | ConvexPolyhedron(_),
+            _
+        ) | (
+            _,
+            Ellipsoid(_) | Superellipsoid(_) | Spherocylinder(_) | ConvexPolyhedron(_)
+        )
     );
     if needs_obb
         && !crate::geometry::obb::boxes_overlap(
@@ -94,6 +100,7 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         return false;
     }
     match (a, b) {
+        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => polyhedron::overlap(a, b, rel),
         (Spherocylinder(_), _) | (_, Spherocylinder(_)) => spherocylinder::overlap(a, b, rel),
         (Sphere(p), Sphere(q)) => sphere_sphere::overlap(p, q, rel),
         (Cuboid(c), Sphere(s)) => cuboid_sphere::overlap(c, s, rel),
@@ -195,6 +202,9 @@ pub fn distance(
 ) -> Contact {
     use Shape::*;
     match (a, b) {
+        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => {
+            polyhedron::distance(a, b, rel, opts)
+        }
         (Spherocylinder(_), _) | (_, Spherocylinder(_)) => {
             spherocylinder::distance(a, b, rel, opts)
         }
@@ -401,6 +411,10 @@ pub use sphere_sphere::grown_contact_time_from_products as grown_sphere_contact_
 pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
     use Shape::*;
     match (a, b) {
+        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => (
+            "OBB, then GJK on support points (the distance where GJK cannot decide)",
+            "GJK/EPA",
+        ),
         (Spherocylinder(_), Spherocylinder(_) | Sphere(_)) | (Sphere(_), Spherocylinder(_)) => (
             "OBB, then segment distance",
             "closed form (closest points of the axis segments)",

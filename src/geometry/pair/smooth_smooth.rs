@@ -36,8 +36,8 @@ pub fn distance(
         Shape::Sphere(x) => with_b(x, a, b, rel, opts, warm),
         Shape::Ellipsoid(x) => with_b(x, a, b, rel, opts, warm),
         Shape::Superellipsoid(x) => with_b(x, a, b, rel, opts, warm),
-        Shape::Cuboid(_) | Shape::Spherocylinder(_) => {
-            unreachable!("smooth_smooth::distance called with a cuboid or a spherocylinder")
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => {
+            unreachable!("smooth_smooth::distance called with a body that is not smooth")
         }
     }
 }
@@ -54,8 +54,8 @@ fn with_b<A: SmoothSurface>(
         Shape::Sphere(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
         Shape::Ellipsoid(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
         Shape::Superellipsoid(y) => robust(a, y, shape_a, shape_b, rel, opts, warm),
-        Shape::Cuboid(_) | Shape::Spherocylinder(_) => {
-            unreachable!("smooth_smooth::distance called with a cuboid or a spherocylinder")
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => {
+            unreachable!("smooth_smooth::distance called with a body that is not smooth")
         }
     }
 }
@@ -181,7 +181,7 @@ pub fn support_points_start(a: &Shape, b: &Shape, rel: &Relative, hint: &V3) -> 
         Shape::Sphere(q) => q.implicit(x).gradient.norm(),
         Shape::Ellipsoid(q) => q.implicit(x).gradient.norm(),
         Shape::Superellipsoid(q) => q.implicit(x).gradient.norm(),
-        Shape::Cuboid(_) | Shape::Spherocylinder(_) => unreachable!(),
+        Shape::Cuboid(_) | Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_) => unreachable!(),
     };
     Some(balanced_start(
         xa,
