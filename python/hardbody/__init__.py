@@ -31,11 +31,14 @@ from ._scene import (
     Densest,
     Fcc,
     Hcp,
+    Icosahedron,
     SimpleCubic,
     Triclinic,
     Compress,
     ConvexPolyhedron,
+    Cube,
     Cuboid,
+    Dodecahedron,
     Dynamics,
     Ellipsoid,
     Jam,
@@ -46,6 +49,7 @@ from ._scene import (
     MonteCarlo,
     Npt,
     Nvt,
+    Octahedron,
     Random,
     Resume,
     Scene,
@@ -53,6 +57,8 @@ from ._scene import (
     Sphere,
     Spherocylinder,
     Superellipsoid,
+    Tetrahedron,
+    TruncatedOctahedron,
 )
 
 __version__ = _core.__version__
@@ -62,5 +68,6 @@ __all__ = [
     "SimpleCubic", "Triclinic", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
     "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder", "ConvexPolyhedron",
+    "Tetrahedron", "Cube", "Octahedron", "Dodecahedron", "Icosahedron", "TruncatedOctahedron",
     "Superellipsoid", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
 ]

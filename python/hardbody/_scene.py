@@ -137,7 +137,58 @@ class ConvexPolyhedron:
     vertices: List[Tuple[float, float, float]]
 
 
-Shape = Union[Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder, ConvexPolyhedron]
+@_variant
+@dataclass
+class Tetrahedron:
+    """The regular tetrahedron of edge `edge`, a convex polyhedron."""
+
+    edge: float
+
+
+@_variant
+@dataclass
+class Cube:
+    """The cube of edge `edge` as a convex polyhedron (`Cuboid` is the same body, faster)."""
+
+    edge: float
+
+
+@_variant
+@dataclass
+class Octahedron:
+    """The regular octahedron of edge `edge`, a convex polyhedron."""
+
+    edge: float
+
+
+@_variant
+@dataclass
+class Dodecahedron:
+    """The regular dodecahedron of edge `edge`, a convex polyhedron."""
+
+    edge: float
+
+
+@_variant
+@dataclass
+class Icosahedron:
+    """The regular icosahedron of edge `edge`, a convex polyhedron."""
+
+    edge: float
+
+
+@_variant
+@dataclass
+class TruncatedOctahedron:
+    """The truncated octahedron of edge `edge`, a convex polyhedron."""
+
+    edge: float
+
+
+Shape = Union[
+    Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder, ConvexPolyhedron,
+    Tetrahedron, Cube, Octahedron, Dodecahedron, Icosahedron, TruncatedOctahedron,
+]
 
 
 @dataclass

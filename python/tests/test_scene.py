@@ -114,6 +114,10 @@ def test_a_convex_polyhedron_round_trips_and_bad_vertices_are_refused():
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(12, 12, 12), species=[hb.Species("t", tetra, 8)], stages=[hb.Dynamics(duration=1.0)])
     assert e.value.field == "stages[0]"
+    named = hb.Scene(box=(12, 12, 12), species=[hb.Species("o", hb.Octahedron(edge=1.0), 8)],
+                     stages=[hb.MonteCarlo(ensemble=hb.Nvt(), sweeps=10)])
+    assert "Octahedron(" in named.to_ron() and "vertices" not in named.to_ron()
+    assert hb.Scene.from_ron(named.to_ron()) == named
 
 
 def test_refusals_name_the_field_as_the_command_line_does():

@@ -14,6 +14,7 @@ pub mod pair;
 pub mod polyhedron;
 pub mod roots;
 pub mod shape;
+pub mod solids;
 pub mod spec;
 pub mod symmetry;
 

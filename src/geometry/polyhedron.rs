@@ -45,6 +45,9 @@ pub enum PolyhedronError {
     /// All points on one plane: the hull has no volume.
     #[error("the vertices all lie on one plane (the polyhedron would be flat)")]
     Flat,
+    /// A named solid's edge length that is not finite and > 0.
+    #[error("edge must be a finite number > 0, got {0}")]
+    Edge(f64),
     /// The body origin is not strictly inside the hull.
     #[error(
         "the body origin (0, 0, 0) must lie inside the hull of the vertices; \
@@ -77,6 +80,9 @@ pub struct Face {
 pub struct Polyhedron {
     /// The points as given (what the shape is written as).
     given: Vec<V3>,
+    /// The named solid and edge length the points are the corners of,
+    /// where the shape was given so.
+    named: Option<(super::solids::Solid, f64)>,
     vertices: Vec<V3>,
     faces: Vec<Face>,
     edges: Vec<(usize, usize)>,
@@ -176,6 +182,7 @@ impl Polyhedron {
         }
         let mut polyhedron = Self {
             given: points.to_vec(),
+            named: None,
             vertices,
             faces,
             edges,
@@ -193,6 +200,11 @@ impl Polyhedron {
         polyhedron.mean_curvature = polyhedron.integral_mean_curvature();
         polyhedron.second_moment = polyhedron.second_moment_about_origin();
         Ok(polyhedron)
+    }
+
+    /// The named solid and its edge length, where the shape was given so.
+    pub fn named(&self) -> Option<(super::solids::Solid, f64)> {
+        self.named
     }
 
     /// The points as given, before the hull and the shift.
@@ -338,7 +350,18 @@ impl ConvexPolyhedron {
     /// refusals). Polyhedra of the same points share one hull.
     pub fn new(points: &[V3]) -> Result<Self, PolyhedronError> {
         Ok(Self {
-            hull: intern(points)?,
+            hull: intern(points, None)?,
+            scale: 1.0,
+        })
+    }
+
+    /// The named solid of edge length `edge` (> 0), centred on its centroid.
+    pub fn solid(solid: super::solids::Solid, edge: f64) -> Result<Self, PolyhedronError> {
+        if !(edge.is_finite() && edge > 0.0) {
+            return Err(PolyhedronError::Edge(edge));
+        }
+        Ok(Self {
+            hull: intern(&solid.corners(edge), Some((solid, edge)))?,
             scale: 1.0,
         })
     }
@@ -359,7 +382,7 @@ impl ConvexPolyhedron {
     pub fn scaled(&self, factor: f64) -> Self {
         let scale = self.scale * factor;
         let corners: Vec<V3> = self.hull.vertices.iter().map(|v| v * scale).collect();
-        match intern(&corners) {
+        match intern(&corners, None) {
             Ok(hull) => Self { hull, scale: 1.0 },
             // Sizes so far from 1 that the corners underflow or overflow.
             Err(_) => Self {
@@ -378,10 +401,14 @@ impl ConvexPolyhedron {
 
 /// The hull of `points`, built once per distinct set of points (compared
 /// bit for bit) and kept for the life of the program.
-fn intern(points: &[V3]) -> Result<&'static Polyhedron, PolyhedronError> {
+fn intern(
+    points: &[V3],
+    named: Option<(super::solids::Solid, f64)>,
+) -> Result<&'static Polyhedron, PolyhedronError> {
     static HULLS: std::sync::Mutex<Vec<&'static Polyhedron>> = std::sync::Mutex::new(Vec::new());
     let same = |p: &Polyhedron| {
-        p.given.len() == points.len()
+        p.named.map(|(s, e)| (s, e.to_bits())) == named.map(|(s, e)| (s, e.to_bits()))
+            && p.given.len() == points.len()
             && (p.given.iter().zip(points)).all(|(a, b)| {
                 a.iter()
                     .zip(b.iter())
@@ -394,7 +421,10 @@ fn intern(points: &[V3]) -> Result<&'static Polyhedron, PolyhedronError> {
     if let Some(known) = hulls.iter().find(|p| same(p)) {
         return Ok(known);
     }
-    let hull: &'static Polyhedron = Box::leak(Box::new(Polyhedron::new(points)?));
+    let hull: &'static Polyhedron = Box::leak(Box::new(Polyhedron {
+        named,
+        ..Polyhedron::new(points)?
+    }));
     hulls.push(hull);
     Ok(hull)
 }

@@ -8,6 +8,8 @@ use super::shape::{
     ConvexPolyhedron, Cuboid, Ellipsoid, Shape, ShapeError, Sphere, Spherocylinder, Superellipsoid,
 };
 
+use super::solids::Solid;
+
 type V3 = nalgebra::Vector3<f64>;
 
 /// The scene spelling of a shape (docs/CONVENTIONS.md), before validation.
@@ -64,11 +66,75 @@ pub enum ShapeSpec {
         /// The points (4 to 64) whose hull the body is.
         vertices: Vec<(f64, f64, f64)>,
     },
+    /// `Tetrahedron(edge: )`: the regular tetrahedron, a polyhedron.
+    Tetrahedron {
+        /// Edge length.
+        edge: f64,
+    },
+    /// `Cube(edge: )`: the cube as a polyhedron (`Cuboid` is the same body
+    /// by the separating axes, faster).
+    Cube {
+        /// Edge length.
+        edge: f64,
+    },
+    /// `Octahedron(edge: )`: the regular octahedron, a polyhedron.
+    Octahedron {
+        /// Edge length.
+        edge: f64,
+    },
+    /// `Dodecahedron(edge: )`: the regular dodecahedron, a polyhedron.
+    Dodecahedron {
+        /// Edge length.
+        edge: f64,
+    },
+    /// `Icosahedron(edge: )`: the regular icosahedron, a polyhedron.
+    Icosahedron {
+        /// Edge length.
+        edge: f64,
+    },
+    /// `TruncatedOctahedron(edge: )`: the truncated octahedron, a
+    /// polyhedron.
+    TruncatedOctahedron {
+        /// Edge length.
+        edge: f64,
+    },
+}
+
+impl ShapeSpec {
+    /// The named solid and its edge, for the spellings of one.
+    fn solid(&self) -> Option<(Solid, f64)> {
+        Some(match *self {
+            ShapeSpec::Tetrahedron { edge } => (Solid::Tetrahedron, edge),
+            ShapeSpec::Cube { edge } => (Solid::Cube, edge),
+            ShapeSpec::Octahedron { edge } => (Solid::Octahedron, edge),
+            ShapeSpec::Dodecahedron { edge } => (Solid::Dodecahedron, edge),
+            ShapeSpec::Icosahedron { edge } => (Solid::Icosahedron, edge),
+            ShapeSpec::TruncatedOctahedron { edge } => (Solid::TruncatedOctahedron, edge),
+            _ => return None,
+        })
+    }
+
+    /// The spelling of a named solid.
+    fn of_solid(solid: Solid, edge: f64) -> Self {
+        match solid {
+            Solid::Tetrahedron => ShapeSpec::Tetrahedron { edge },
+            Solid::Cube => ShapeSpec::Cube { edge },
+            Solid::Octahedron => ShapeSpec::Octahedron { edge },
+            Solid::Dodecahedron => ShapeSpec::Dodecahedron { edge },
+            Solid::Icosahedron => ShapeSpec::Icosahedron { edge },
+            Solid::TruncatedOctahedron => ShapeSpec::TruncatedOctahedron { edge },
+        }
+    }
 }
 
 impl TryFrom<ShapeSpec> for Shape {
     type Error = ShapeError;
     fn try_from(spec: ShapeSpec) -> Result<Self, ShapeError> {
+        if let Some((solid, edge)) = spec.solid() {
+            return Ok(Shape::ConvexPolyhedron(ConvexPolyhedron::solid(
+                solid, edge,
+            )?));
+        }
         Ok(match spec {
             ShapeSpec::Sphere { radius } => Shape::Sphere(Sphere::new(radius)?),
             ShapeSpec::Ellipsoid { a, b, c } => Shape::Ellipsoid(Ellipsoid::new(a, b, c)?),
@@ -83,6 +149,12 @@ impl TryFrom<ShapeSpec> for Shape {
                 let points: Vec<V3> = vertices.iter().map(|&(x, y, z)| V3::new(x, y, z)).collect();
                 Shape::ConvexPolyhedron(ConvexPolyhedron::new(&points)?)
             }
+            ShapeSpec::Tetrahedron { .. }
+            | ShapeSpec::Cube { .. }
+            | ShapeSpec::Octahedron { .. }
+            | ShapeSpec::Dodecahedron { .. }
+            | ShapeSpec::Icosahedron { .. }
+            | ShapeSpec::TruncatedOctahedron { .. } => unreachable!("named solids built above"),
         })
     }
 }
@@ -113,13 +185,16 @@ impl From<Shape> for ShapeSpec {
                 radius: s.radius(),
                 length: 2.0 * s.half_length(),
             },
-            Shape::ConvexPolyhedron(p) => ShapeSpec::ConvexPolyhedron {
-                vertices: (p.hull().given().iter())
-                    .map(|v| {
-                        let v = v * p.scale();
-                        (v.x, v.y, v.z)
-                    })
-                    .collect(),
+            Shape::ConvexPolyhedron(p) => match p.hull().named().filter(|_| p.scale() == 1.0) {
+                Some((solid, edge)) => ShapeSpec::of_solid(solid, edge),
+                None => ShapeSpec::ConvexPolyhedron {
+                    vertices: (p.hull().given().iter())
+                        .map(|v| {
+                            let v = v * p.scale();
+                            (v.x, v.y, v.z)
+                        })
+                        .collect(),
+                },
             },
         }
     }

@@ -4,7 +4,8 @@
 //! `cargo bench --bench mc` from `benches/peers/` (`QUICK=1` for a short run).
 //!
 //! Systems (φ = 0.5, N ≈ 4096): spheres; ellipsoids a = 2.5, b = c = 0.5
-//! (the shape of HOOMD's benchmark harness); cubes. Both codes start from
+//! (the shape of HOOMD's benchmark harness); cubes; cubes and tetrahedra
+//! (φ = 0.3) as convex polyhedra of their corners. Both codes start from
 //! hardbody's dense lattice start, equilibrated by hardbody for 60 sweeps,
 //! and each tunes its own move sizes to 30 % acceptance (hardbody draws
 //! translations from a cube, hoomd-mc from a ball, so equal acceptance is
@@ -23,7 +24,7 @@ use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::tuning::Tuner;
 use hardbody::state::{Particle, System};
 use hoomd_geometry::Convex;
-use hoomd_geometry::shape::{Hypercuboid, Hyperellipsoid};
+use hoomd_geometry::shape::{ConvexPolyhedron, Hypercuboid, Hyperellipsoid};
 use hoomd_interaction::PairwiseCutoff;
 use hoomd_interaction::pairwise::{HardShape, HardSphere};
 use hoomd_mc::{Count, Rotate, Sweep, Translate, Trial, tune_by_scaling};
@@ -314,6 +315,45 @@ fn main() {
         ));
     }
     report("cubes", system.len(), pick(&mut a), pick(&mut b));
+
+    // Polyhedra: ours through GJK on the hull's corners, theirs
+    // (XenoCollide) on the same corners.
+    let corners = |points: &[[f64; 3]]| {
+        let text: Vec<String> = (points.iter())
+            .map(|p| format!("({}, {}, {})", p[0], p[1], p[2]))
+            .collect();
+        let ours: Shape = format!("ConvexPolyhedron(vertices: [{}])", text.join(", "))
+            .parse()
+            .unwrap();
+        let theirs = Convex(
+            ConvexPolyhedron::with_vertices(points.iter().map(|&p| p.into()).collect::<Vec<_>>())
+                .unwrap(),
+        );
+        (ours, theirs)
+    };
+    let cube_corners: Vec<[f64; 3]> = (0..8)
+        .map(|k| [0, 1, 2].map(|a| if k >> a & 1 == 1 { 0.5 } else { -0.5 }))
+        .collect();
+    let tetrahedron = [
+        [0.5, 0.5, 0.5],
+        [0.5, -0.5, -0.5],
+        [-0.5, 0.5, -0.5],
+        [-0.5, -0.5, 0.5],
+    ];
+    for (name, points, phi) in [
+        ("cubes as polyhedra", &cube_corners[..], 0.5),
+        ("tetrahedra", &tetrahedron[..], 0.3),
+    ] {
+        let (shape, g) = corners(points);
+        let mut system = dense_start(&shape, n, phi).unwrap();
+        let range = 2.0 * shape.bounding_radius();
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for _ in 0..rounds {
+            a.push(ours(&mut system, repeats, sweeps));
+            b.push(theirs_oriented(&system, g.clone(), range, repeats, sweeps));
+        }
+        report(name, system.len(), pick(&mut a), pick(&mut b));
+    }
 }
 
 /// The median rate of the rounds, with its acceptance.

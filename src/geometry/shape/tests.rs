@@ -130,6 +130,14 @@ fn parses_scene_spelling_and_round_trips() {
     let err = "Sphere(radius: -1.0)".parse::<Shape>().unwrap_err();
     assert!(err.to_string().contains("radius"), "{err}");
     assert!("Sphere(radius: 1.0, colour: 2)".parse::<Shape>().is_err());
+    // A named solid is written by its name, and is the polyhedron of its
+    // corners.
+    let t: Shape = "Tetrahedron(edge: 1.5)".parse().unwrap();
+    assert_eq!(t.to_string(), "Tetrahedron(edge:1.5)");
+    assert_eq!(t.to_string().parse::<Shape>().unwrap(), t);
+    assert!((t.volume() - 1.5f64.powi(3) / (6.0 * 2f64.sqrt())).abs() < 1e-12);
+    let err = "Octahedron(edge: -1.0)".parse::<Shape>().unwrap_err();
+    assert!(err.to_string().contains("edge"), "{err}");
 }
 
 /// A shape grown chunk by chunk (scaled again and again) is, to the
