@@ -12,7 +12,6 @@ use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use std::sync::atomic::AtomicBool;
 
 type V3 = Vector3<f64>;
 
@@ -143,46 +142,19 @@ fn averages(
     stages: &str,
     wanted: &[(usize, &str)],
 ) -> Vec<(f64, f64, bool)> {
-    use hardbody::log::averages::{over_replicas, stage_averages};
-    use hardbody::log::read::read_log;
-    use hardbody::run::{Silent, run_scene};
-    use hardbody::scene::Scene;
-    let dir = std::env::temp_dir().join(format!("hardbody-polyhedra-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let runs: Vec<Vec<_>> = (0..2)
-        .map(|replica| {
-            let text = format!(
-                r#"Scene(
+    let scene = |replica: u64| {
+        format!(
+            r#"Scene(
     seed: {},
     box: (12.0, 12.0, 12.0),
     species: [Species(name: "cube", shape: {shape}, count: 125)],
     stages: [{stages}],
     log: Log(path: "unused.mcap", stats_every: 50, frames_every: 1000000),
 )"#,
-                seed + replica
-            );
-            let log = dir.join(format!("{seed}-{replica}.mcap"));
-            let scene = Scene::parse(&text).unwrap();
-            run_scene(&scene, &text, &log, &mut Silent, &AtomicBool::new(false)).unwrap();
-            let stats: Vec<_> = (read_log(&log, false).unwrap().stats.into_iter())
-                .map(|(_, s)| s)
-                .collect();
-            let _ = std::fs::remove_file(&log);
-            let averages = stage_averages(&stats);
-            (wanted.iter())
-                .map(|&(index, name)| {
-                    let stage = averages.iter().find(|s| s.stage_index == index).unwrap();
-                    stage.observables[name].estimate
-                })
-                .collect()
-        })
-        .collect();
-    (0..wanted.len())
-        .map(|k| {
-            let a = over_replicas(&[runs[0][k], runs[1][k]]);
-            (a.mean, a.error, a.equilibrated)
-        })
-        .collect()
+            seed + replica
+        )
+    };
+    common::replica_averages("polyhedra", scene, wanted)
 }
 
 /// A unit cube as a `ConvexPolyhedron` of its corners and as a `Cuboid`:

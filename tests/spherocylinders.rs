@@ -12,7 +12,6 @@ use hardbody::analysis::order::nematic_order;
 use hardbody::geometry::Relative;
 use hardbody::mc::moves::{Counts, Ensemble, MoveSizes, sweep};
 use hardbody::mc::tuning::Tuner;
-use std::sync::atomic::AtomicBool;
 
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -72,46 +71,19 @@ fn a_dense_fluid_of_spherocylinders_stays_overlap_free_and_isotropic() {
 /// and returns, for each (stage index, observable) of `wanted`, its
 /// average over two replicas: mean, error, whether both equilibrated.
 fn rods_averages(seed: u64, stages: &str, wanted: &[(usize, &str)]) -> Vec<(f64, f64, bool)> {
-    use hardbody::log::averages::{over_replicas, stage_averages};
-    use hardbody::log::read::read_log;
-    use hardbody::run::{Silent, run_scene};
-    use hardbody::scene::Scene;
-    let dir = std::env::temp_dir().join(format!("hardbody-rods-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let runs: Vec<Vec<_>> = (0..2)
-        .map(|replica| {
-            let text = format!(
-                r#"Scene(
+    let scene = |replica: u64| {
+        format!(
+            r#"Scene(
     seed: {},
     box: (16.0, 16.0, 16.0),
     species: [Species(name: "rod", shape: Spherocylinder(radius: 0.5, length: 2.0), count: 128)],
     stages: [{stages}],
     log: Log(path: "unused.mcap", stats_every: 50, frames_every: 1000000),
 )"#,
-                seed + replica
-            );
-            let log = dir.join(format!("{seed}-{replica}.mcap"));
-            let scene = Scene::parse(&text).unwrap();
-            run_scene(&scene, &text, &log, &mut Silent, &AtomicBool::new(false)).unwrap();
-            let stats: Vec<_> = (read_log(&log, false).unwrap().stats.into_iter())
-                .map(|(_, s)| s)
-                .collect();
-            let _ = std::fs::remove_file(&log);
-            let averages = stage_averages(&stats);
-            (wanted.iter())
-                .map(|&(index, name)| {
-                    let stage = averages.iter().find(|s| s.stage_index == index).unwrap();
-                    stage.observables[name].estimate
-                })
-                .collect()
-        })
-        .collect();
-    (0..wanted.len())
-        .map(|k| {
-            let a = over_replicas(&[runs[0][k], runs[1][k]]);
-            (a.mean, a.error, a.equilibrated)
-        })
-        .collect()
+            seed + replica
+        )
+    };
+    common::replica_averages("rods", scene, wanted)
 }
 
 /// Three routes to the isotropic fluid's equation of state of rods of

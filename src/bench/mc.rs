@@ -316,11 +316,14 @@ fn checked_row(
 }
 
 /// The shapes of the suite, in the scene spelling.
-const SHAPES: [&str; 4] = [
+/// (The cube twice: by the separating axes, and as a convex polyhedron
+/// through GJK.)
+const SHAPES: [&str; 5] = [
     "Sphere(radius: 0.5)",
     "Ellipsoid(a: 0.5, b: 0.5, c: 2.5)",
     "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))",
     "Cuboid(a: 0.5, b: 0.5, c: 0.5)",
+    "Cube(edge: 1.0)",
 ];
 
 /// A dense start of `shape` tuned to 30 % acceptance (`sweeps` sweeps),

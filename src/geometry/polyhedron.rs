@@ -92,6 +92,10 @@ pub struct Polyhedron {
     mean_curvature: f64,
     /// ∫ x xᵀ dV of the solid about its centroid.
     second_moment: Matrix3<f64>,
+    /// The farthest corner's distance and the corners' largest extents
+    /// along the body axes (asked for at every overlap test).
+    circumradius: f64,
+    half_extents: V3,
 }
 
 impl Polyhedron {
@@ -191,7 +195,14 @@ impl Polyhedron {
             area: 0.0,
             mean_curvature: 0.0,
             second_moment: Matrix3::zeros(),
+            circumradius: 0.0,
+            half_extents: V3::zeros(),
         };
+        polyhedron.circumradius = (polyhedron.vertices.iter())
+            .map(|v| v.norm())
+            .fold(0.0, f64::max);
+        polyhedron.half_extents =
+            (polyhedron.vertices.iter()).fold(V3::zeros(), |h, v| h.zip_map(&v.abs(), f64::max));
         polyhedron.area = polyhedron
             .faces
             .iter()
@@ -258,16 +269,16 @@ impl Polyhedron {
     }
 
     /// The farthest corner from the centroid: the bounding radius.
+    #[inline]
     pub fn circumradius(&self) -> f64 {
-        self.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max)
+        self.circumradius
     }
 
     /// The half-extents of the box along the body axes that holds the
     /// hull.
+    #[inline]
     pub fn half_extents(&self) -> V3 {
-        self.vertices
-            .iter()
-            .fold(V3::zeros(), |h, v| h.zip_map(&v.abs(), f64::max))
+        self.half_extents
     }
 
     /// The nearest face to the centroid: the inscribed radius about it.
@@ -574,14 +585,15 @@ mod tests {
     /// solids: tetrahedron of edge a, V = a³/(6√2), I = V a²/20 per unit
     /// mass·volume; cube of edge a, I = a²/6; octahedron of edge a,
     /// V = √2 a³/3, I = a²/10.
+    fn counts(p: &Polyhedron) -> (usize, usize, usize) {
+        (p.vertices().len(), p.edges().len(), p.faces().len())
+    }
+
     #[test]
     fn the_regular_solids_have_their_closed_forms() {
         let t = tetrahedron();
         let a = 8f64.sqrt();
-        assert_eq!(
-            (t.vertices().len(), t.edges().len(), t.faces().len()),
-            (4, 6, 4)
-        );
+        assert_eq!(counts(&t), (4, 6, 4));
         close(
             t.volume(),
             a.powi(3) / (6.0 * 2f64.sqrt()),
@@ -598,10 +610,7 @@ mod tests {
             close(t.inertia()[(k, k)], a * a / 20.0, "tetrahedron inertia");
         }
         let c = cube(0.5);
-        assert_eq!(
-            (c.vertices().len(), c.edges().len(), c.faces().len()),
-            (8, 12, 6)
-        );
+        assert_eq!(counts(&c), (8, 12, 6));
         close(c.volume(), 1.0, "cube volume");
         close(c.surface_area(), 6.0, "cube area");
         close(
@@ -614,10 +623,7 @@ mod tests {
         close(c.circumradius(), 0.75f64.sqrt(), "cube circumradius");
         let o = octahedron();
         let a = 2f64.sqrt();
-        assert_eq!(
-            (o.vertices().len(), o.edges().len(), o.faces().len()),
-            (6, 12, 8)
-        );
+        assert_eq!(counts(&o), (6, 12, 8));
         close(
             o.volume(),
             2f64.sqrt() * a.powi(3) / 3.0,
@@ -648,10 +654,7 @@ mod tests {
             [0.0, 0.0, -0.5],
         ]));
         let c = Polyhedron::new(&p).unwrap();
-        assert_eq!(
-            (c.vertices().len(), c.edges().len(), c.faces().len()),
-            (8, 12, 6)
-        );
+        assert_eq!(counts(&c), (8, 12, 6));
         let off = V3::new(0.05, -0.03, 0.02);
         let q = UnitQuaternion::from_euler_angles(0.3, -1.1, 0.7);
         let brick: Vec<V3> = (0..8)

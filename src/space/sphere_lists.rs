@@ -144,30 +144,28 @@ impl SphereLists {
         box_: &PeriodicBox,
         keep: impl Fn(usize) -> bool,
     ) -> bool {
-        if box_.is_tilted() {
-            self.touches_listed_in::<true>(i, centre, positions, box_, keep)
-        } else {
-            self.touches_listed_in::<false>(i, centre, positions, box_, keep)
-        }
-    }
-
-    /// [`Self::touches_listed`] in a box tilted (`TILTED`) or not.
-    #[inline(always)]
-    fn touches_listed_in<const TILTED: bool>(
-        &self,
-        i: usize,
-        centre: &V3,
-        positions: &(impl Index<usize, Output = V3> + ?Sized),
-        box_: &PeriodicBox,
-        keep: impl Fn(usize) -> bool,
-    ) -> bool {
         let ri = self.radii[i];
-        self.lists.of(i).iter().any(|&j| {
-            let j = j as usize;
-            let d = box_.minimum_image_near_as::<TILTED>(&(positions[j] - centre));
-            let reach = ri + self.radii[j];
-            d.norm_squared() <= reach * reach && keep(j)
-        })
+        let touches = |j: u32, d: V3| {
+            let reach = ri + self.radii[j as usize];
+            d.norm_squared() <= reach * reach && keep(j as usize)
+        };
+        let listed = self.lists.of(i);
+        // One loop per kind of box: the untilted one tests no tilt per sphere.
+        if box_.is_tilted() {
+            listed.iter().any(|&j| {
+                touches(
+                    j,
+                    box_.minimum_image_near_as::<true>(&(positions[j as usize] - centre)),
+                )
+            })
+        } else {
+            listed.iter().any(|&j| {
+                touches(
+                    j,
+                    box_.minimum_image_near_as::<false>(&(positions[j as usize] - centre)),
+                )
+            })
+        }
     }
 
     /// Records that sphere `i` now sits at `centre` (in the box):

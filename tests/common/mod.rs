@@ -365,3 +365,62 @@ pub fn cut_after_frames(bytes: &[u8], k: usize) -> usize {
     }
     hi
 }
+
+/// The averages of `wanted` (stage index, observable) over the replicas
+/// whose scene texts `scene_of(replica)` gives (two), each run to a log
+/// in a scratch folder named for `name`: mean, error, whether every
+/// replica equilibrated.
+#[allow(dead_code)]
+pub fn replica_averages(
+    name: &str,
+    scene_of: impl Fn(u64) -> String,
+    wanted: &[(usize, &str)],
+) -> Vec<(f64, f64, bool)> {
+    use hardbody::log::averages::{over_replicas, stage_averages};
+    use hardbody::log::read::read_log;
+    use hardbody::run::{Silent, run_scene};
+    use hardbody::scene::Scene;
+    let dir = std::env::temp_dir().join(format!("hardbody-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let runs: Vec<Vec<_>> = (0..2)
+        .map(|replica| {
+            let text = scene_of(replica);
+            let log = dir.join(format!("{replica}-{:x}.mcap", fxhash(&text)));
+            let scene = Scene::parse(&text).unwrap();
+            run_scene(
+                &scene,
+                &text,
+                &log,
+                &mut Silent,
+                &std::sync::atomic::AtomicBool::new(false),
+            )
+            .unwrap();
+            let stats: Vec<_> = (read_log(&log, false).unwrap().stats.into_iter())
+                .map(|(_, s)| s)
+                .collect();
+            let _ = std::fs::remove_file(&log);
+            let averages = stage_averages(&stats);
+            (wanted.iter())
+                .map(|&(index, name)| {
+                    let stage = averages.iter().find(|s| s.stage_index == index).unwrap();
+                    stage.observables[name].estimate
+                })
+                .collect()
+        })
+        .collect();
+    (0..wanted.len())
+        .map(|k| {
+            let a = over_replicas(&[runs[0][k], runs[1][k]]);
+            (a.mean, a.error, a.equilibrated)
+        })
+        .collect()
+}
+
+/// A hash of a scene's text, to name its log apart from others run at
+/// once.
+#[allow(dead_code)]
+fn fxhash(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
+}

@@ -4,17 +4,49 @@
 //! polytopes in finitely many steps.
 
 use super::convex;
+use crate::geometry::gjk::gjk_intersect;
+use crate::geometry::polyhedron::{ConvexPolyhedron, MAX_VERTICES};
 use crate::geometry::{Contact, DistanceOptions, Relative, Shape};
+
+type V3 = nalgebra::Vector3<f64>;
 
 /// Whether `a` and `b` overlap (touching counts); one of them is a
 /// polyhedron.
 pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
-    match convex::intersect(a, b, rel, 200) {
+    let decided = match (a, b) {
+        (Shape::ConvexPolyhedron(p), Shape::ConvexPolyhedron(q)) => polytopes_intersect(p, q, rel),
+        _ => convex::intersect(a, b, rel, 200),
+    };
+    match decided {
         Some(overlapping) => overlapping,
         // A failed distance, NaN, counts as overlap: no move is accepted
         // on an undecided test.
         None => super::strains::settle(distance(a, b, rel, &DistanceOptions::default()).distance),
     }
+}
+
+/// GJK's overlap test of two polyhedra with B's corners placed in A's
+/// frame once (on the stack), so that each support of B is a loop over
+/// them; `None` when undecided.
+fn polytopes_intersect(p: &ConvexPolyhedron, q: &ConvexPolyhedron, rel: &Relative) -> Option<bool> {
+    let mut placed = [V3::zeros(); MAX_VERTICES];
+    let corners = q.hull().vertices();
+    for (slot, v) in placed.iter_mut().zip(corners) {
+        *slot = rel.rotation * (v * q.scale()) + rel.translation;
+    }
+    let placed = &placed[..corners.len()];
+    let support_b = |d: &V3| {
+        let mut best = placed[0];
+        let mut reach = best.dot(d);
+        for v in &placed[1..] {
+            let r = v.dot(d);
+            if r > reach {
+                (best, reach) = (*v, r);
+            }
+        }
+        best
+    };
+    gjk_intersect(|d: &V3| p.support(d), support_b, rel.translation, 200)
 }
 
 /// Signed distance, contact points and normal of `a` and `b`, one of them a
