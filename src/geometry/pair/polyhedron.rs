@@ -25,9 +25,10 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
     }
 }
 
-/// GJK's overlap test of two polyhedra with B's corners placed in A's
-/// frame once (on the stack), so that each support of B is a loop over
-/// them; `None` when undecided.
+/// The overlap test of two polyhedra: B's corners placed in A's frame
+/// once (on the stack), each face plane of either tried as a separating
+/// plane, then GJK, each support of B a loop over the placed corners;
+/// `None` when undecided.
 fn polytopes_intersect(p: &ConvexPolyhedron, q: &ConvexPolyhedron, rel: &Relative) -> Option<bool> {
     let mut placed = [V3::zeros(); MAX_VERTICES];
     let corners = q.hull().vertices();
@@ -35,6 +36,22 @@ fn polytopes_intersect(p: &ConvexPolyhedron, q: &ConvexPolyhedron, rel: &Relativ
         *slot = rel.rotation * (v * q.scale()) + rel.translation;
     }
     let placed = &placed[..corners.len()];
+    // The face planes of each first (most pairs that come near but do not
+    // overlap are apart across one): A's faces against B's corners, B's
+    // faces against A's.
+    let (a_scale, b_scale) = (p.scale(), q.scale());
+    for f in p.hull().faces() {
+        if placed.iter().all(|v| f.normal.dot(v) > f.offset * a_scale) {
+            return Some(false);
+        }
+    }
+    for f in q.hull().faces() {
+        let normal = rel.rotation * f.normal;
+        let offset = normal.dot(&rel.translation) + f.offset * b_scale;
+        if (p.hull().vertices().iter()).all(|v| normal.dot(v) * a_scale > offset) {
+            return Some(false);
+        }
+    }
     let support_b = |d: &V3| {
         let mut best = placed[0];
         let mut reach = best.dot(d);
