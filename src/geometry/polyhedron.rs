@@ -677,14 +677,7 @@ mod tests {
         let mut rng = Pcg64::seed_from_u64(5);
         let given: Vec<V3> = (0..40)
             .map(|_| V3::from_fn(|_, _| rng.r#gen::<f64>() - 0.5))
-            .chain(points(&[
-                [1.0, 0.0, 0.0],
-                [-1.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0],
-                [0.0, -1.0, 0.0],
-                [0.0, 0.0, 1.0],
-                [0.0, 0.0, -1.0],
-            ]))
+            .chain(octahedron().given().iter().copied())
             .collect();
         let p = Polyhedron::new(&given).unwrap();
         assert_eq!(
