@@ -292,15 +292,7 @@ impl Polyhedron {
     /// The corner farthest along `dir` (the support mapping).
     #[inline]
     pub fn support(&self, dir: &V3) -> V3 {
-        let mut best = self.vertices[0];
-        let mut reach = best.dot(dir);
-        for v in &self.vertices[1..] {
-            let r = v.dot(dir);
-            if r > reach {
-                (best, reach) = (*v, r);
-            }
-        }
-        best
+        farthest(&self.vertices, dir)
     }
 
     fn face_area(&self, f: &Face) -> f64 {
@@ -408,6 +400,26 @@ impl ConvexPolyhedron {
     pub fn support(&self, dir: &V3) -> V3 {
         self.hull.support(dir) * self.scale
     }
+
+    /// The hull's corners at the body's scale, about its centroid.
+    pub fn corners(&self) -> impl Iterator<Item = V3> + '_ {
+        self.hull.vertices.iter().map(|v| v * self.scale)
+    }
+}
+
+/// The point of `points` (not empty) farthest along `dir`: the support
+/// mapping of their hull.
+#[inline]
+pub fn farthest(points: &[V3], dir: &V3) -> V3 {
+    let mut best = points[0];
+    let mut reach = best.dot(dir);
+    for v in &points[1..] {
+        let r = v.dot(dir);
+        if r > reach {
+            (best, reach) = (*v, r);
+        }
+    }
+    best
 }
 
 /// The hull of `points`, built once per distinct set of points (compared

@@ -37,18 +37,6 @@ impl Solid {
         Solid::TruncatedOctahedron,
     ];
 
-    /// The name as spelled in a scene.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Solid::Tetrahedron => "Tetrahedron",
-            Solid::Cube => "Cube",
-            Solid::Octahedron => "Octahedron",
-            Solid::Dodecahedron => "Dodecahedron",
-            Solid::Icosahedron => "Icosahedron",
-            Solid::TruncatedOctahedron => "TruncatedOctahedron",
-        }
-    }
-
     /// The corners of the solid of edge length `edge`, centred on the
     /// origin: the textbook coordinates (the tetrahedron the even corners
     /// of the cube (±1, ±1, ±1), the octahedron the unit axes, the

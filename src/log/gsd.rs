@@ -66,11 +66,8 @@ pub fn type_shape(shape: &Shape) -> String {
             s.half_length()
         ),
         Shape::ConvexPolyhedron(p) => {
-            let vertices: Vec<String> = (p.hull().vertices().iter())
-                .map(|v| {
-                    let v = v * p.scale();
-                    format!("[{}, {}, {}]", v.x, v.y, v.z)
-                })
+            let vertices: Vec<String> = (p.corners())
+                .map(|v| format!("[{}, {}, {}]", v.x, v.y, v.z))
                 .collect();
             format!(
                 r#"{{"type": "ConvexPolyhedron", "rounding_radius": 0, "vertices": [{}]}}"#,

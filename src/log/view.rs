@@ -257,11 +257,11 @@ fn radial_extent(shape: &Shape, u: &Vector3<f64>) -> f64 {
 /// [`radial_extent`].
 pub(crate) fn body_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
     if let Shape::ConvexPolyhedron(p) = shape {
-        let points = (p.hull().vertices().iter())
+        let points = (p.corners())
             .map(|v| Point3 {
-                x: v.x * p.scale(),
-                y: v.y * p.scale(),
-                z: v.z * p.scale(),
+                x: v.x,
+                y: v.y,
+                z: v.z,
             })
             .collect();
         let indices = (p.hull().faces().iter())

@@ -5,7 +5,7 @@
 
 use super::convex;
 use crate::geometry::gjk::gjk_intersect;
-use crate::geometry::polyhedron::{ConvexPolyhedron, MAX_VERTICES};
+use crate::geometry::polyhedron::{ConvexPolyhedron, MAX_VERTICES, farthest};
 use crate::geometry::{Contact, DistanceOptions, Relative, Shape};
 
 type V3 = nalgebra::Vector3<f64>;
@@ -31,11 +31,10 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
 /// `None` when undecided.
 fn polytopes_intersect(p: &ConvexPolyhedron, q: &ConvexPolyhedron, rel: &Relative) -> Option<bool> {
     let mut placed = [V3::zeros(); MAX_VERTICES];
-    let corners = q.hull().vertices();
-    for (slot, v) in placed.iter_mut().zip(corners) {
-        *slot = rel.rotation * (v * q.scale()) + rel.translation;
+    for (slot, v) in placed.iter_mut().zip(q.corners()) {
+        *slot = rel.rotation * v + rel.translation;
     }
-    let placed = &placed[..corners.len()];
+    let placed = &placed[..q.hull().vertices().len()];
     // The face planes of each first (most pairs that come near but do not
     // overlap are apart across one): A's faces against B's corners, B's
     // faces against A's.
@@ -52,17 +51,7 @@ fn polytopes_intersect(p: &ConvexPolyhedron, q: &ConvexPolyhedron, rel: &Relativ
             return Some(false);
         }
     }
-    let support_b = |d: &V3| {
-        let mut best = placed[0];
-        let mut reach = best.dot(d);
-        for v in &placed[1..] {
-            let r = v.dot(d);
-            if r > reach {
-                (best, reach) = (*v, r);
-            }
-        }
-        best
-    };
+    let support_b = |d: &V3| farthest(placed, d);
     gjk_intersect(|d: &V3| p.support(d), support_b, rel.translation, 200)
 }
 

@@ -190,7 +190,7 @@ pub(super) struct MemberView {
 }
 
 impl MemberView {
-    /// The view of member `me` of a team of `team` over `shared`.
+    /// A member's view over `shared`, sweeping no colour yet.
     ///
     /// SAFETY: no member may be writing the system's header (between
     /// barriers, where only the storage changes), and the view is used
