@@ -12,9 +12,13 @@
 
 mod common;
 
+use std::collections::HashMap;
+use std::io::Write;
 use std::path::Path;
-use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::thread::ThreadId;
 
 use hardbody::log::read::{LogContents, ReadOptions, read_log_bytes};
 use hardbody::run::{Silent, run_scene};
@@ -174,6 +178,7 @@ proptest! {
         for e in &edits {
             text = apply(&text, e);
         }
+        let _watched = watch(&text);
         match Scene::parse(&text) {
             Ok(scene) => {
                 // Accepted: within the documented bounds, and planned.
@@ -207,6 +212,59 @@ proptest! {
             }
         }
     }
+}
+
+/// How long one case may run before the watchdog ends the test.
+const HANG_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// The case each test thread is running, for the watchdog: its number
+/// (cases begun on any thread) and its input.
+type Running = HashMap<ThreadId, (u64, String)>;
+
+fn running() -> MutexGuard<'static, Running> {
+    static RUNNING: OnceLock<Mutex<Running>> = OnceLock::new();
+    let running = RUNNING.get_or_init(|| Mutex::new(HashMap::new()));
+    running.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A case under the watchdog's eye, until dropped.
+struct Watched;
+
+impl Drop for Watched {
+    fn drop(&mut self) {
+        running().remove(&std::thread::current().id());
+    }
+}
+
+/// Marks the start of a case on `input`. A hang is a failure of these
+/// properties: where one case runs through a whole [`HANG_LIMIT`], the
+/// watchdog prints its input and fails the test binary, so that CI
+/// reports the input at once instead of running out of time.
+fn watch(input: &str) -> Watched {
+    static WATCHDOG: OnceLock<()> = OnceLock::new();
+    static BEGUN: AtomicU64 = AtomicU64::new(0);
+    WATCHDOG.get_or_init(|| {
+        std::thread::spawn(|| {
+            let mut seen: Vec<u64> = Vec::new();
+            loop {
+                std::thread::sleep(HANG_LIMIT);
+                let running = running();
+                if let Some((_, input)) = running.values().find(|(k, _)| seen.contains(k)) {
+                    // Straight to the process's stderr: the test
+                    // harness captures `eprintln!` of the threads it starts.
+                    let _ = writeln!(
+                        std::io::stderr(),
+                        "a fuzz case ran for over {HANG_LIMIT:?} on this input:\n{input}"
+                    );
+                    std::process::exit(101);
+                }
+                seen = running.values().map(|(k, _)| *k).collect();
+            }
+        });
+    });
+    let case = BEGUN.fetch_add(1, Ordering::Relaxed);
+    running().insert(std::thread::current().id(), (case, input.to_string()));
+    Watched
 }
 
 /// The scene of the reference logs, with `seed`.
@@ -324,6 +382,7 @@ proptest! {
         corruptions in prop::collection::vec(corruption(), 1..3),
     ) {
         let (good, reference) = reference_log();
+        let _watched = watch(&format!("the reference log with {corruptions:?}"));
         let mut bytes = good.clone();
         for c in &corruptions {
             if bytes.len() > 16 {

@@ -169,6 +169,29 @@ impl Scene {
                 );
             }
             let (low, high) = VALUE_RANGE;
+            // Sizes within the range of lengths, so that squared distances
+            // and volumes stay finite and nonzero in every driver.
+            let reach = s.shape.bounding_radius();
+            if !(low..=high).contains(&reach) {
+                return bad(
+                    &f("shape"),
+                    format!(
+                        "the body's bounding radius {} must lie in [{low:e}, {high:e}]",
+                        Num(reach)
+                    ),
+                );
+            }
+            let volume = s.shape.volume();
+            if !(volume.is_normal() && volume >= low.powi(3)) {
+                return bad(
+                    &f("shape"),
+                    format!(
+                        "the body's volume {} is below {:e}: the body is too thin to place",
+                        Num(volume),
+                        low.powi(3)
+                    ),
+                );
+            }
             if !(s.mass >= low && s.mass <= high) {
                 return bad(
                     &f("mass"),

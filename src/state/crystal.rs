@@ -84,6 +84,13 @@ pub enum CrystalError {
     /// Two sites whose bodies overlap at any density.
     #[error("basis sites overlap at any packing fraction (two sites coincide)")]
     Coincident,
+    /// Bodies whose lattice cannot be computed in floating point: no scale
+    /// at which they touch was found (sizes near the end of the float
+    /// range).
+    #[error(
+        "no scale at which the bodies touch could be found (bounding radius {0:e}): their sizes are outside what floating point can place on a lattice"
+    )]
+    Scale(f64),
     /// No densest lattice is known here for this shape.
     #[error("no densest lattice is known to hardbody for {0}: give a Custom lattice")]
     NoDensest(String),
@@ -304,6 +311,11 @@ fn touching_scale(
     let reach = (0..cell.basis.len())
         .map(|b| shape(b).bounding_radius())
         .fold(0.0, f64::max);
+    // Separations are compared through their squares: a reach whose square
+    // overflows or vanishes would make every pair seem apart.
+    if !(reach * reach).is_normal() {
+        return Err(CrystalError::Scale(reach));
+    }
     let unit = lattice_box(&cell.vectors)?;
     let overlaps = |scale: f64| -> bool {
         // Lattice translations within twice the largest reach, per axis.
@@ -352,7 +364,12 @@ fn touching_scale(
             return Err(CrystalError::Coincident);
         }
     }
-    while hi - lo > 1e-13 * hi {
+    // Bisection to 1e-13; `hi` never overlaps. Bounded, so that bodies
+    // whose distances overflow (nothing ever overlaps) end in an error.
+    for _ in 0..MAX_BISECTIONS {
+        if hi - lo <= 1e-13 * hi {
+            return Ok(hi);
+        }
         let mid = 0.5 * (lo + hi);
         if overlaps(mid) {
             lo = mid;
@@ -360,8 +377,12 @@ fn touching_scale(
             hi = mid;
         }
     }
-    Ok(hi)
+    Err(CrystalError::Scale(reach))
 }
+
+/// Halvings of the touching scale's bracket: from [0, start] to 1e-13
+/// relative takes about 45 where the bodies touch near `start`.
+const MAX_BISECTIONS: usize = 200;
 
 /// The lattice of `vectors` as a box (for its heights).
 fn lattice_box(vectors: &Matrix3<f64>) -> Result<PeriodicBox, CrystalError> {
@@ -565,6 +586,13 @@ mod tests {
                 format!("{got:?}").starts_with(expected),
                 "{got:?} for {expected}"
             );
+        }
+        // Sizes whose squares overflow or vanish: every pair would seem
+        // apart at any scale, and the search would never end.
+        for radius in ["1e300", "1e-300"] {
+            let (huge, counts) = one(&format!("Sphere(radius: {radius})"), 4 * 27);
+            let got = crystal(&spec(UnitCell::fcc(), [3; 3], 0.5), huge, &counts);
+            assert!(matches!(got, Err(CrystalError::Scale(_))), "{got:?}");
         }
         let (small, counts) = one("Sphere(radius: 0.5)", 4);
         let thin = spec(UnitCell::fcc(), [1, 1, 1], 0.5);
