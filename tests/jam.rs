@@ -599,3 +599,39 @@ fn run_scene_in(tag: &str, text: &str) -> (PathBuf, PathBuf, RunSummary) {
     let summary = run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
     (dir, path, summary)
 }
+
+/// A jam that settles (its fast growth passed the bound on a packing with
+/// floppy modes) resumes bit for bit from a frame taken while it rests
+/// and from one after.
+#[test]
+fn a_settling_jam_resumes_bit_for_bit() {
+    const SCENE: &str = r#"Scene(
+    seed: 7,
+    box: (7.0, 7.0, 7.0),
+    species: [Species(name: "ball", shape: Sphere(radius: 0.5), count: 100)],
+    stages: [Compress(packing_fraction: 0.45), Jam(growth_rate: 1e-2)],
+    log: Log(path: "unused.mcap", stats_every: 100, frames_every: 100),
+)"#;
+    let (dir, path, summary) = run_scene_in("jam-settling", SCENE);
+    assert!(
+        summary.stages[1].contains("settling round"),
+        "{:?}",
+        summary.stages
+    );
+    let whole = read_log(&path, true).unwrap();
+    let progress = |k: usize| {
+        let (_, state) = &whole.states[k];
+        state
+            .resume
+            .as_ref()
+            .and_then(|r| r.jam)
+            .expect("a jam frame")
+    };
+    let resting = (1..whole.states.len() - 1)
+        .find(|&k| whole.states[k].1.stage_index == 1 && progress(k).resting > 0)
+        .expect("a frame while resting");
+    let after = (resting + 1..whole.states.len() - 1)
+        .find(|&k| progress(k).resting == 0)
+        .expect("a frame after the rest");
+    resumes_bit_for_bit(&dir, &path, &whole, [resting, after]);
+}

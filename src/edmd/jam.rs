@@ -17,9 +17,17 @@
 //! 0.644 (γ = 10⁻²), without saving collisions; bodies with flat faces
 //! grown slowly through the fluid pack far denser than at random
 //! (docs/benchmarks/jam-schedule-2026-11-27.md).
-//! Measured on 500 spheres: growing at 10⁻² after Z = 10³ leaves the
-//! backbone hypostatic (z = 5.70), 10⁻³ gives z = 5.95, 10⁻⁴ gives 5.99
-//! (docs/benchmarks/jam-2026-11-26.md).
+//! Measured on 500 spheres without settling rounds: growing at 10⁻² after
+//! Z = 10³ leaves the backbone hypostatic (z = 5.70), 10⁻³ gives z = 5.95,
+//! 10⁻⁴ gives 5.99 (docs/benchmarks/jam-2026-11-26.md).
+//!
+//! Where the pressure passes its bound on a packing whose contacts do not
+//! certify it ([`certificate`]), the pressure came from the growth, and
+//! the packing settles: its bodies rest at their size for [`REST_CHUNKS`]
+//! chunks (1000 spheres grown at 10⁻² fell from βPV/N = 1.6×10¹³ to
+//! 2.6×10⁷ there) and grow on at a tenth of the rate, for at most
+//! [`JamOptions::settle_rounds`] rounds; 1000 spheres at 10⁻² then jam
+//! with z = 5.94 after one round (docs/benchmarks/jam-settle-2026-12-02.md).
 //!
 //! A chunk is one [`Dynamics::growing`] run: the sizes at its start times
 //! 1 + γt, up to a fixed relative growth (the margin its cells and
@@ -67,6 +75,12 @@ pub struct JamOptions {
     /// Stop growing at this packing fraction instead (a dense fluid or
     /// glass, not a jammed packing), reached to round-off.
     pub packing_fraction: Option<f64>,
+    /// Settling rounds at most: where the pressure passes its bound (of at
+    /// least [`SETTLE_BOUND`]) on a packing its contacts do not certify
+    /// ([`certificate`]), the bodies
+    /// rest at their size for [`REST_CHUNKS`] chunks and grow on at a
+    /// tenth of the rate (0: end there, not certified).
+    pub settle_rounds: u32,
 }
 
 impl Default for JamOptions {
@@ -80,6 +94,7 @@ impl Default for JamOptions {
             collisions_per_body: 100,
             max_collisions: 0,
             packing_fraction: None,
+            settle_rounds: DEFAULT_SETTLE_ROUNDS,
         }
     }
 }
@@ -140,6 +155,60 @@ pub fn jam_predictor(mut options: PredictorOptions) -> PredictorOptions {
     distance.gjk_tolerance = distance.gjk_tolerance.min(JAM_GJK_TOLERANCE);
     options
 }
+/// Settling rounds at most, by default: from γ = 10⁻² the third round
+/// grows at 10⁻⁵.
+pub const DEFAULT_SETTLE_ROUNDS: u32 = 3;
+/// The least bound on βPV/N that settling rounds serve: below it a jam
+/// asks for a dense glass, whose contacts (1/Z of the size apart) are no
+/// network to certify.
+pub const SETTLE_BOUND: f64 = 1e9;
+/// Chunks of rest at fixed size that begin a settling round. A packing
+/// whose pressure came from growing faster than it could settle relaxes
+/// in them: 1000 spheres grown at 10⁻² from βPV/N = 1.4×10¹² to 3.6×10⁵
+/// in ten chunks, where a jammed one keeps its pressure
+/// (docs/benchmarks/jam-settle-2026-12-02.md).
+pub const REST_CHUNKS: u32 = 10;
+/// The isostatic contacts a backbone of bodies with translations only
+/// may lack and still be certified, as a fraction (z ≥ 5.91 for
+/// spheres): 1000 spheres grown at 10⁻³ reach z = 5.96, at 10⁻⁴ 5.996,
+/// where at 10⁻² their backbone, if any is left, has z near 5.7.
+pub const ISOSTATIC_SLACK: f64 = 0.015;
+
+/// What the contact network says of a packing whose pressure passed the
+/// bound.
+#[derive(Debug, Clone)]
+pub struct JamCertificate {
+    /// The gap the network was read at, and how it was chosen.
+    pub gap: crate::analysis::contact_gap::GapChoice,
+    /// The network there.
+    pub network: crate::analysis::packing::ContactNetwork,
+    /// Whether it certifies the packing jammed: a plateau in the contact
+    /// count against the gap, at least half the bodies held, and, where
+    /// the bodies have translations only (spheres, or bodies that do not
+    /// turn), a backbone with the isostatic d (N_b − 1) + 1 contacts
+    /// (within [`ISOSTATIC_SLACK`]): such a packing with fewer has floppy
+    /// modes, and its pressure relaxes once the growth stops. Bodies that
+    /// turn jam hypostatic (Donev et al., Phys. Rev. E 75, 051304 (2007)).
+    pub jammed: bool,
+}
+
+/// The certificate of `system` at reduced pressure `z` (the gap read
+/// from the packing, with `z` as a guide).
+pub fn certificate(system: &System, z: Option<f64>) -> JamCertificate {
+    let (gap, network) = system.read_contact_network(z);
+    let held = network.bodies - network.rattlers.len();
+    let translations_only = network.isostatic_contact_number == 6.0;
+    let isostatic = 3.0 * (held.max(1) - 1) as f64 + 1.0;
+    let contacts = network.backbone_contact_number * held as f64 / 2.0;
+    let rigid = !translations_only || contacts >= isostatic * (1.0 - ISOSTATIC_SLACK);
+    let jammed = gap.warning.is_none() && held > 0 && 2 * held >= network.bodies && rigid;
+    JamCertificate {
+        gap,
+        network,
+        jammed,
+    }
+}
+
 /// The default bound on βPV/N (Donev et al.).
 pub const DEFAULT_JAM_PRESSURE: f64 = 1e12;
 
@@ -206,6 +275,16 @@ pub struct JamProgress {
     /// included) have cost, and their strains.
     #[serde(default)]
     pub solver: SolverWork,
+    /// Settling rounds begun.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub settle_rounds: u32,
+    /// Chunks of rest left in the round under way.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub resting: u32,
+}
+
+fn is_zero(k: &u32) -> bool {
+    *k == 0
 }
 
 /// `dynamics` with every body at unit mass. The growth makes a packing,
@@ -257,6 +336,8 @@ impl JamRun {
             start_size: system.species()[0].shape.bounding_radius(),
             last: None,
             solver: SolverWork::default(),
+            settle_rounds: 0,
+            resting: 0,
         };
         Self::resume(system, &velocities, options, dynamics, progress)
     }
@@ -322,21 +403,28 @@ impl JamRun {
                 ..self.dynamics.clone()
             };
             dynamics.predictor = jam_predictor(dynamics.predictor);
-            let mut md = Dynamics::growing(
-                &self.state,
-                &self.velocities,
-                &dynamics,
-                p.rate,
-                self.options.margin,
-            )?;
-            // The end of the margin, or where the sizes reach the
-            // packing fraction asked (they are 1 + rate t times those of
-            // the chunk's start).
-            let mut ends = md.growth_ends().expect("growing");
-            if let Some(target) = self.options.packing_fraction {
-                let size = (target / self.state.packing_fraction()).cbrt();
-                ends = ends.min((size - 1.0) / p.rate);
-            }
+            let resting = p.resting > 0;
+            let (mut md, ends) = if resting {
+                let md = Dynamics::from_parts(&self.state, &self.velocities, &dynamics, 0.0, 0)?;
+                (md, f64::INFINITY)
+            } else {
+                let md = Dynamics::growing(
+                    &self.state,
+                    &self.velocities,
+                    &dynamics,
+                    p.rate,
+                    self.options.margin,
+                )?;
+                // The end of the margin, or where the sizes reach the
+                // packing fraction asked (they are 1 + rate t times
+                // those of the chunk's start).
+                let mut ends = md.growth_ends().expect("growing");
+                if let Some(target) = self.options.packing_fraction {
+                    let size = (target / self.state.packing_fraction()).cbrt();
+                    ends = ends.min((size - 1.0) / p.rate);
+                }
+                (md, ends)
+            };
             md.continue_solver_work(p.solver);
             let run = md.run_collisions_until(self.options.collisions_per_body * n, ends);
             p.solver = md.solver_work();
@@ -363,6 +451,13 @@ impl JamRun {
                         species: md.species().to_vec(),
                         options: md.options().clone(),
                     });
+                    if resting {
+                        // A rest that fails ends the rest: the round
+                        // grows on from its last certified state.
+                        p.resting = 0;
+                        p.retries += 1;
+                        continue;
+                    }
                     if p.rate * 0.5 < self.options.growth_floor {
                         self.end = Some(JamEnd::GrowthFloor);
                         return Ok(None);
@@ -391,11 +486,15 @@ impl JamRun {
                 packing_fraction: next.packing_fraction(),
                 pressure: z,
                 temperature: kt,
-                growth_rate: p.rate,
+                growth_rate: if resting { 0.0 } else { p.rate },
                 size: next.species()[0].shape.bounding_radius() / p.start_size,
             };
             self.state = next;
             p.last = Some(figures);
+            if resting {
+                p.resting -= 1;
+                return Ok(Some(figures));
+            }
             if !p.settling && z >= SETTLE_FROM {
                 p.settling = true;
                 // From the fluid rate to γ, keeping a slower growth after
@@ -408,7 +507,19 @@ impl JamRun {
                 };
             }
             if z >= self.options.pressure {
-                self.end = Some(JamEnd::Jammed);
+                // Not certified: rest, then grow on slower (a round), while
+                // rounds and the floor allow.
+                let settle = self.options.pressure >= SETTLE_BOUND
+                    && p.settle_rounds < self.options.settle_rounds
+                    && p.rate * 0.1 >= self.options.growth_floor
+                    && !certificate(&self.state, Some(z)).jammed;
+                if settle {
+                    p.settle_rounds += 1;
+                    p.resting = REST_CHUNKS;
+                    p.rate *= 0.1;
+                } else {
+                    self.end = Some(JamEnd::Jammed);
+                }
             } else if let Some(target) = self.options.packing_fraction
                 && figures.packing_fraction >= target * (1.0 - 1e-12)
             {

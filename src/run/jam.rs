@@ -8,7 +8,8 @@ use std::cell::Cell;
 use rand_pcg::Pcg64;
 
 use crate::edmd::jam::{
-    DEFAULT_GROWTH_RATE, DEFAULT_JAM_PRESSURE, JamChunk, JamEnd, JamOptions, JamRun,
+    DEFAULT_GROWTH_RATE, DEFAULT_JAM_PRESSURE, JamCertificate, JamChunk, JamEnd, JamOptions,
+    JamRun, certificate,
 };
 use crate::log::{LogWriter, NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
 use crate::mc::moves::Counts;
@@ -111,11 +112,14 @@ enum Certificate {
 }
 
 /// The contact network of a packing the jam ended, read at the gap the
-/// packing shows.
+/// packing shows ([`certificate`]).
 fn certify(system: &System, reduced_pressure: Option<f64>) -> Certificate {
-    let (choice, network) = system.read_contact_network(reduced_pressure);
+    let JamCertificate {
+        gap: choice,
+        network,
+        jammed,
+    } = certificate(system, reduced_pressure);
     let held = network.bodies - network.rattlers.len();
-    let certified = choice.warning.is_none() && 2 * held >= network.bodies;
     let reading = if held == 0 {
         format!("contacts at gap {:.1e}: no body is held", choice.gap)
     } else {
@@ -127,14 +131,18 @@ fn certify(system: &System, reduced_pressure: Option<f64>) -> Certificate {
             network.isostatic_contact_number
         )
     };
-    if certified {
+    if jammed {
         Certificate::Jammed(reading)
     } else {
+        let why = choice.warning.unwrap_or_else(|| {
+            if 2 * held < network.bodies {
+                "fewer than half the bodies are held".into()
+            } else {
+                "the backbone lacks contacts an isostatic one has: it has floppy modes".into()
+            }
+        });
         Certificate::NotJammed(format!(
-            "the packing is NOT certified jammed ({reading}; {}): betaPV/N passed its bound while the bodies grew faster than they could settle into their cages; grow slower (a smaller growth_rate) and check with `hardbody analyze LOG --packing`",
-            choice
-                .warning
-                .unwrap_or_else(|| "fewer than half the bodies are held".into())
+            "the packing is NOT certified jammed ({reading}; {why}): betaPV/N passed its bound while the bodies grew faster than they could settle into their cages, also after settling at lower rates; grow slower (a smaller growth_rate) and check with `hardbody analyze LOG --packing`"
         ))
     }
 }
@@ -221,12 +229,16 @@ impl StageRun for JamStage {
         let mut line = self
             .last
             .map(|c| {
+                let growth = if c.growth_rate > 0.0 {
+                    format!("growth rate {:e}", c.growth_rate)
+                } else {
+                    format!("resting (settling round {})", p.settle_rounds)
+                };
                 format!(
-                    "phi {:.4}, betaPV/N {:.3e}, {} collisions, growth rate {:e}",
+                    "phi {:.4}, betaPV/N {:.3e}, {} collisions, {growth}",
                     Num(c.packing_fraction),
                     c.pressure,
                     c.collisions,
-                    c.growth_rate
                 )
             })
             .unwrap_or_default();
@@ -278,8 +290,19 @@ impl StageRun for JamStage {
             .last
             .map(|c| {
                 format!(
-                    ", betaPV/N {:.3e} after {} collisions in {} chunks (t = {:.4}, growth rate {:e})",
-                    c.pressure, c.collisions, c.chunk, c.time, c.growth_rate
+                    ", betaPV/N {:.3e} after {} collisions in {} chunks (t = {:.4}, growth rate {:e}{})",
+                    c.pressure,
+                    c.collisions,
+                    c.chunk,
+                    c.time,
+                    c.growth_rate,
+                    match p.settle_rounds {
+                        0 => String::new(),
+                        k => format!(
+                            ", after {k} settling round{}: rest at fixed size, then a tenth of the rate",
+                            if k == 1 { "" } else { "s" }
+                        ),
+                    }
                 )
             })
             .unwrap_or_default();
