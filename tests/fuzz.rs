@@ -37,13 +37,16 @@ fn cases(default: u32) -> u32 {
         .unwrap_or(default)
 }
 
-/// The shipped scenes, and scenes of the surfaces added with them: a jam
-/// of bodies of different masses with every parameter given, and a
-/// `Resume` start from a real log.
+/// The shipped scenes, the refused ones of `data/scenes/bad`, and scenes
+/// of the surfaces added with them: a jam of bodies of different masses
+/// with every parameter given, and a `Resume` start from a real log.
 fn shipped_scenes() -> &'static Vec<String> {
     static SCENES: OnceLock<Vec<String>> = OnceLock::new();
     SCENES.get_or_init(|| {
-        let files = common::scene_files("data/scenes");
+        // The refused scenes too: one edit can make them valid, and they
+        // hold the shapes and values nearest the bounds.
+        let mut files = common::scene_files("data/scenes");
+        files.extend(common::scene_files("data/scenes/bad"));
         let mut scenes: Vec<String> = files
             .iter()
             .map(|p| std::fs::read_to_string(p).unwrap())
@@ -170,10 +173,11 @@ proptest! {
 
     #[test]
     fn scene_parser_never_panics_and_bounds_what_it_accepts(
-        which in 0..64usize,
+        which in 0..256usize,
         edits in prop::collection::vec(edit(), 1..4),
     ) {
         let scenes = shipped_scenes();
+        assert!(scenes.len() <= 256, "{} scenes: widen `which`", scenes.len());
         let mut text = scenes[which % scenes.len()].clone();
         for e in &edits {
             text = apply(&text, e);
