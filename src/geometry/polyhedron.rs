@@ -83,6 +83,18 @@ pub struct Face {
     pub vertices: Vec<usize>,
 }
 
+impl Face {
+    /// Whether the edge between corners `a` and `b` (either way round) is
+    /// one of this face's.
+    pub fn has_edge(&self, a: usize, b: usize) -> bool {
+        let n = self.vertices.len();
+        (0..n).any(|k| {
+            let (p, q) = (self.vertices[k], self.vertices[(k + 1) % n]);
+            (p, q) == (a, b) || (p, q) == (b, a)
+        })
+    }
+}
+
 /// A convex polyhedron, the uniform solid hull of its vertices, with the
 /// body origin at its centroid (the points given are shifted by their
 /// solid's centroid; see [`Polyhedron::shift`]).
@@ -175,17 +187,7 @@ impl Polyhedron {
         }
         // A closed solid: every edge on exactly two faces, and Euler's
         // V - E + F = 2.
-        let faces_on = |&(a, b): &(usize, usize)| {
-            (faces.iter())
-                .filter(|f| {
-                    let n = f.vertices.len();
-                    (0..n).any(|k| {
-                        let (p, q) = (f.vertices[k], f.vertices[(k + 1) % n]);
-                        (p, q) == (a, b) || (p, q) == (b, a)
-                    })
-                })
-                .count()
-        };
+        let faces_on = |&(a, b): &(usize, usize)| faces.iter().filter(|f| f.has_edge(a, b)).count();
         let closed = edges.iter().all(|e| faces_on(e) == 2)
             && given.len() + faces.len() == edges.len() + 2
             && faces.iter().all(|f| f.vertices.len() >= 3);
@@ -333,15 +335,7 @@ impl Polyhedron {
     }
 
     fn integral_mean_curvature(&self) -> f64 {
-        let faces_of = |a: usize, b: usize| {
-            self.faces.iter().filter(move |f| {
-                let n = f.vertices.len();
-                (0..n).any(|k| {
-                    let (p, q) = (f.vertices[k], f.vertices[(k + 1) % n]);
-                    (p, q) == (a, b) || (p, q) == (b, a)
-                })
-            })
-        };
+        let faces_of = |a: usize, b: usize| self.faces.iter().filter(move |f| f.has_edge(a, b));
         self.edges
             .iter()
             .map(|&(a, b)| {
