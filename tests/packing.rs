@@ -204,12 +204,12 @@ fn without_settling_a_fast_jam_is_not_certified() {
     assert!(z >= 1e12, "betaPV/N {z}");
     let reading = certificate(&fast.system, Some(z));
     assert!(
-        !reading.jammed,
+        !reading.jammed(),
         "{:?}",
         reading.network.backbone_contact_number
     );
     // Held, but hypostatic: floppy modes, not a jammed packing.
-    let held = reading.network.bodies - reading.network.rattlers.len();
+    let held = reading.held;
     let backbone = reading.network.backbone_contact_number;
     assert!(held == 0 || backbone < 5.9, "{held} held, z = {backbone}");
 }

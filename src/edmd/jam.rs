@@ -182,14 +182,24 @@ pub struct JamCertificate {
     pub gap: crate::analysis::contact_gap::GapChoice,
     /// The network there.
     pub network: crate::analysis::packing::ContactNetwork,
-    /// Whether it certifies the packing jammed: a plateau in the contact
-    /// count against the gap, at least half the bodies held, and, where
-    /// the bodies have translations only (spheres, or bodies that do not
-    /// turn), a backbone with the isostatic d (N_b − 1) + 1 contacts
-    /// (within [`ISOSTATIC_SLACK`]): such a packing with fewer has floppy
-    /// modes, and its pressure relaxes once the growth stops. Bodies that
-    /// turn jam hypostatic (Donev et al., Phys. Rev. E 75, 051304 (2007)).
-    pub jammed: bool,
+    /// Bodies of the backbone (those no rattler).
+    pub held: usize,
+    /// Why it does not certify the packing jammed, or `None` where it
+    /// does: a plateau in the contact count against the gap, at least half
+    /// the bodies held, and, where the bodies have translations only
+    /// (spheres, or bodies that do not turn), a backbone with the
+    /// isostatic d (N_b − 1) + 1 contacts (within [`ISOSTATIC_SLACK`]):
+    /// such a packing with fewer has floppy modes, and its pressure relaxes
+    /// once the growth stops. Bodies that turn jam hypostatic (Donev et
+    /// al., Phys. Rev. E 75, 051304 (2007)).
+    pub refused: Option<String>,
+}
+
+impl JamCertificate {
+    /// Whether the contacts certify the packing jammed.
+    pub fn jammed(&self) -> bool {
+        self.refused.is_none()
+    }
 }
 
 /// The certificate of `system` at reduced pressure `z` (the gap read
@@ -200,12 +210,20 @@ pub fn certificate(system: &System, z: Option<f64>) -> JamCertificate {
     let translations_only = network.isostatic_contact_number == 6.0;
     let isostatic = 3.0 * (held.max(1) - 1) as f64 + 1.0;
     let contacts = network.backbone_contact_number * held as f64 / 2.0;
-    let rigid = !translations_only || contacts >= isostatic * (1.0 - ISOSTATIC_SLACK);
-    let jammed = gap.warning.is_none() && held > 0 && 2 * held >= network.bodies && rigid;
+    let refused = if let Some(warning) = &gap.warning {
+        Some(warning.clone())
+    } else if 2 * held < network.bodies {
+        Some("fewer than half the bodies are held".into())
+    } else if translations_only && contacts < isostatic * (1.0 - ISOSTATIC_SLACK) {
+        Some("the backbone lacks contacts an isostatic one has: it has floppy modes".into())
+    } else {
+        None
+    };
     JamCertificate {
         gap,
         network,
-        jammed,
+        held,
+        refused,
     }
 }
 
@@ -512,7 +530,7 @@ impl JamRun {
                 let settle = self.options.pressure >= SETTLE_BOUND
                     && p.settle_rounds < self.options.settle_rounds
                     && p.rate * 0.1 >= self.options.growth_floor
-                    && !certificate(&self.state, Some(z)).jammed;
+                    && !certificate(&self.state, Some(z)).jammed();
                 if settle {
                     p.settle_rounds += 1;
                     p.resting = REST_CHUNKS;

@@ -117,9 +117,9 @@ fn certify(system: &System, reduced_pressure: Option<f64>) -> Certificate {
     let JamCertificate {
         gap: choice,
         network,
-        jammed,
+        held,
+        refused,
     } = certificate(system, reduced_pressure);
-    let held = network.bodies - network.rattlers.len();
     let reading = if held == 0 {
         format!("contacts at gap {:.1e}: no body is held", choice.gap)
     } else {
@@ -131,19 +131,11 @@ fn certify(system: &System, reduced_pressure: Option<f64>) -> Certificate {
             network.isostatic_contact_number
         )
     };
-    if jammed {
-        Certificate::Jammed(reading)
-    } else {
-        let why = choice.warning.unwrap_or_else(|| {
-            if 2 * held < network.bodies {
-                "fewer than half the bodies are held".into()
-            } else {
-                "the backbone lacks contacts an isostatic one has: it has floppy modes".into()
-            }
-        });
-        Certificate::NotJammed(format!(
+    match refused {
+        None => Certificate::Jammed(reading),
+        Some(why) => Certificate::NotJammed(format!(
             "the packing is NOT certified jammed ({reading}; {why}): betaPV/N passed its bound while the bodies grew faster than they could settle into their cages, also after settling at lower rates; grow slower (a smaller growth_rate) and check with `hardbody analyze LOG --packing`"
-        ))
+        )),
     }
 }
 
