@@ -5,9 +5,12 @@
 //! Nothing read from the file is trusted: every record length is bounded by
 //! the bytes that remain, a chunk's stated uncompressed size by a multiple
 //! of its compressed size (and allocated fallibly), and every chunk's CRC
-//! is checked before any of its messages is read. The first damaged record
-//! ends the reading: what came before it is returned, with a [`Damage`]
-//! that says where the damage is.
+//! is checked before any of its messages is read. A record where MCAP puts
+//! none (a chunk or metadata record whose opcode is damaged reads as one)
+//! and a message out of hardbody's numbering 1, 2, 3, ... are damage too,
+//! so a cut-off log, which has no data-section CRC, never skips a record
+//! unread. The first damaged record ends the reading: what came before it
+//! is returned, with a [`Damage`] that says where the damage is.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -73,6 +76,25 @@ pub enum Fault {
     /// A record of an opcode neither hardbody nor MCAP writes.
     #[error("unknown record (opcode {0:#04x})")]
     UnknownRecord(u8),
+    /// A record where MCAP never puts one: a summary record or footer
+    /// before the data end, a second header, anything but a schema,
+    /// channel or message inside a chunk, a message index not after a
+    /// chunk. Most often a chunk or metadata record whose opcode is
+    /// damaged, which would otherwise be skipped unread.
+    #[error("a record of opcode {0:#04x} where the data section holds none")]
+    Misplaced(u8),
+    /// A message whose sequence number is not the next one: hardbody
+    /// numbers its messages 1, 2, 3, ... in file order, so messages were
+    /// lost (or repeated) with a record whose damage was not otherwise seen.
+    #[error(
+        "message numbered {found} where {expected} comes next: messages are missing or repeated"
+    )]
+    OutOfSequence {
+        /// The sequence number the next message has.
+        expected: u32,
+        /// The one this message has.
+        found: u32,
+    },
     /// A record the MCAP parser refuses.
     #[error("record (opcode {opcode:#04x}): {reason}")]
     Unparsable {
@@ -340,11 +362,16 @@ const MIN_CHUNK_BOUND: u64 = 64 << 20;
 
 /// Walks the records of an MCAP file, opening chunks after checking their
 /// sizes and CRCs, and hands each metadata record and message to `visit`.
-/// Stops at the footer, at the end of the bytes (a cut-off file), or at
+/// Stops at the data end, at the end of the bytes (a cut-off file), or at
 /// the first damaged record, or where `visit` refuses a message (its
 /// reason becomes the damage).
 fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), Fault>) -> ScanEnd {
-    let mut channels: BTreeMap<u16, String> = BTreeMap::new();
+    let mut walk = Walk {
+        channels: BTreeMap::new(),
+        next_sequence: 1,
+    };
+    // Whether the previous record is a chunk or one of its message indexes.
+    let mut after_chunk = false;
     let complete_file = buf.len() >= 2 * mcap::MAGIC.len() && buf.ends_with(mcap::MAGIC);
     let damaged = |offset: usize, what: Fault| ScanEnd {
         truncated: !complete_file,
@@ -377,6 +404,7 @@ fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), Fault>) -> Sca
         };
         let offset = at;
         at = record.next;
+        let follows_chunk = std::mem::replace(&mut after_chunk, false);
         match record.opcode {
             op::DATA_END => {
                 // The CRC of every byte before this record (zero: none).
@@ -392,12 +420,6 @@ fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), Fault>) -> Sca
                     },
                     Some(stored) => damaged(offset, Fault::DataCrc { stored, computed }),
                     None => damaged(offset, Fault::DataEndWithoutCrc),
-                };
-            }
-            op::FOOTER => {
-                return ScanEnd {
-                    truncated: !complete_file,
-                    damage: None,
                 };
             }
             op::CHUNK => {
@@ -428,18 +450,107 @@ fn scan(buf: &[u8], mut visit: impl FnMut(Item<'_>) -> Result<(), Fault>) -> Sca
                         }
                     };
                     inner = r.next;
-                    if let Err(what) = visit_record(r, &mut channels, &mut visit) {
+                    // A chunk holds schemas, channels and messages only.
+                    let fault = match r.opcode {
+                        op::SCHEMA | op::CHANNEL | op::MESSAGE => walk.visit(r, &mut visit).err(),
+                        other => Some(Fault::Misplaced(other)),
+                    };
+                    if let Some(what) = fault {
                         return damaged(offset, Fault::InsideChunk(Box::new(what)));
                     }
                 }
+                after_chunk = true;
             }
+            op::MESSAGE_INDEX => {
+                if let Err(what) = walk.check_message_index(record, follows_chunk) {
+                    return damaged(offset, what);
+                }
+                after_chunk = true;
+            }
+            op::HEADER if offset == mcap::MAGIC.len() => {}
             _ => {
-                if let Err(what) = visit_record(record, &mut channels, &mut visit) {
+                if let Err(what) = walk.visit(record, &mut visit) {
                     return damaged(offset, what);
                 }
             }
         }
     }
+}
+
+/// What a scan has learnt of the records before the one it reads.
+struct Walk {
+    /// Topic of each declared channel.
+    channels: BTreeMap<u16, String>,
+    /// The sequence number the next message must have.
+    next_sequence: u32,
+}
+
+impl Walk {
+    /// A message index belongs right after its chunk (or another index of
+    /// that chunk) and names a declared channel.
+    fn check_message_index(&self, record: RawRecord<'_>, follows_chunk: bool) -> Result<(), Fault> {
+        if !follows_chunk {
+            return Err(Fault::Misplaced(op::MESSAGE_INDEX));
+        }
+        match parse(&record)? {
+            Record::MessageIndex(index) if self.channels.contains_key(&index.channel_id) => Ok(()),
+            _ => Err(Fault::Misplaced(op::MESSAGE_INDEX)),
+        }
+    }
+
+    /// Parses one record of the data section (other than a chunk, a
+    /// message index or the data end) and hands what matters to `visit`.
+    fn visit(
+        &mut self,
+        record: RawRecord<'_>,
+        visit: &mut impl FnMut(Item<'_>) -> Result<(), Fault>,
+    ) -> Result<(), Fault> {
+        match record.opcode {
+            op::SCHEMA | op::CHANNEL | op::MESSAGE | op::METADATA | op::ATTACHMENT => {}
+            // Known to MCAP, but never here: the header starts the file,
+            // the footer and summary records follow the data end.
+            op::HEADER..=op::DATA_END => return Err(Fault::Misplaced(record.opcode)),
+            // Not written by hardbody, nor by MCAP's current writers.
+            other => return Err(Fault::UnknownRecord(other)),
+        }
+        match parse(&record)? {
+            Record::Channel(c) => {
+                self.channels.insert(c.id, c.topic);
+                Ok(())
+            }
+            Record::Metadata(m) => visit(Item::Metadata(m)),
+            Record::Message { header, data } => {
+                let topic =
+                    self.channels
+                        .get(&header.channel_id)
+                        .ok_or(Fault::UndeclaredChannel {
+                            sequence: header.sequence,
+                            channel: header.channel_id,
+                        })?;
+                if header.sequence != self.next_sequence {
+                    return Err(Fault::OutOfSequence {
+                        expected: self.next_sequence,
+                        found: header.sequence,
+                    });
+                }
+                self.next_sequence = self.next_sequence.wrapping_add(1);
+                visit(Item::Message {
+                    topic,
+                    log_time: header.log_time,
+                    data: &data,
+                })
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// One record parsed by the MCAP parser, or why not.
+fn parse<'a>(record: &RawRecord<'a>) -> Result<Record<'a>, Fault> {
+    mcap::read::parse_record(record.opcode, record.body).map_err(|e| Fault::Unparsable {
+        opcode: record.opcode,
+        reason: e.to_string(),
+    })
 }
 
 /// The least and greatest log time of the messages among `records`, if
@@ -548,55 +659,6 @@ fn open_chunk(body: &[u8]) -> Result<(Vec<u8>, (u64, u64)), ChunkFault> {
         records,
         (header.message_start_time, header.message_end_time),
     ))
-}
-
-/// Parses one record outside the chunk framing and hands what matters to
-/// `visit`.
-fn visit_record(
-    record: RawRecord<'_>,
-    channels: &mut BTreeMap<u16, String>,
-    visit: &mut impl FnMut(Item<'_>) -> Result<(), Fault>,
-) -> Result<(), Fault> {
-    match record.opcode {
-        op::CHANNEL | op::MESSAGE | op::METADATA => {}
-        op::HEADER
-        | op::SCHEMA
-        | op::MESSAGE_INDEX
-        | op::CHUNK_INDEX
-        | op::ATTACHMENT
-        | op::ATTACHMENT_INDEX
-        | op::STATISTICS
-        | op::METADATA_INDEX
-        | op::SUMMARY_OFFSET => return Ok(()),
-        // Not written by hardbody, nor by MCAP's current writers.
-        other => return Err(Fault::UnknownRecord(other)),
-    }
-    let parsed =
-        mcap::read::parse_record(record.opcode, record.body).map_err(|e| Fault::Unparsable {
-            opcode: record.opcode,
-            reason: e.to_string(),
-        })?;
-    match parsed {
-        Record::Channel(c) => {
-            channels.insert(c.id, c.topic);
-            Ok(())
-        }
-        Record::Metadata(m) => visit(Item::Metadata(m)),
-        Record::Message { header, data } => {
-            let topic = channels
-                .get(&header.channel_id)
-                .ok_or(Fault::UndeclaredChannel {
-                    sequence: header.sequence,
-                    channel: header.channel_id,
-                })?;
-            visit(Item::Message {
-                topic,
-                log_time: header.log_time,
-                data: &data,
-            })
-        }
-        _ => Ok(()),
-    }
 }
 
 /// A JSON message decoded, or why not with the field and the place:
