@@ -249,8 +249,7 @@ fn cells_and_lists(
     ])
 }
 
-/// The shell the dynamics picks by itself for `system` (for bodies, a tenth
-/// of the thinnest thickness).
+/// The shell the dynamics picks by itself for `system`.
 fn auto_shell(system: &System) -> Result<f64, BenchError> {
     crate::edmd::automatic_neighbour_shell(system.species(), system.packing_fraction()).ok_or_else(
         || BenchError::Wrong {
@@ -339,6 +338,8 @@ fn time_with(
 
 const PROLATE: &str = "Ellipsoid(a: 1.0, b: 0.5, c: 0.5)";
 const OBLATE: &str = "Ellipsoid(a: 0.25, b: 0.5, c: 0.5)";
+const CUBE: &str = "Cuboid(a: 0.5, b: 0.5, c: 0.5)";
+const SUPERBALL: &str = "Superellipsoid(a: 0.5, b: 0.5, c: 0.5, exponents: (4.0, 4.0, 4.0))";
 
 /// A system of the parameter suites (no target, no published figure).
 fn plain(system: &str, shape: &str, n: usize, phi: f64, start: Start, collisions: u64) -> Setup {
@@ -358,8 +359,9 @@ fn plain(system: &str, shape: &str, n: usize, phi: f64, start: Start, collisions
 
 /// `hardbody bench edmd-shell` (De Michele Figs. 10–11): time per collision
 /// against the neighbour shell Δ for hard spheres at φ = 0.3, 0.4, 0.5 and
-/// prolate ellipsoids (2:1) at φ = 0.5, with the cells time beside each;
-/// the best Δ per system.
+/// prolate ellipsoids (2:1), and without `quick` cubes and superballs
+/// (exponents 4), at φ = 0.5, with the cells time and for bodies the
+/// automatic shell's beside each; the best Δ per system.
 pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
     let repeats = if quick { 3 } else { 5 };
     let (n_spheres, sphere_collisions) = if quick {
@@ -388,6 +390,19 @@ pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
         Start::Compressed,
         if quick { 500 } else { 5000 },
     ));
+    if !quick {
+        // The bodies whose best shells differ most (per thickness: cubes
+        // twice an ellipsoid's, superballs a seventh of it).
+        setups.push(plain("cubes", CUBE, 512, 0.5, Start::Compressed, 5000));
+        setups.push(plain(
+            "superballs, exponents 4",
+            SUPERBALL,
+            512,
+            0.5,
+            Start::Compressed,
+            1000,
+        ));
+    }
     // Shells in units of the bounding diameter.
     let fractions: &[f64] = if quick {
         &[0.05, 0.2, 0.5]
@@ -399,6 +414,11 @@ pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
         let system = start(setup, 1)?;
         let diameter = 2.0 * system.species()[0].shape.bounding_radius();
         rows.push(time_system(setup, &system, None, repeats, quick)?);
+        if !system.species()[0].shape.is_sphere() {
+            let mut row = time_system(setup, &system, Some(auto_shell(&system)?), repeats, quick)?;
+            row.neighbours.push_str(" (automatic)");
+            rows.push(row);
+        }
         for f in fractions {
             rows.push(time_system(
                 setup,

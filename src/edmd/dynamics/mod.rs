@@ -87,13 +87,14 @@ pub const SPHERE_LISTS_FROM: f64 = 0.45;
 /// The neighbour structure a scene gets unless it names one, at packing
 /// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
 /// lists (bounding spheres) with a shell of a quarter of the diameter
-/// above; for every other system, oriented-box lists with a shell of a
-/// tenth of the thinnest body's thickness (twice its smallest half-extent)
-/// times the square root of the largest elongation (longest over shortest
-/// half-extent): long and flat bodies rebuild their boxes often, and
-/// since the support-plane searches made each pair cheap, a wider shell
-/// pays for them. Chosen from `hardbody bench edmd-shell`, `edmd-density`
-/// and `edmd-elongation`; the measurements are in docs/ACCURACY.md.
+/// above; for every other system, oriented-box lists with the thinnest
+/// shell among its species of [`Shape::neighbour_shell_per_thickness`]
+/// times the thickness (twice the smallest half-extent), scaled by
+/// (3 + ℓ(φ)/ℓ(0.5))/4 for the free path ℓ between collisions. Chosen from the scans of
+/// docs/benchmarks/edmd-bodies-2026-12-02.md; `hardbody bench edmd-shell`
+/// times it against fixed shells.
+///
+/// [`Shape::neighbour_shell_per_thickness`]: crate::geometry::Shape::neighbour_shell_per_thickness
 pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
     if species.iter().all(|s| s.shape.is_sphere()) {
         let diameter = species
@@ -102,19 +103,30 @@ pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> 
             .fold(f64::INFINITY, f64::min);
         (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
     } else {
-        let thickness = species
+        let shell = species
             .iter()
-            .map(|s| 2.0 * s.shape.min_half_extent())
+            .map(|s| s.shape.neighbour_shell_per_thickness() * 2.0 * s.shape.min_half_extent())
             .fold(f64::INFINITY, f64::min);
-        let elongation = species
-            .iter()
-            .map(|s| {
-                let h = s.shape.obb_half_extents();
-                h.max() / h.min()
-            })
-            .fold(1.0, f64::max);
-        Some(0.1 * thickness * elongation.sqrt())
+        Some(shell * free_path_scale(packing_fraction))
     }
+}
+
+/// (3 + ℓ(φ)/ℓ(0.5))/4, at most 20: how a body's best neighbour shell
+/// grows with the free path ℓ between collisions. A box is left by
+/// turning as well as by flight: three quarters of the best shell at
+/// φ = 0.5 stays as ℓ shrinks, a quarter grows with it (fitted to the best
+/// shells of ellipsoids and cubes at φ = 0.1, 0.3 and 0.5, within 30 % of
+/// the least work at each). ℓ is the Enskog free path of hard spheres at
+/// the same packing fraction, ℓ/σ = 1/(6√2 φ g(σ)) with the
+/// Carnahan–Starling contact value g(σ) = (1 − φ/2)/(1 − φ)³ (Hansen &
+/// McDonald, Theory of Simple Liquids, §8.2); only its ratio is used.
+fn free_path_scale(packing_fraction: f64) -> f64 {
+    let inverse_free_path = |phi: f64| phi * (1.0 - 0.5 * phi) / (1.0 - phi).powi(3);
+    // Read to 10⁻⁶, so that a plan's φ and its run's, which differ in the
+    // last bits, give one shell.
+    let phi = ((packing_fraction * 1e6).round() * 1e-6).clamp(1e-6, 0.74);
+    let free_path = inverse_free_path(0.5) / inverse_free_path(phi);
+    (0.25 * (3.0 + free_path)).min(20.0)
 }
 
 /// The neighbour regions of [`DynamicsOptions::neighbour_shell`]: spheres,
