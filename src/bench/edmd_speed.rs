@@ -391,8 +391,8 @@ pub fn shell(quick: bool) -> Result<Vec<SpeedRow>, BenchError> {
         if quick { 500 } else { 5000 },
     ));
     if !quick {
-        // The bodies whose best shells differ most (per thickness: cubes
-        // twice an ellipsoid's, superballs a seventh of it).
+        // Bodies whose pair searches cost most unlike an ellipsoid's: the
+        // cheap separating axes of cubes, the dear supports of superballs.
         setups.push(plain("cubes", CUBE, 512, 0.5, Start::Compressed, 5000));
         setups.push(plain(
             "superballs, exponents 4",

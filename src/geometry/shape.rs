@@ -512,27 +512,6 @@ impl Shape {
         self.obb_half_extents().min()
     }
 
-    /// How far, as a fraction of the body's thickness (twice its smallest
-    /// half-extent), a body's bounding box is grown for neighbour lists in
-    /// event-driven runs at φ = 0.5. A wider box lists more pairs to
-    /// search, a thinner one is left sooner and rebuilt; the dearer a
-    /// pair's contact search against a rebuild, the thinner the best box.
-    /// Measured (docs/benchmarks/edmd-bodies-2026-12-02.md): the work per
-    /// collision is least near 0.065 for prolate ellipsoids 2:1, 0.14 for
-    /// cubes and 0.02 for superballs of exponents 4. Bodies the dynamics
-    /// does not run (spherocylinders, polyhedra) and spheres among bodies,
-    /// whose pairs are cheap, take the cuboid's.
-    pub fn neighbour_shell_per_thickness(&self) -> f64 {
-        match self {
-            Shape::Ellipsoid(_) => 0.065,
-            Shape::Superellipsoid(_) => 0.02,
-            Shape::Sphere(_)
-            | Shape::Cuboid(_)
-            | Shape::Spherocylinder(_)
-            | Shape::ConvexPolyhedron(_) => 0.14,
-        }
-    }
-
     /// The point of the body farthest along `dir` (body frame; `dir` need
     /// not be normalised, and must not be zero).
     pub fn support(&self, dir: &Vector3<f64>) -> Vector3<f64> {

@@ -462,7 +462,7 @@ impl fmt::Display for Report<'_> {
         if plan.has_dynamics {
             let spheres = plan.species.iter().all(|s| s.species.shape.is_sphere());
             let why = if plan.neighbours == Neighbours::Auto {
-                "automatic: oriented boxes grown by a measured fraction of each body's thickness (at phi = 0.5: 0.065 for ellipsoids, 0.14 for cuboids, 0.02 for superellipsoids; wider as the free path between collisions grows), the thinnest among the species; for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the stage starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                "automatic: oriented boxes grown at phi = 0.5 by a tenth of the thinnest body's thickness times the square root of the largest elongation, wider as the free path between collisions grows (1.76x at phi = 0.3, 6.5x at phi = 0.1); for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the stage starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
             } else {
                 "accuracy.neighbours"
             };

@@ -87,14 +87,14 @@ pub const SPHERE_LISTS_FROM: f64 = 0.45;
 /// The neighbour structure a scene gets unless it names one, at packing
 /// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
 /// lists (bounding spheres) with a shell of a quarter of the diameter
-/// above; for every other system, oriented-box lists with the thinnest
-/// shell among its species of [`Shape::neighbour_shell_per_thickness`]
-/// times the thickness (twice the smallest half-extent), scaled by
-/// (3 + ℓ(φ)/ℓ(0.5))/4 for the free path ℓ between collisions. Chosen from the scans of
-/// docs/benchmarks/edmd-bodies-2026-12-02.md; `hardbody bench edmd-shell`
-/// times it against fixed shells.
-///
-/// [`Shape::neighbour_shell_per_thickness`]: crate::geometry::Shape::neighbour_shell_per_thickness
+/// above; for every other system, oriented-box lists with a shell of a
+/// tenth of the thinnest body's thickness (twice its smallest half-extent)
+/// times the square root of the largest elongation (longest over shortest
+/// half-extent) at φ = 0.5, wider where the free path between collisions
+/// is longer, by (3 + ℓ(φ)/ℓ(0.5))/4: long and flat bodies rebuild their
+/// boxes often, and so do bodies that fly far between collisions. Chosen
+/// from `hardbody bench edmd-shell`, `edmd-density`, `edmd-elongation`
+/// and the runs of docs/benchmarks/edmd-bodies-2026-12-02.md.
 pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
     if species.iter().all(|s| s.shape.is_sphere()) {
         let diameter = species
@@ -103,20 +103,27 @@ pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> 
             .fold(f64::INFINITY, f64::min);
         (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
     } else {
-        let shell = species
+        let thickness = species
             .iter()
-            .map(|s| s.shape.neighbour_shell_per_thickness() * 2.0 * s.shape.min_half_extent())
+            .map(|s| 2.0 * s.shape.min_half_extent())
             .fold(f64::INFINITY, f64::min);
-        Some(shell * free_path_scale(packing_fraction))
+        let elongation = species
+            .iter()
+            .map(|s| {
+                let h = s.shape.obb_half_extents();
+                h.max() / h.min()
+            })
+            .fold(1.0, f64::max);
+        Some(0.1 * thickness * elongation.sqrt() * free_path_scale(packing_fraction))
     }
 }
 
 /// (3 + ℓ(φ)/ℓ(0.5))/4, at most 20: how a body's best neighbour shell
 /// grows with the free path ℓ between collisions. A box is left by
-/// turning as well as by flight: three quarters of the best shell at
-/// φ = 0.5 stays as ℓ shrinks, a quarter grows with it (fitted to the best
-/// shells of ellipsoids and cubes at φ = 0.1, 0.3 and 0.5, within 30 % of
-/// the least work at each). ℓ is the Enskog free path of hard spheres at
+/// turning as well as by flight: three quarters of the shell at φ = 0.5
+/// stays as ℓ shrinks, a quarter grows with it (1.76 at φ = 0.3, 6.5 at
+/// φ = 0.1, where ellipsoids and cubes ran 1.7 and 2.3 times as long with
+/// the shell of φ = 0.5). ℓ is the Enskog free path of hard spheres at
 /// the same packing fraction, ℓ/σ = 1/(6√2 φ g(σ)) with the
 /// Carnahan–Starling contact value g(σ) = (1 − φ/2)/(1 − φ)³ (Hansen &
 /// McDonald, Theory of Simple Liquids, §8.2); only its ratio is used.
