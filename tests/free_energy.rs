@@ -462,8 +462,10 @@ fn hard_sphere_coexistence_is_fernandezs() {
 }
 
 /// `coexistence` on the command line: JSON with the fields the docs
-/// name; a fluid scene given as the solid refused with exit code 2
-/// before anything runs.
+/// name; the same study written as a workspace, its parts run one by one
+/// as row would and collected, gives that JSON to the bit, and names a
+/// part not done; a fluid scene given as the solid refused with exit
+/// code 2 before anything runs.
 #[test]
 fn the_coexistence_command_prints_json_and_refuses_a_fluid_solid() {
     let dir = std::env::temp_dir().join(format!("hardbody-coex-cli-{}", std::process::id()));
@@ -504,6 +506,56 @@ fn the_coexistence_command_prints_json_and_refuses_a_fluid_solid() {
     let p = json["pressure"].as_f64().unwrap();
     assert!((9.0..14.0).contains(&p), "{p}");
     assert!(dir.join("plots/chemical_potentials.svg").exists());
+
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(hardbody)
+            .current_dir(&dir)
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        (out.status.code(), out.stdout, stderr)
+    };
+    let (code, _, stderr) = run(&[
+        "coexistence",
+        "--fluid",
+        "fluid.ron",
+        "--solid",
+        "solid.ron",
+        "--sweeps",
+        "2000",
+        "--workspace",
+        "study",
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let mut jobs: Vec<_> = std::fs::read_dir(dir.join("study/workspace"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    jobs.sort();
+    // Both anchors and five points of each branch.
+    assert_eq!(jobs.len(), 12);
+    let (last, done) = jobs.split_last().unwrap();
+    for job in done {
+        let (code, _, stderr) = run(&["coexistence", "--job", job.to_str().unwrap()]);
+        assert_eq!(code, Some(0), "{stderr}");
+    }
+    let (code, _, stderr) = run(&["coexistence", "--collect", "study", "--json"]);
+    assert_eq!(code, Some(2));
+    let id = last.file_name().unwrap().to_str().unwrap();
+    assert!(
+        stderr.contains("1 of the study's 12 parts are not done"),
+        "{stderr}"
+    );
+    assert!(stderr.contains(id), "{stderr}");
+    let (code, _, stderr) = run(&["coexistence", "--job", last.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, collected, stderr) = run(&["coexistence", "--collect", "study", "--json"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(
+        String::from_utf8_lossy(&collected),
+        String::from_utf8_lossy(&out.stdout)
+    );
 
     let swapped = std::process::Command::new(hardbody)
         .current_dir(&dir)

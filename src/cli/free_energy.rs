@@ -7,8 +7,7 @@ use std::process::ExitCode;
 
 use hardbody::bench::plot::{Figure, PlotError, Series, line_plot};
 use hardbody::free_energy::{
-    Coexistence, CrystalFreeEnergy, FluidFreeEnergy, FreeEnergy, PathChoices, PhaseScene,
-    scene_coexistence, scene_free_energy,
+    CrystalFreeEnergy, FluidFreeEnergy, FreeEnergy, PathChoices, scene_free_energy,
 };
 use hardbody::log::file::check_output;
 
@@ -89,7 +88,7 @@ pub(super) fn free_energy(
 
 /// The exit of a free energy that failed: bad input (2) or a failed
 /// computation (1), the message on standard error.
-fn refused(e: hardbody::free_energy::FreeEnergyError) -> ExitCode {
+pub(super) fn refused(e: hardbody::free_energy::FreeEnergyError) -> ExitCode {
     if e.is_bad_input() {
         return bad_input(e);
     }
@@ -241,150 +240,5 @@ fn plot_path(dir: &Path, r: &CrystalFreeEnergy) -> Result<(), PlotError> {
         },
         "integrand",
         &points,
-    )
-}
-
-/// `coexistence`: a fluid scene and a crystal scene run, their free
-/// energies and branches found, the coexisting pressure and densities
-/// printed and the chemical potentials plotted.
-pub(super) fn coexistence(
-    fluid_path: &Path,
-    solid_path: &Path,
-    flags: PathChoices,
-    json: bool,
-    plot: Option<&Path>,
-) -> ExitCode {
-    let mut loaded = Vec::new();
-    for path in [fluid_path, solid_path] {
-        match load_scene(path) {
-            Ok(s) => loaded.push(s),
-            Err(e) => return bad_input(e),
-        }
-        let (scene, text) = loaded.last().expect("just pushed");
-        if let Err(e) = preflight(path, text, scene, false) {
-            return bad_input(e);
-        }
-    }
-    let [(fluid, fluid_text), (solid, solid_text)] =
-        <[(hardbody::scene::ValidScene, String); 2]>::try_from(loaded).expect("two scenes");
-    let (fluid_log, solid_log) = (
-        PathBuf::from(&fluid.log.path),
-        PathBuf::from(&solid.log.path),
-    );
-    if fluid_log == solid_log {
-        return bad_input(format!(
-            "--fluid and --solid both log to {}: give their scenes different log.path",
-            fluid_log.display()
-        ));
-    }
-    let (eos, springs, branches) = flags.coexistence(fluid.seed);
-    handle_ctrl_c();
-    esay(&format!(
-        "hardbody {}: coexistence of {} ({} bodies) and {} ({} bodies): both scenes run, logs {} \
-         and {}, then the fluid's equation of state, the crystal's Frenkel–Ladd path and both \
-         branches",
-        env!("CARGO_PKG_VERSION"),
-        fluid_path.display(),
-        fluid.particle_count(),
-        solid_path.display(),
-        solid.particle_count(),
-        fluid_log.display(),
-        solid_log.display()
-    ));
-    let mut progress = progress_display();
-    let result = scene_coexistence(
-        PhaseScene {
-            scene: &fluid,
-            text: &fluid_text,
-            log: &fluid_log,
-        },
-        PhaseScene {
-            scene: &solid,
-            text: &solid_text,
-            log: &solid_log,
-        },
-        (&eos, &springs, &branches),
-        progress.as_mut(),
-        &STOP,
-    );
-    let result = match result.map_err(refused) {
-        Ok(r) => r,
-        Err(code) => return code,
-    };
-    if let Some(dir) = plot
-        && let Err(e) = plot_chemical_potentials(dir, &result)
-    {
-        return not_written(e);
-    }
-    if json {
-        print_json(&result);
-    } else {
-        print_block(&coexistence_report(&result));
-    }
-    ExitCode::SUCCESS
-}
-
-/// Coexistence as text: the crossing, then each branch.
-fn coexistence_report(c: &Coexistence) -> String {
-    let mut text = format!(
-        "coexistence: βP = {:.4} ± {:.4}, βμ = {:.4} ± {:.4}\n\
-         fluid φ = {:.4} ± {:.4}, crystal φ = {:.4} ± {:.4}\n",
-        c.pressure,
-        c.pressure_error,
-        c.chemical_potential.0,
-        c.chemical_potential.1,
-        c.fluid_packing_fraction,
-        c.fluid_packing_fraction_error,
-        c.solid_packing_fraction,
-        c.solid_packing_fraction_error,
-    );
-    for (name, b) in [("fluid", &c.fluid), ("crystal", &c.solid)] {
-        text += &format!(
-            "{name}: βF/N = {:.5} ± {:.5} at ρ = {:.5}; βP fitted by a quadratic in ρ (χ² {:.2} \
-             for {} points)\n     φ          βP        ±      Q₆\n",
-            b.anchor_free_energy.0,
-            b.anchor_free_energy.1,
-            b.anchor_density,
-            b.chi_squared,
-            b.points.len()
-        );
-        for p in &b.points {
-            text += &format!(
-                "{:9.5} {:11.5} {:9.5} {:7.3}\n",
-                p.packing_fraction, p.pressure.0, p.pressure.1, p.q6
-            );
-        }
-    }
-    text
-}
-
-/// βμ of both branches against βP, as SVG.
-fn plot_chemical_potentials(dir: &Path, c: &Coexistence) -> Result<(), PlotError> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let branch = |pick: fn(&(f64, f64, f64)) -> f64| -> Vec<(f64, f64)> {
-        (c.chemical_potentials.iter())
-            .map(|t| (t.0, pick(t)))
-            .filter(|p| p.1.is_finite())
-            .collect()
-    };
-    line_plot(
-        &dir.join("chemical_potentials.svg"),
-        &Figure {
-            title: "chemical potentials: coexistence where they cross",
-            x_label: "βP (1/length³)",
-            y_label: "βμ",
-            log_x: false,
-            log_y: false,
-        },
-        &[
-            Series {
-                name: "fluid".into(),
-                points: branch(|t| t.1),
-            },
-            Series {
-                name: "crystal".into(),
-                points: branch(|t| t.2),
-            },
-        ],
     )
 }

@@ -9,6 +9,7 @@ use hardbody::log::StorageFailure;
 
 mod analyze;
 mod bench;
+mod coexistence;
 mod free_energy;
 mod progress;
 mod run;
@@ -16,6 +17,7 @@ mod sweep;
 
 use analyze::*;
 use bench::*;
+use coexistence::*;
 use free_energy::*;
 use hardbody::free_energy::PathChoices;
 use run::*;
@@ -107,17 +109,38 @@ enum Command {
     /// their chemical potentials cross, with errors.
     Coexistence {
         /// The fluid's scene (compressed to at or above freezing).
-        #[arg(long)]
-        fluid: PathBuf,
+        #[arg(long, required_unless_present_any = ["job", "collect"])]
+        fluid: Option<PathBuf>,
         /// The crystal's scene (starting from Crystal, at or above melting).
-        #[arg(long)]
-        solid: PathBuf,
+        #[arg(long, required_unless_present_any = ["job", "collect"])]
+        solid: Option<PathBuf>,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
         /// Write βμ of both branches against βP (SVG) into this directory.
         #[arg(long, value_name = "DIR")]
         plot: Option<PathBuf>,
+        /// Write the study as a signac workspace with a row workflow in
+        /// DIR instead of running it: one job per part (each phase's free
+        /// energy, each point of each branch), to run on a cluster.
+        #[arg(long, value_name = "DIR", conflicts_with_all = ["json", "plot", "job", "collect"])]
+        workspace: Option<PathBuf>,
+        /// Run the one part of a study in this job folder
+        /// (DIR/workspace/ID), its result to part.json there (what the
+        /// study's row workflow runs).
+        #[arg(long, value_name = "FOLDER", conflicts_with_all = [
+            "fluid", "solid", "json", "plot", "collect", "points", "sweeps", "spring", "seed",
+        ])]
+        job: Option<PathBuf>,
+        /// Cross the parts of the study in DIR once all are done, printed
+        /// (and plotted) as when run here.
+        #[arg(long, value_name = "DIR", conflicts_with_all = [
+            "fluid", "solid", "points", "sweeps", "spring", "seed", "threads",
+        ])]
+        collect: Option<PathBuf>,
+        /// Threads for the parallel paths (default: every core).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
         #[command(flatten)]
         path: PathArgs,
     },
@@ -319,14 +342,8 @@ pub fn main() -> ExitCode {
             continue_,
             threads,
         } => {
-            if let Some(n) = threads {
-                if !(1..=MAX_THREADS).contains(&n) {
-                    return bad_input(format!("--threads must lie in [1, {MAX_THREADS}], got {n}"));
-                }
-                // Before any parallel work: the pool is made once.
-                let _ = rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build_global();
+            if let Err(code) = use_threads(threads) {
+                return code;
             }
             if continue_ {
                 continue_run(scene, out, seed)
@@ -376,8 +393,27 @@ pub fn main() -> ExitCode {
             solid,
             json,
             plot,
+            workspace,
+            job,
+            collect,
+            threads,
             path,
-        } => coexistence(&fluid, &solid, path.choices(), json, plot.as_deref()),
+        } => {
+            if let Err(code) = use_threads(threads) {
+                return code;
+            }
+            match (fluid, solid, workspace, job, collect) {
+                (_, _, _, Some(job), _) => coexistence_job(&job),
+                (_, _, _, _, Some(dir)) => coexistence_collect(&dir, json, plot.as_deref()),
+                (Some(fluid), Some(solid), Some(dir), _, _) => {
+                    coexistence_workspace(&fluid, &solid, path.choices(), &dir)
+                }
+                (Some(fluid), Some(solid), None, _, _) => {
+                    coexistence(&fluid, &solid, path.choices(), json, plot.as_deref())
+                }
+                _ => bad_input("coexistence: give --fluid and --solid, --job or --collect"),
+            }
+        }
         Command::FreeEnergy {
             scene,
             out,
@@ -399,6 +435,22 @@ pub fn main() -> ExitCode {
             plot,
         } => bench(suite, quick, json, plot.as_deref()),
     }
+}
+
+/// The worker threads of the parallel work, if given; made once,
+/// before any parallel work.
+fn use_threads(threads: Option<usize>) -> Result<(), ExitCode> {
+    if let Some(n) = threads {
+        if !(1..=MAX_THREADS).contains(&n) {
+            return Err(bad_input(format!(
+                "--threads must lie in [1, {MAX_THREADS}], got {n}"
+            )));
+        }
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global();
+    }
+    Ok(())
 }
 
 /// Pretty JSON on standard output (the `--json` of every command).

@@ -53,7 +53,7 @@ impl Default for CoexistenceOptions {
 }
 
 /// One measured density of a branch.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BranchPoint {
     /// N/V.
     pub density: f64,
@@ -106,6 +106,23 @@ pub struct Coexistence {
     pub chemical_potentials: Vec<(f64, f64, f64)>,
 }
 
+impl CoexistenceOptions {
+    /// Whether the options can give a branch to fit.
+    pub fn check(&self) -> Result<(), FreeEnergyError> {
+        if self.points < 3 || !(self.span > 0.0 && self.span < 0.5) {
+            return Err(FreeEnergyError::Options(
+                "coexistence needs 3 or more points per branch and a span in (0, 0.5)".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The volume of the bodies per body of `system`: φ = ρ × this.
+pub fn volume_per_body(system: &System) -> f64 {
+    system.packing_fraction() * system.periodic_box().volume() / system.len() as f64
+}
+
 /// Coexistence of `fluid` (its free energy found) and `solid` (its
 /// free energy found), both branches sampled by expanding each state.
 pub fn coexistence(
@@ -115,13 +132,7 @@ pub fn coexistence(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Coexistence, FreeEnergyError> {
-    if options.points < 3 || !(options.span > 0.0 && options.span < 0.5) {
-        return Err(FreeEnergyError::Options(
-            "coexistence needs 3 or more points per branch and a span in (0, 0.5)".into(),
-        ));
-    }
-    let volume_fraction =
-        |s: &System| s.packing_fraction() * s.periodic_box().volume() / s.len() as f64;
+    options.check()?;
     let (fluid_system, solid_system) = (fluid.0, solid.0);
     let fluid_branch = branch_below(
         fluid_system,
@@ -139,6 +150,22 @@ pub fn coexistence(
         progress,
         stop,
     )?;
+    crossed(
+        (fluid_branch, volume_per_body(fluid_system)),
+        (solid_branch, volume_per_body(solid_system)),
+        options,
+    )
+}
+
+/// Coexistence of two measured branches, each with its bodies' volume
+/// per body (to give packing fractions): their crossing, and its errors
+/// from the anchors and pressures resampled within their errors.
+pub fn crossed(
+    fluid: (Branch, f64),
+    solid: (Branch, f64),
+    options: &CoexistenceOptions,
+) -> Result<Coexistence, FreeEnergyError> {
+    let ((fluid_branch, fluid_v), (solid_branch, solid_v)) = (fluid, solid);
     let crossing = cross(&fluid_branch, &solid_branch)?;
     // Resampling: anchors and pressures drawn within their errors.
     let mut rng = Pcg64::seed_from_u64(options.seed ^ 0xc0e);
@@ -162,8 +189,6 @@ pub fn coexistence(
         (draws.iter().map(|d| (pick(d) - mean).powi(2)).sum::<f64>() / (draws.len() - 1) as f64)
             .sqrt()
     };
-    let fluid_v = volume_fraction(fluid_system);
-    let solid_v = volume_fraction(solid_system);
     let (low, high) = common_range(&fluid_branch, &solid_branch);
     let chemical_potentials = (0..=40)
         .map(|i| {
@@ -191,12 +216,31 @@ pub fn coexistence(
 
 /// Which phase a branch is of: a fluid that orders on it, or a crystal
 /// that melts, is refused.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Phase {
     /// A fluid.
     Fluid,
     /// A crystal.
     Crystal,
+}
+
+impl Phase {
+    /// `fluid` or `crystal`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Fluid => "fluid",
+            Phase::Crystal => "crystal",
+        }
+    }
+
+    /// Added to the seed of each branch point's run.
+    fn salt(self) -> u64 {
+        match self {
+            Phase::Fluid => 1000,
+            Phase::Crystal => 2000,
+        }
+    }
 }
 
 /// The branch of `system`'s phase from its density down by
@@ -210,10 +254,46 @@ pub fn branch_below(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Branch, FreeEnergyError> {
-    let density = system.len() as f64 / system.periodic_box().volume();
-    let densities: Vec<f64> = (0..options.points)
-        .map(|k| density * (1.0 - options.span * k as f64 / (options.points - 1) as f64))
-        .collect();
+    let indices: Vec<usize> = (0..options.points).collect();
+    let description = format!("{} branch, {} densities", phase.name(), options.points);
+    let per_point = options.sweeps + options.equilibration;
+    let points = in_parallel(
+        &indices,
+        &description,
+        per_point,
+        progress,
+        |_, &k, done: &AtomicU64| branch_point(system, phase, options, k, done, stop),
+    )?;
+    Branch::fitted(number_density(system), anchor, points)
+}
+
+/// N/V.
+fn number_density(system: &System) -> f64 {
+    system.len() as f64 / system.periodic_box().volume()
+}
+
+/// Point `k` of [`branch_below`]'s branch of `system` (k = 0 the state's
+/// own density, the last `options.span` below it), with its own seed:
+/// the state expanded to its density and run in NVT, the sweeps counted
+/// in `done`. A fluid that orders, or a crystal that melts, is refused.
+pub fn branch_point(
+    system: &System,
+    phase: Phase,
+    options: &CoexistenceOptions,
+    k: usize,
+    done: &AtomicU64,
+    stop: &AtomicBool,
+) -> Result<BranchPoint, FreeEnergyError> {
+    options.check()?;
+    if k >= options.points {
+        return Err(FreeEnergyError::Options(format!(
+            "branch point {k} of a branch of {} points (0 to {})",
+            options.points,
+            options.points - 1
+        )));
+    }
+    let rho =
+        number_density(system) * (1.0 - options.span * k as f64 / (options.points - 1) as f64);
     let eos = super::EquationOfState {
         points: 2,
         sweeps: options.sweeps,
@@ -221,43 +301,24 @@ pub fn branch_below(
         blocks: 20,
         seed: options.seed,
     };
-    let name = match phase {
-        Phase::Fluid => "fluid",
-        Phase::Crystal => "crystal",
-    };
-    let description = format!("{name} branch, {} densities", densities.len());
-    let per_point = options.sweeps + options.equilibration;
-    let salt = match phase {
-        Phase::Fluid => 1000,
-        Phase::Crystal => 2000,
-    };
-    let points = in_parallel(
-        &densities,
-        &description,
-        per_point,
-        progress,
-        |k, &rho, done: &AtomicU64| {
-            let (pressure, q6, phi) =
-                sample_pressure(system, rho, &eos, salt + k as u64, done, stop)?;
-            match (phase, q6 > ORDERED_Q6) {
-                (Phase::Fluid, true) => Err(FreeEnergyError::Ordered {
-                    packing_fraction: phi,
-                    order: format!("global Q₆ = {q6:.3}: the fluid crystallised on its branch"),
-                }),
-                (Phase::Crystal, false) => Err(FreeEnergyError::MeltedBranch {
-                    packing_fraction: phi,
-                    q6,
-                }),
-                _ => Ok(BranchPoint {
-                    density: rho,
-                    packing_fraction: phi,
-                    pressure: (pressure.mean, pressure.error),
-                    q6,
-                }),
-            }
-        },
-    )?;
-    Branch::fitted(density, anchor, points)
+    let (pressure, q6, phi) =
+        sample_pressure(system, rho, &eos, phase.salt() + k as u64, done, stop)?;
+    match (phase, q6 > ORDERED_Q6) {
+        (Phase::Fluid, true) => Err(FreeEnergyError::Ordered {
+            packing_fraction: phi,
+            order: format!("global Q₆ = {q6:.3}: the fluid crystallised on its branch"),
+        }),
+        (Phase::Crystal, false) => Err(FreeEnergyError::MeltedBranch {
+            packing_fraction: phi,
+            q6,
+        }),
+        _ => Ok(BranchPoint {
+            density: rho,
+            packing_fraction: phi,
+            pressure: (pressure.mean, pressure.error),
+            q6,
+        }),
+    }
 }
 
 /// Where two branches' chemical potentials cross.
@@ -329,7 +390,7 @@ fn cross(fluid: &Branch, solid: &Branch) -> Result<Crossing, FreeEnergyError> {
 
 impl Branch {
     /// The branch with its quadratic fitted (weighted least squares).
-    fn fitted(
+    pub fn fitted(
         anchor_density: f64,
         anchor_free_energy: (f64, f64),
         points: Vec<BranchPoint>,

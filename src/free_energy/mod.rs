@@ -9,6 +9,7 @@
 pub mod coexistence;
 pub mod fluid;
 pub mod frenkel_ladd;
+pub mod parts;
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -16,10 +17,12 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use nalgebra::Vector3;
 
 pub use coexistence::{
-    Branch, BranchPoint, Coexistence, CoexistenceOptions, Phase, branch_below, coexistence,
+    Branch, BranchPoint, Coexistence, CoexistenceOptions, Phase, branch_below, branch_point,
+    coexistence,
 };
 pub use fluid::{EosPoint, EquationOfState, FluidFreeEnergy, fluid_free_energy};
 pub use frenkel_ladd::{CrystalFreeEnergy, FrenkelLadd, PathPoint, crystal_free_energy};
+pub use parts::{CoexistencePart, PartResult, coexistence_of_parts, coexistence_part};
 
 use crate::mc::einstein::{Anchors, TetherError};
 use crate::run::{Progress, RecordError, RunError, Simulation, system_from_record};
@@ -201,7 +204,8 @@ pub fn scene_free_energy(
 
 /// What a user may choose of the paths (the command line's flags, the
 /// Python keywords); the rest are the defaults.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct PathChoices {
     /// Gauss–Legendre points of the path (the crystal's or the fluid's).
     pub points: Option<usize>,
@@ -279,21 +283,7 @@ pub fn scene_coexistence(
     progress: &mut dyn Progress,
     stop: &AtomicBool,
 ) -> Result<Coexistence, FreeEnergyError> {
-    if !matches!(solid.scene.start, Start::Crystal { .. }) {
-        return Err(FreeEnergyError::WrongPhase {
-            role: "solid",
-            why: "does not start from Crystal(...): there is no lattice to tether its bodies to",
-        });
-    }
-    if matches!(fluid.scene.start, Start::Crystal { .. }) {
-        return Err(FreeEnergyError::WrongPhase {
-            role: "fluid",
-            why: "starts from a crystal: give a fluid (a Random or Lattice start compressed)",
-        });
-    }
-    if !fluid.scene.walls.is_empty() || !solid.scene.walls.is_empty() {
-        return Err(FreeEnergyError::Walls);
-    }
+    check_phases(fluid.scene, solid.scene)?;
     let (_, fluid_state) = run_to_end(fluid.scene, fluid.text, fluid.log, progress, stop)?;
     let fluid_energy = fluid_free_energy(&fluid_state, options.0, progress, stop)?;
     let (start, solid_state) = run_to_end(solid.scene, solid.text, solid.log, progress, stop)?;
@@ -314,6 +304,27 @@ pub fn scene_coexistence(
         progress,
         stop,
     )
+}
+
+/// Refuses a fluid given as the solid, a crystal given as the fluid,
+/// and walls.
+pub fn check_phases(fluid: &ValidScene, solid: &ValidScene) -> Result<(), FreeEnergyError> {
+    if !matches!(solid.start, Start::Crystal { .. }) {
+        return Err(FreeEnergyError::WrongPhase {
+            role: "solid",
+            why: "does not start from Crystal(...): there is no lattice to tether its bodies to",
+        });
+    }
+    if matches!(fluid.start, Start::Crystal { .. }) {
+        return Err(FreeEnergyError::WrongPhase {
+            role: "fluid",
+            why: "starts from a crystal: give a fluid (a Random or Lattice start compressed)",
+        });
+    }
+    if !fluid.walls.is_empty() || !solid.walls.is_empty() {
+        return Err(FreeEnergyError::Walls);
+    }
+    Ok(())
 }
 
 /// The scene run to its end: its start and final states.

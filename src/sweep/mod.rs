@@ -1,15 +1,24 @@
-//! Parameter sweeps as signac workspaces that row runs (`hardbody sweep`):
-//! a template scene, the values of some of its fields and replicas make
-//! one job folder each, with its state point and scene; `collect` reads
-//! their logs back into one row per state point.
+//! Studies as signac workspaces that row runs. Parameter sweeps
+//! (`hardbody sweep`): a template scene, the values of some of its fields
+//! and replicas make one job folder each, with its state point and scene;
+//! `collect` reads their logs back into one row per state point.
+//! Coexistence studies (`hardbody coexistence --workspace`): a job per
+//! part of a coexistence.
 //!
-//! - `mod.rs`: fields addressed by path, the jobs of a sweep, the
-//!   workspace written;
+//! - `mod.rs`: fields addressed by path, the jobs of a sweep and their
+//!   workspace;
+//! - `workspace.rs`: a project's folders and files written in place;
 //! - `signac.rs`: job ids as signac computes them;
-//! - `collect.rs`: the jobs' status and averages over replicas.
+//! - `collect.rs`: the jobs' status and averages over replicas;
+//! - `coexistence.rs`: a coexistence study's jobs, run and read back.
 
+pub mod coexistence;
 pub mod collect;
 pub mod signac;
+mod workspace;
+
+pub use workspace::Written;
+pub(crate) use workspace::{JobFolder, Project, io, quoted, write_new, write_project};
 
 use std::path::{Path, PathBuf};
 
@@ -506,15 +515,7 @@ pub struct SweepRecord {
 
 /// The `workflow.toml` of a sweep, running `hardbody` at `exe`.
 pub fn workflow_toml(exe: &Path) -> String {
-    let exe = exe.display().to_string();
-    let quoted = if exe
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || "/._-+".contains(c))
-    {
-        exe
-    } else {
-        format!("'{}'", exe.replace('\'', r"'\''"))
-    };
+    let quoted = quoted(exe);
     format!(
         r#"# A hardbody sweep, for row (https://row.readthedocs.io): `row submit`
 # runs every job (`--cluster=none`: here, one after the other); a job
@@ -548,19 +549,6 @@ walltime.per_directory = "00:05:00"
     )
 }
 
-/// What `write_workspace` did.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Written {
-    /// Job folders made.
-    pub made: usize,
-    /// Job folders already there (left as they were).
-    pub kept: usize,
-}
-
-fn io(path: &Path) -> impl Fn(std::io::Error) -> SweepError + '_ {
-    move |e| SweepError::Output(crate::log::file::OutputError::io(path, &e))
-}
-
 /// Writes the sweep at `dir`: the signac project marker, `sweep.json`,
 /// `workflow.toml` (kept if there: it may have been edited) and a folder
 /// per job (kept if there: it may hold a run). A `dir` holding another
@@ -568,21 +556,6 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> SweepError + '_ {
 /// call began (no folder, or an empty one) that cannot be finished is
 /// removed again, so that the next call starts it afresh.
 pub fn write_workspace(
-    dir: &Path,
-    template_text: &str,
-    swept: &[Swept],
-    jobs: &[Job],
-    exe: &Path,
-) -> Result<Written, SweepError> {
-    let new = !dir.exists() || std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none());
-    let written = write_into(dir, template_text, swept, jobs, exe);
-    if new && written.is_err() {
-        let _ = std::fs::remove_dir_all(dir);
-    }
-    written
-}
-
-fn write_into(
     dir: &Path,
     template_text: &str,
     swept: &[Swept],
@@ -597,62 +570,28 @@ fn write_into(
             .collect(),
         version: env!("CARGO_PKG_VERSION").into(),
     };
-    let sweep_path = dir.join(SWEEP_FILE);
-    if sweep_path.exists() {
-        let text = std::fs::read_to_string(&sweep_path).map_err(io(&sweep_path))?;
-        let old: SweepRecord = serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
-            path: sweep_path.clone(),
-            message: format!("not a sweep's record: {e}"),
-        })?;
-        if old.template != record.template || old.keys != record.keys {
-            return Err(SweepError::Workspace {
-                path: dir.to_path_buf(),
-                message: "holds another sweep (another template or other --set keys): choose another --workspace".into(),
-            });
-        }
-    } else if dir.exists() && std::fs::read_dir(dir).map_err(io(dir))?.next().is_some() {
-        return Err(SweepError::Workspace {
-            path: dir.to_path_buf(),
-            message: "exists and is not a sweep's workspace: choose a new or empty folder".into(),
-        });
-    }
-    let signac_dir = dir.join(".signac");
-    std::fs::create_dir_all(&signac_dir).map_err(io(&signac_dir))?;
-    let config = signac_dir.join("config");
-    if !config.exists() {
-        write_new(&config, signac::PROJECT_CONFIG)?;
-    }
-    let record_text = serde_json::to_string_pretty(&record).expect("a record serialises");
-    if !sweep_path.exists() {
-        write_new(&sweep_path, &record_text)?;
-    }
-    let workflow = dir.join("workflow.toml");
-    if !workflow.exists() {
-        write_new(&workflow, &workflow_toml(exe))?;
-    }
-    let workspace = dir.join("workspace");
-    let mut written = Written { made: 0, kept: 0 };
-    for job in jobs {
-        let folder = workspace.join(&job.id);
-        if folder.join(STATEPOINT).exists() {
-            written.kept += 1;
-            continue;
-        }
-        std::fs::create_dir_all(&folder).map_err(io(&folder))?;
-        write_new(&folder.join(JOB_SCENE), &job.scene.to_ron())?;
-        // The state point last: a folder with one is complete.
-        write_new(
-            &folder.join(STATEPOINT),
-            &signac::python_json(&job.statepoint),
-        )?;
-        written.made += 1;
-    }
-    Ok(written)
-}
-
-/// Writes `text` to `path` through a temporary file renamed into place.
-fn write_new(path: &Path, text: &str) -> Result<(), SweepError> {
-    crate::log::file::write_replacing(path, text.as_bytes()).map_err(SweepError::from)
+    let folders: Vec<JobFolder> = (jobs.iter())
+        .map(|job| JobFolder {
+            id: job.id.clone(),
+            statepoint: job.statepoint.clone(),
+            files: vec![(JOB_SCENE, job.scene.to_ron())],
+        })
+        .collect();
+    write_project(
+        dir,
+        &Project {
+            record_file: SWEEP_FILE,
+            record: serde_json::to_string_pretty(&record).expect("a record serialises"),
+            kind: "sweep",
+            other: "another template or other --set keys",
+            workflow: workflow_toml(exe),
+        },
+        |old| {
+            let old: SweepRecord = serde_json::from_str(old).map_err(|e| e.to_string())?;
+            Ok(old.template == record.template && old.keys == record.keys)
+        },
+        &folders,
+    )
 }
 
 #[cfg(test)]
