@@ -15,7 +15,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;
 
-use super::fluid::{ORDERED_Q6, sample_pressure};
+use super::fluid::sample_pressure;
 use super::{CrystalFreeEnergy, FluidFreeEnergy, FreeEnergyError, in_parallel};
 use crate::analysis::quadrature::gauss_legendre_on;
 use crate::run::Progress;
@@ -301,9 +301,10 @@ pub fn branch_point(
         blocks: 20,
         seed: options.seed,
     };
-    let (pressure, q6, phi) =
+    let (pressure, order, phi) =
         sample_pressure(system, rho, &eos, phase.salt() + k as u64, done, stop)?;
-    match (phase, q6 > ORDERED_Q6) {
+    let q6 = order.q6;
+    match (phase, order.ordered()) {
         (Phase::Fluid, true) => Err(FreeEnergyError::Ordered {
             packing_fraction: phi,
             order: format!("global Q₆ = {q6:.3}: the fluid crystallised on its branch"),

@@ -120,8 +120,7 @@ pub fn fluid_free_energy(
     stop: &AtomicBool,
 ) -> Result<FluidFreeEnergy, FreeEnergyError> {
     options.check()?;
-    let q6 = bond_order(system);
-    if let Some(order) = ordered(system, q6) {
+    if let Some(order) = ordered(system, BondOrder::of(system)) {
         return Err(FreeEnergyError::Ordered {
             packing_fraction: system.packing_fraction(),
             order,
@@ -139,11 +138,12 @@ pub fn fluid_free_energy(
         per_point,
         progress,
         |k, &(rho, weight), done| {
-            let (pressure, q6, phi) = sample_pressure(system, rho, options, k as u64, done, stop)?;
-            if q6 > ORDERED_Q6 {
+            let (pressure, order, phi) =
+                sample_pressure(system, rho, options, k as u64, done, stop)?;
+            if order.ordered() {
                 return Err(FreeEnergyError::Ordered {
                     packing_fraction: phi,
-                    order: format!("global Q₆ = {q6:.3} after its run"),
+                    order: format!("global Q₆ = {:.3} after its run", order.q6),
                 });
             }
             Ok(EosPoint {
@@ -153,7 +153,7 @@ pub fn fluid_free_energy(
                 integrand_error: pressure.error / (rho * rho),
                 pressure,
                 weight,
-                q6,
+                q6: order.q6,
             })
         },
     )?;
@@ -199,24 +199,46 @@ impl EquationOfState {
     }
 }
 
-/// Global Q₆ of `system`'s centres, bonds within 1.4 of the largest
-/// bounding diameter.
-fn bond_order(system: &System) -> f64 {
-    use crate::analysis::structure::{neighbours, steinhardt};
-    let centres: Vec<Vector3<f64>> = system.positions.iter().copied().collect();
-    let bonds = neighbours(
-        system.periodic_box(),
-        &centres,
-        1.4 * system.interaction_range(),
-    );
-    steinhardt(&bonds, &[6])[0].global
+/// Global Q₆ of a state's centres and the bonds it is taken over.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct BondOrder {
+    /// Q₆ from the q₆ₘ summed over every bond.
+    pub q6: f64,
+    /// The bonds (pairs within 1.4 of the largest bounding diameter).
+    pub bonds: usize,
+}
+
+impl BondOrder {
+    /// Global Q₆ of `system`'s centres, bonds within 1.4 of the largest
+    /// bounding diameter.
+    pub fn of(system: &System) -> Self {
+        use crate::analysis::structure::{neighbours, steinhardt};
+        let centres: Vec<Vector3<f64>> = system.positions.iter().copied().collect();
+        let bonds = neighbours(
+            system.periodic_box(),
+            &centres,
+            1.4 * system.interaction_range(),
+        );
+        Self {
+            q6: steinhardt(&bonds, &[6])[0].global,
+            bonds: bonds.iter().map(Vec::len).sum::<usize>() / 2,
+        }
+    }
+
+    /// Whether it says the state is ordered: Q₆ above [`ORDERED_Q6`] and
+    /// above five times 1/√bonds, the Q₆ that bonds of random directions
+    /// give (|Σ Y₆ₘ|² of n random bonds is n/4π for each m), so that the
+    /// few bonds of a dilute state never read as order.
+    pub fn ordered(&self) -> bool {
+        self.q6 > ORDERED_Q6 && self.q6 * (self.bonds as f64).sqrt() > 5.0
+    }
 }
 
 /// Why `system` counts as ordered (bond order `q6`, or the nematic order
 /// of a species that turns), or None.
-fn ordered(system: &System, q6: f64) -> Option<String> {
-    if q6 > ORDERED_Q6 {
-        return Some(format!("global Q₆ = {q6:.3}"));
+fn ordered(system: &System, order: BondOrder) -> Option<String> {
+    if order.ordered() {
+        return Some(format!("global Q₆ = {:.3}", order.q6));
     }
     for (s, species) in system.species().iter().enumerate() {
         let Some(axis) = species.order_axis() else {
@@ -238,7 +260,7 @@ fn ordered(system: &System, q6: f64) -> Option<String> {
 }
 
 /// βP of `system` expanded to density `rho` (its own, or lower) by NVT
-/// Monte Carlo, with Q₆ and φ of the last configuration.
+/// Monte Carlo, with the bond order and φ of the last configuration.
 pub(super) fn sample_pressure(
     system: &System,
     rho: f64,
@@ -246,7 +268,7 @@ pub(super) fn sample_pressure(
     k: u64,
     done: &AtomicU64,
     stop: &AtomicBool,
-) -> Result<(Estimate, f64, f64), FreeEnergyError> {
+) -> Result<(Estimate, BondOrder, f64), FreeEnergyError> {
     let mut system = system.clone();
     let n = system.len() as f64;
     let stretch = (n / system.periodic_box().volume() / rho).cbrt();
@@ -298,7 +320,56 @@ pub(super) fn sample_pressure(
     }
     Ok((
         estimate_from(&pressures, 0),
-        bond_order(&system),
+        BondOrder::of(&system),
         system.packing_fraction(),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::Species;
+    use crate::state::crystal::{CrystalSpec, UnitCell, crystal};
+
+    /// A dilute gas's few bonds give Q₆ about 1/√bonds (bonds of random
+    /// directions), above [`ORDERED_Q6`] in some states, yet never
+    /// ordered; an fcc crystal is.
+    #[test]
+    fn a_dilute_gas_is_never_ordered_by_its_few_bonds() {
+        let species = vec![Species {
+            name: "s".into(),
+            shape: "Sphere(radius: 0.5)".parse().unwrap(),
+            rotation: false,
+        }];
+        // 256 spheres at φ ≈ 0.01, where the fluid path's first point lies.
+        let side = (256.0 * std::f64::consts::PI / 6.0 / 0.0098f64).cbrt();
+        let mut rng = Pcg64::seed_from_u64(3);
+        let (mut scaled, mut over_threshold) = (0.0, 0);
+        let states = 60;
+        for _ in 0..states {
+            let box_ = crate::space::PeriodicBox::new(Vector3::repeat(side)).unwrap();
+            let gas = crate::state::start::random_insertion(
+                box_,
+                species.clone(),
+                &[256],
+                1_000_000,
+                &mut rng,
+            )
+            .unwrap();
+            let order = BondOrder::of(&gas);
+            assert!(!order.ordered(), "{order:?}");
+            scaled += order.q6 * (order.bonds as f64).sqrt() / states as f64;
+            over_threshold += usize::from(order.q6 > ORDERED_Q6);
+        }
+        // ⟨χ₁₃⟩/√13 = 0.981 for bonds of random directions.
+        assert!((scaled - 0.98).abs() < 0.1, "{scaled}");
+        assert!(over_threshold > 0, "no state above the bare threshold");
+        let spec = CrystalSpec {
+            cell: UnitCell::fcc(),
+            cells: [4, 4, 4],
+            packing_fraction: 0.5,
+        };
+        let solid = crystal(&spec, species, &[256]).unwrap();
+        assert!(BondOrder::of(&solid).ordered());
+    }
 }
