@@ -16,6 +16,7 @@ pub mod densest;
 mod neighbours;
 mod overlap;
 mod rescale;
+pub(crate) mod shared;
 pub mod start;
 mod system;
 
@@ -136,13 +137,6 @@ pub struct System {
     /// Accepted moves in this box since the lists were last reviewed, and
     /// the sum of their squared steps.
     pub(crate) list_window: (usize, f64),
-    /// The lists are reviewed after the moves rather than during them: a
-    /// member of a team sharing this system's memory
-    /// ([`parallel`]) only counts its moves in the window.
-    pub(crate) review_deferred: bool,
-    /// For such a member: the moves in the system's window when it took
-    /// its copy.
-    pub(crate) list_window_base: usize,
     /// Scratch for the centres of a trial box change.
     scaled: Vec<V3>,
     /// Overlap tests switched off (ideal-gas checks only).

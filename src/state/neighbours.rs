@@ -303,9 +303,6 @@ impl System {
     pub(super) fn moves_short(&mut self, step_sq: f64, limit: f64) -> Option<bool> {
         self.list_window.0 += 1;
         self.list_window.1 += step_sq;
-        if self.review_deferred {
-            return None;
-        }
         self.window_verdict(limit)
     }
 

@@ -132,8 +132,6 @@ impl System {
             capsules,
             capsule_lists: None,
             list_window: (0, 0.0),
-            review_deferred: false,
-            list_window_base: 0,
             scaled: Vec::new(),
             ideal: false,
             stamp: new_stamp(),

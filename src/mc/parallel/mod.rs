@@ -8,10 +8,11 @@
 //! random order.
 //!
 //! Hard spheres in slabs wide enough share one system: every member sweeps
-//! its slabs through a view of its own (`MemberView`: its own copy of the
-//! system's header, the scalars, over the system's vectors of positions,
-//! cells and lists), which places only particles of the slabs it is
-//! sweeping and keeps each in its slab, and members
+//! its slabs through a view of its own (`MemberView`: the system to read,
+//! and `state::shared::SphereSlots` to write the centres, cells
+//! and lists through, with no way to the rest of the system), which
+//! places only particles of the slabs it is sweeping and keeps each in its
+//! slab, and members
 //! sweeping slabs two apart touch disjoint storage (`SharingTerms` says
 //! how wide that asks, and why), which they reach element by element
 //! ([`crate::space::slots::Slots`]), so that no member reads what another

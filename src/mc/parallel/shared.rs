@@ -1,6 +1,7 @@
 //! Teams that share one system of hard spheres: how wide the slabs must
-//! be for members to touch disjoint storage, the members' copies of the
-//! header, and the lists' review folded in between sweeps.
+//! be for members to touch disjoint storage, the members' views (the
+//! system read, only the slots of their own slabs' spheres written), and
+//! the lists' review folded in between sweeps.
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::Rng;
@@ -9,6 +10,7 @@ use super::replicas::{Scratch, colour_moves};
 use super::*;
 use crate::mc::moves::ensemble_box_move;
 use crate::mc::moves::{Counts, Ensemble, MoveTarget};
+use crate::state::shared::SphereSlots;
 use crate::state::{Neighbours, SPHERE_LISTS_REVIEW, System};
 
 type V3 = Vector3<f64>;
@@ -173,16 +175,25 @@ impl SharedSystem {
 }
 
 /// A member's view of the shared system between two barriers: it reads
-/// the whole system, and writes only the particles of the slabs it is
-/// sweeping, each kept inside its slab ([`MoveTarget::place`] refuses any
-/// other, and no `&mut System` can be had from it). Its header (the
-/// scalars: the lists' review window, whether anything moved) is its own;
-/// the vectors are the system's. Its review window starts empty and is
-/// not reviewed (the review is made for the team between sweeps), and its
-/// cells and lists panic rather than grow (which would move storage from
-/// under the others). It never drops the storage, which is the system's.
+/// the whole system, and writes only through its [`SphereSlots`] (the
+/// centres, particles, cells and lists of spheres) the particles of the
+/// slabs it is sweeping, each kept inside its slab ([`MoveTarget::place`]
+/// refuses any other); no `&mut System` can be had from it. What a move
+/// changes of the system's header (the lists' review window, whether
+/// anything moved) it counts in fields of its own, handed to the system
+/// between sweeps.
 pub(super) struct MemberView {
-    header: std::mem::ManuallyDrop<System>,
+    system: *const System,
+    slots: std::mem::ManuallyDrop<SphereSlots>,
+    /// The system's sphere-list skin and size, read when the view was
+    /// made (the header is not to be read once member 0 may change it).
+    skin: Option<f64>,
+    len: usize,
+    /// Moves in the system's review window when the view was made, and
+    /// the moves and squared steps since, not yet handed over.
+    window_base: usize,
+    window: (usize, f64),
+    changed: bool,
     /// The slabs of the sweep, the colour being swept, and this member and
     /// its team: which particles it may place. Nothing while between
     /// colours.
@@ -198,20 +209,20 @@ impl MemberView {
     /// placing particles of slabs that [`Slabs::shareable`] allows touch
     /// disjoint storage.
     unsafe fn new(shared: &SharedSystem) -> Self {
-        // SAFETY: as the caller promises; the copy is never dropped.
-        let mut header = std::mem::ManuallyDrop::new(unsafe { std::ptr::read(shared.0) });
-        header.review_deferred = true;
-        header.list_window_base = header.list_window.0;
-        header.list_window = (0, 0.0);
-        header.changed = false;
-        if let Neighbours::Cells(cells) = &mut header.cells {
-            cells.fix_capacity();
-        }
-        if let Some(lists) = &mut header.sphere_lists {
-            lists.fix_capacity();
-        }
+        let system: *const System = shared.0;
+        // SAFETY: as the caller promises.
+        let whole = unsafe { &*system };
+        // SAFETY: as the caller promises.
+        let slots = unsafe { SphereSlots::of(whole) }
+            .expect("a team shares only spheres on one grid of cells");
         Self {
-            header,
+            system,
+            slots,
+            skin: whole.plan.sphere_skin,
+            len: whole.len(),
+            window_base: whole.list_window.0,
+            window: (0, 0.0),
+            changed: false,
             sweeping: None,
         }
     }
@@ -220,23 +231,33 @@ impl MemberView {
     /// handed over.
     fn take_pending(&mut self) -> Pending {
         let pending = Pending {
-            moves: self.header.list_window.0,
-            sum: self.header.list_window.1,
-            changed: self.header.changed,
+            moves: self.window.0,
+            sum: self.window.1,
+            changed: self.changed,
         };
-        (self.header.list_window, self.header.changed) = ((0, 0.0), false);
+        (self.window, self.changed) = ((0, 0.0), false);
         pending
+    }
+
+    /// Whether the system's lists are due for review once it hears of
+    /// `moves` more.
+    fn review_due(&self, moves: usize) -> bool {
+        self.skin.is_some() && self.window_base + moves >= SPHERE_LISTS_REVIEW * self.len
     }
 }
 
 impl MoveTarget for MemberView {
     fn system(&self) -> &System {
-        &self.header
+        // SAFETY: the header is unchanged while the view is used (see
+        // `new`); the elements it reads no other member writes.
+        unsafe { &*self.system }
     }
 
     /// Spheres keep no capsule lists: the trial only reads.
     fn trial_overlaps(&mut self, i: usize, position: &V3, rotation: Option<&Matrix3<f64>>) -> bool {
-        self.header.trial_overlaps(i, position, rotation)
+        let system = self.system();
+        let rotation = rotation.unwrap_or(&system.rotations[i]);
+        system.overlaps_at(i, position, rotation)
     }
 
     /// Places particle `i` if it lies in a slab of the colour this member
@@ -246,20 +267,29 @@ impl MoveTarget for MemberView {
         &mut self,
         i: usize,
         position: V3,
-        orientation: UnitQuaternion<f64>,
-        rotation: Matrix3<f64>,
+        _orientation: UnitQuaternion<f64>,
+        _rotation: Matrix3<f64>,
     ) {
         let Some((slabs, colour, (me, team))) = self.sweeping else {
             panic!("a member places particles only while it sweeps a colour");
         };
-        let box_ = self.header.periodic_box();
-        let from = slabs.slab_of(&self.header.positions[i]);
+        // SAFETY: as in `system`; the reference is to the header, apart
+        // from the storage the slots write.
+        let system = unsafe { &*self.system };
+        let box_ = system.periodic_box();
+        let from = system.positions[i];
         let to = slabs.slab_of(&box_.wrap_near(&position));
+        let slab = slabs.slab_of(&from);
         assert!(
-            from == to && from % 2 == colour && slabs.owner(from, team) == me,
-            "member {me} may not move particle {i} from slab {from} to {to}"
+            slab == to && slab % 2 == colour && slabs.owner(slab, team) == me,
+            "member {me} may not move particle {i} from slab {slab} to {to}"
         );
-        self.header.place(i, position, orientation, rotation);
+        let step_sq = self.slots.place(box_, i, &from, position);
+        if self.skin.is_some() {
+            self.window.0 += 1;
+            self.window.1 += step_sq;
+        }
+        self.changed = true;
     }
 }
 
@@ -378,9 +408,7 @@ pub(super) fn shared_member_sweeps(
             pending.add(&report.lock().expect("no member panicked"));
         }
         sharing.shared += u64::from(me == 0);
-        let system = local.system();
-        let review_due = system.plan.sphere_skin.is_some()
-            && system.list_window_base + pending.moves >= SPHERE_LISTS_REVIEW * system.len();
+        let review_due = local.review_due(pending.moves);
         if !(npt || review_due || last) {
             continue;
         }
