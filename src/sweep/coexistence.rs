@@ -115,7 +115,7 @@ pub fn write_study(
             workflow: workflow_toml(exe),
         },
         |old| {
-            let old: CoexistenceStudy = serde_json::from_str(old).map_err(|e| e.to_string())?;
+            let old: CoexistenceStudy = serde_json::from_str(old)?;
             Ok(
                 old.fluid == study.fluid
                     && old.solid == study.solid

@@ -587,7 +587,7 @@ pub fn write_workspace(
             workflow: workflow_toml(exe),
         },
         |old| {
-            let old: SweepRecord = serde_json::from_str(old).map_err(|e| e.to_string())?;
+            let old: SweepRecord = serde_json::from_str(old)?;
             Ok(old.template == record.template && old.keys == record.keys)
         },
         &folders,

@@ -66,7 +66,7 @@ pub(crate) struct JobFolder {
 pub(crate) fn write_project(
     dir: &Path,
     project: &Project,
-    same: impl Fn(&str) -> Result<bool, String>,
+    same: impl Fn(&str) -> Result<bool, serde_json::Error>,
     jobs: &[JobFolder],
 ) -> Result<Written, SweepError> {
     let new = !dir.exists() || std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none());
@@ -80,7 +80,7 @@ pub(crate) fn write_project(
 fn write_into(
     dir: &Path,
     project: &Project,
-    same: impl Fn(&str) -> Result<bool, String>,
+    same: impl Fn(&str) -> Result<bool, serde_json::Error>,
     jobs: &[JobFolder],
 ) -> Result<Written, SweepError> {
     let kind = project.kind;
