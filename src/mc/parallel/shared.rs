@@ -324,11 +324,12 @@ impl Pending {
 
 /// The work of member `me` of a team of `team` sharing `shared` (the
 /// sweeps of [`member_sweeps`], with the same moves): every member sorts
-/// its slabs and sweeps them on its copy of the header, a barrier after
-/// the sort and after each colour. Where the header must change (a box move, a review of the
-/// lists due, the team's last sweep), member 0 hands it the members'
-/// review windows, reviews the lists, makes the box move and the room,
-/// while the others wait and then take a fresh copy; in NVT that is one
+/// its slabs and sweeps them through its [`MemberView`], a barrier after
+/// the sort and after each colour. Where the header must change (a box
+/// move, a review of the lists due, the team's last sweep), member 0
+/// hands it the members' review windows, reviews the lists, makes the box
+/// move and the room, while the others wait and then take a fresh view;
+/// in NVT that is one
 /// sweep in [`SPHERE_LISTS_REVIEW`]. A sweep whose slabs are too thin to
 /// share (a box move shrank them) or that has none is member 0's alone,
 /// as a team of one makes it.
