@@ -49,8 +49,10 @@ pub enum FreeEnergyError {
     Tether(#[from] TetherError),
     /// A body left its site while the path ran.
     #[error(
-        "the crystal melted at βλ = {spring}: {source}; its free energy is not that of a \
-         crystal (run it denser, or check that the lattice is stable)"
+        "a body left its site at βλ = {spring}: {source}; the crystal melted, or rows of it \
+         slide along their axis (aligned flat faces let them: a simple cubic crystal of cubes \
+         does), and its free energy is not that of a crystal on its sites (run it denser, or \
+         check that the lattice is stable)"
     )]
     Melted {
         /// βλ of the point where it happened (0: the free crystal).
