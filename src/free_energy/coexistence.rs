@@ -268,7 +268,7 @@ pub fn branch_below(
 }
 
 /// N/V.
-fn number_density(system: &System) -> f64 {
+pub(super) fn number_density(system: &System) -> f64 {
     system.len() as f64 / system.periodic_box().volume()
 }
 

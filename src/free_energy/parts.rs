@@ -8,7 +8,7 @@
 use std::sync::atomic::{AtomicBool, AtomicU64};
 
 use super::coexistence::{Branch, BranchPoint, Coexistence, CoexistenceOptions, Phase};
-use super::coexistence::{branch_point, crossed, volume_per_body};
+use super::coexistence::{branch_point, crossed, number_density, volume_per_body};
 use super::{
     EquationOfState, FreeEnergyError, FrenkelLadd, PhaseScene, carried_anchors, check_phases,
     crystal_free_energy, fluid_free_energy, in_parallel, lattice_translations, run_to_end,
@@ -106,7 +106,7 @@ pub fn coexistence_part(
     let (start, end) = run_to_end(phase.scene, phase.text, phase.log, progress, stop)?;
     let anchor = |(free_energy, error): (f64, f64)| PartResult::Anchor {
         free_energy: (free_energy, error),
-        density: end.len() as f64 / end.periodic_box().volume(),
+        density: number_density(&end),
         volume_per_body: volume_per_body(&end),
     };
     match part {

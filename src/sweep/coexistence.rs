@@ -166,15 +166,11 @@ value_file = "{STATEPOINT}"
 
 /// The study at `dir`.
 pub fn read_study(dir: &Path) -> Result<CoexistenceStudy, SweepError> {
-    let path = dir.join(STUDY_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| SweepError::Workspace {
-        path: path.clone(),
-        message: format!("{e} (is this a coexistence study's folder?)"),
-    })?;
-    serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
-        path,
-        message: format!("not a coexistence study's record: {e}"),
-    })
+    super::read_record(
+        &dir.join(STUDY_FILE),
+        "a coexistence study's folder",
+        "a coexistence study's record",
+    )
 }
 
 /// Why a part could not be run.
@@ -202,15 +198,11 @@ impl PartError {
 /// The part of the job at `job` (a folder of a study's workspace) and
 /// the study's root.
 pub fn job_part(job: &Path) -> Result<(CoexistencePart, PathBuf), SweepError> {
-    let path = job.join(STATEPOINT);
-    let text = std::fs::read_to_string(&path).map_err(|e| SweepError::Workspace {
-        path: path.clone(),
-        message: format!("{e} (is this a job's folder of a coexistence study?)"),
-    })?;
-    let part = serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
-        path: path.clone(),
-        message: format!("not a coexistence part's state point: {e}"),
-    })?;
+    let part = super::read_record(
+        &job.join(STATEPOINT),
+        "a job's folder of a coexistence study",
+        "a coexistence part's state point",
+    )?;
     let root = job
         .parent()
         .and_then(Path::parent)

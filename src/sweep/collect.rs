@@ -202,15 +202,11 @@ fn read_job(folder: &Path) -> Result<JobResult, SweepError> {
 
 /// The record of the sweep at `dir`.
 pub fn sweep_record(dir: &Path) -> Result<SweepRecord, SweepError> {
-    let path = dir.join(SWEEP_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| SweepError::Workspace {
-        path: path.clone(),
-        message: format!("{e} (is this a sweep's folder?)"),
-    })?;
-    serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
-        path,
-        message: format!("not a sweep's record: {e}"),
-    })
+    super::read_record(
+        &dir.join(SWEEP_FILE),
+        "a sweep's folder",
+        "a sweep's record",
+    )
 }
 
 /// The last stage of `scene` that is not a compression (the one a sweep

@@ -18,7 +18,7 @@ pub mod signac;
 mod workspace;
 
 pub use workspace::Written;
-pub(crate) use workspace::{JobFolder, Project, io, quoted, write_new, write_project};
+pub(crate) use workspace::{JobFolder, Project, io, quoted, read_record, write_new, write_project};
 
 use std::path::{Path, PathBuf};
 

@@ -58,6 +58,24 @@ pub(crate) struct JobFolder {
     pub files: Vec<(&'static str, String)>,
 }
 
+/// The JSON record at `path`; a file that cannot be read is asked
+/// whether it is `folder`, one that does not parse is said not to be
+/// `record`.
+pub(crate) fn read_record<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    folder: &str,
+    record: &str,
+) -> Result<T, SweepError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SweepError::Workspace {
+        path: path.to_path_buf(),
+        message: format!("{e} (is this {folder}?)"),
+    })?;
+    serde_json::from_str(&text).map_err(|e| SweepError::Workspace {
+        path: path.to_path_buf(),
+        message: format!("not {record}: {e}"),
+    })
+}
+
 /// Writes `project` at `dir` and a folder per job, keeping the
 /// `workflow.toml` and job folders already there; a record there that
 /// `same` does not take for this project's is refused. A project this
