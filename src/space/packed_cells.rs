@@ -301,7 +301,7 @@ impl PackedCells {
                 self.range_of(n as usize).any(|s| {
                     let d = self
                         .box_
-                        .minimum_image_near(&(position(&self.slots[s]) - r));
+                        .minimum_image_near_as::<TILTED>(&(position(&self.slots[s]) - r));
                     f(self.members[s] as usize, &d)
                 })
             });

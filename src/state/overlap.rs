@@ -133,6 +133,24 @@ impl System {
         skip: impl Fn(usize) -> bool,
         hit: &std::cell::Cell<Option<usize>>,
     ) -> bool {
+        // One instance per kind of box: the orthorhombic one's candidate
+        // loops carry no tilt test per pair.
+        if self.box_.is_tilted() {
+            self.overlap_search_in::<true>(i, position, rotation, skip, hit)
+        } else {
+            self.overlap_search_in::<false>(i, position, rotation, skip, hit)
+        }
+    }
+
+    #[inline(always)]
+    fn overlap_search_in<const TILTED: bool>(
+        &self,
+        i: usize,
+        position: &V3,
+        rotation: &Matrix3<f64>,
+        skip: impl Fn(usize) -> bool,
+        hit: &std::cell::Cell<Option<usize>>,
+    ) -> bool {
         if self.ideal {
             return false;
         }
@@ -200,7 +218,7 @@ impl System {
                 // Both centres lie within half a box of the box: |d| < 3L/2.
                 let separation = |j: usize| {
                     self.box_
-                        .minimum_image_near(&(self.positions[j] - position))
+                        .minimum_image_near_as::<TILTED>(&(self.positions[j] - position))
                 };
                 let h = aabb_half_extents(rotation, &self.obb[si]);
                 let candidate = |j: usize| {
