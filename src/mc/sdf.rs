@@ -190,7 +190,7 @@ impl Sdf {
         let (pi, pj) = (&system.particles[i], &system.particles[j]);
         let (si, sj) = (pi.species as usize, pj.species as usize);
         let d = system.box_.minimum_image(&(pj.position - pi.position));
-        let reach = system.radii[si] + system.radii[sj];
+        let reach = system.body_radii[i] + system.body_radii[j];
         // The closest the centres come on [0, x_max]: a uniform shrink
         // runs towards the origin, closest at x_max.
         let u = self.velocity(&d, side);

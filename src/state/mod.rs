@@ -9,7 +9,8 @@
 //! - `neighbours.rs`: which neighbour structure, and its upkeep as
 //!   particles move;
 //! - `rescale.rs`: box changes, with or without overlaps allowed;
-//! - `start.rs`: first states (lattices, random insertion).
+//! - `start.rs`: first states (lattices, random insertion);
+//! - `sizes.rs`: polydisperse sizes (the distributions, drawn per body).
 
 pub mod crystal;
 pub mod densest;
@@ -17,6 +18,7 @@ mod neighbours;
 mod overlap;
 mod rescale;
 pub(crate) mod shared;
+pub mod sizes;
 pub mod start;
 mod system;
 
@@ -94,6 +96,22 @@ pub enum StateError {
     /// No particles.
     #[error("the system has no particles")]
     Empty,
+    /// Sizes given for another number of particles.
+    #[error("{sizes} sizes for {particles} particles")]
+    SizesCount {
+        /// Sizes given.
+        sizes: usize,
+        /// Particles.
+        particles: usize,
+    },
+    /// A size that is not finite and positive.
+    #[error("particle {0} has size {1}: a size is a finite positive scale factor")]
+    BadSize(usize, f64),
+    /// Sizes where some species is not a sphere.
+    #[error(
+        "species {0} is not a sphere: polydisperse sizes are for systems of spheres only so far"
+    )]
+    SizedNonSphere(String),
 }
 
 /// Particles of several species in a periodic box, with a cell list.
@@ -106,9 +124,15 @@ pub struct System {
     pub(crate) particles: Slots<Particle>,
     /// Cached rotation matrices of the orientations.
     pub(crate) rotations: Vec<Matrix3<f64>>,
-    /// Bounding radius per species, and the largest.
+    /// Bounding radius per species (the largest of its bodies'), and the
+    /// largest of all.
     pub(crate) radii: Vec<f64>,
     max_radius: f64,
+    /// Bounding radius per body: its species' times its size.
+    pub(crate) body_radii: Vec<f64>,
+    /// Each body's size, the scale factor of its species' shape (absent:
+    /// every body at size 1). Spheres only (see [`StateError::SizedNonSphere`]).
+    pub(crate) sizes: Option<Vec<f64>>,
     /// Centres, contiguous (the hot loop reads only these); kept equal to
     /// `particles[i].position`.
     pub(crate) positions: Slots<V3>,

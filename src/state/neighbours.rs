@@ -119,14 +119,14 @@ impl Neighbours {
         halves: &[V3],
         kinds: &[u16],
         species_radii: &[f64],
+        radii: &[f64],
     ) -> Self {
-        let radii: Vec<f64> = kinds.iter().map(|&s| species_radii[s as usize]).collect();
         if plan.per_species {
             let grids = (0..species_radii.len())
                 .map(|s| {
                     let members = centres
                         .iter()
-                        .zip(&radii)
+                        .zip(radii)
                         .map(|(c, r)| (*c, *r))
                         .enumerate()
                         .filter(move |(i, _)| kinds[*i] as usize == s);
@@ -137,7 +137,7 @@ impl Neighbours {
         } else if plan.aabb_cells {
             Neighbours::Aabb(AabbCells::new(box_, plan.aabb_width, centres, halves))
         } else {
-            Neighbours::Cells(PackedCells::new(box_, range, centres, &radii))
+            Neighbours::Cells(PackedCells::new(box_, range, centres, radii))
         }
     }
 }
@@ -282,13 +282,10 @@ impl System {
     /// there, drops them if the moves are not.
     pub(super) fn keep_sphere_lists(&mut self, short: bool, skin: f64) {
         if short && self.sphere_lists.is_none() {
-            let radii: Vec<f64> = (self.particles.iter())
-                .map(|p| self.radii[p.species as usize])
-                .collect();
             self.sphere_lists = Some(SphereLists::new(
                 &self.box_,
                 self.positions.as_slice(),
-                &radii,
+                &self.body_radii,
                 skin,
             ));
         } else if !short {
@@ -364,6 +361,7 @@ impl System {
             &self.aabb,
             &kinds,
             &self.radii,
+            &self.body_radii,
         )
     }
 

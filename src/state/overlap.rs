@@ -55,7 +55,7 @@ impl System {
         );
         // Both positions lie in the box: |d| < 3L/2.
         let d = self.box_.minimum_image_near(&(position_j - position));
-        let reach = self.radii[si] + self.radii[sj];
+        let reach = self.body_radii[i] + self.body_radii[j];
         if d.norm_squared() > reach * reach {
             return false;
         }
@@ -156,7 +156,7 @@ impl System {
         }
         let si = self.particles[i].species as usize;
         let shape_i = &self.species[si].shape;
-        let ri = self.radii[si];
+        let ri = self.body_radii[i];
         if self.box_.has_walls() && self.touches_wall(si, position, rotation) {
             return true;
         }
@@ -185,11 +185,11 @@ impl System {
             if d2 > reach_max * reach_max || skip(j) {
                 return false;
             }
-            let sj = self.particles[j].species as usize;
-            let reach = ri + self.radii[sj];
+            let reach = ri + self.body_radii[j];
             if d2 > reach * reach {
                 return false;
             }
+            let sj = self.particles[j].species as usize;
             let shape_j = &self.species[sj].shape;
             if shape_i.is_sphere() && shape_j.is_sphere() {
                 return true; // within the sum of radii
@@ -270,20 +270,16 @@ impl System {
     pub fn first_overlap_all_pairs(&self) -> Option<(usize, usize)> {
         let n = self.particles.len();
         for i in 0..n {
-            let (pi, si) = (&self.particles[i], self.particles[i].species as usize);
+            let pi = &self.particles[i];
             for j in i + 1..n {
                 let pj = &self.particles[j];
                 let d = self.box_.minimum_image(&(pj.position - pi.position));
-                let reach = self.radii[si] + self.radii[pj.species as usize];
+                let reach = self.body_radii[i] + self.body_radii[j];
                 if d.norm_squared() > reach * reach {
                     continue; // the pair kernels would reject it the same way
                 }
                 let rel = Relative::new(&d, &pi.orientation, &pj.orientation);
-                if overlap(
-                    &self.species[si].shape,
-                    &self.species[pj.species as usize].shape,
-                    &rel,
-                ) {
+                if overlap(&self.shape_of(i), &self.shape_of(j), &rel) {
                     return Some((i, j));
                 }
             }

@@ -213,14 +213,46 @@ pub fn random_insertion<R: Rng>(
     max_attempts: u64,
     rng: &mut R,
 ) -> Result<System, StartError> {
+    random_insertion_sized(box_, species, counts, None, max_attempts, rng)
+}
+
+/// [`random_insertion`] of bodies of their own sizes (`sizes[i]` the
+/// scale factor of the i-th body's species' shape, the bodies in the
+/// order of `counts`; see [`System::with_sizes`]).
+pub fn random_insertion_sized<R: Rng>(
+    box_: PeriodicBox,
+    species: Vec<Species>,
+    counts: &[usize],
+    sizes: Option<Vec<f64>>,
+    max_attempts: u64,
+    rng: &mut R,
+) -> Result<System, StartError> {
     use crate::geometry::{Relative, overlap};
     let n: usize = counts.iter().sum();
+    if let Some(sizes) = &sizes
+        && sizes.len() != n
+    {
+        return Err(StateError::SizesCount {
+            sizes: sizes.len(),
+            particles: n,
+        }
+        .into());
+    }
+    let size_of = |i: usize| sizes.as_ref().map_or(1.0, |s| s[i]);
     let mut placed: Vec<Particle> = Vec::with_capacity(n);
+    let mut shapes: Vec<crate::geometry::Shape> = Vec::with_capacity(n);
     let mut attempts = 0;
     for (s, &count) in counts.iter().enumerate() {
-        let shape = species[s].shape;
-        let radius = shape.bounding_radius();
         for _ in 0..count {
+            let size = size_of(placed.len());
+            if !(size.is_finite() && size > 0.0) {
+                return Err(StateError::BadSize(placed.len(), size).into());
+            }
+            let shape = match sizes {
+                Some(_) => species[s].shape.scaled(size),
+                None => species[s].shape,
+            };
+            let radius = shape.bounding_radius();
             loop {
                 if attempts == max_attempts {
                     return Err(StartError::InsertionFailed {
@@ -235,8 +267,7 @@ pub fn random_insertion<R: Rng>(
                 let orientation = random_rotation(rng);
                 let rotation = orientation.to_rotation_matrix().into_inner();
                 let clash = box_.wall_gap(&position, &shape.lab_half_extents(&rotation)) <= 0.0
-                    || placed.iter().any(|p| {
-                        let other = &species[p.species as usize].shape;
+                    || placed.iter().zip(&shapes).any(|(p, other)| {
                         let d = box_.minimum_image(&(p.position - position));
                         let reach = radius + other.bounding_radius();
                         d.norm_squared() <= reach * reach
@@ -252,12 +283,16 @@ pub fn random_insertion<R: Rng>(
                         orientation,
                         species: s as u16,
                     });
+                    shapes.push(shape);
                     break;
                 }
             }
         }
     }
-    Ok(System::new(box_, species, placed)?)
+    Ok(match sizes {
+        Some(sizes) => System::with_sizes(box_, species, placed, sizes)?,
+        None => System::new(box_, species, placed)?,
+    })
 }
 
 #[cfg(test)]

@@ -66,6 +66,28 @@ impl System {
         particles: Vec<Particle>,
         touching: impl Fn(usize, usize) -> bool,
     ) -> Result<Self, StateError> {
+        Self::assemble(box_, species, particles, None, touching)
+    }
+
+    /// A system of polydisperse spheres: body i is its species' sphere
+    /// scaled by `sizes[i]` (HOOMD's per-particle diameter, relative to
+    /// the species'), checked as [`System::new`] checks.
+    pub fn with_sizes(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+        sizes: Vec<f64>,
+    ) -> Result<Self, StateError> {
+        Self::assemble(box_, species, particles, Some(sizes), |_, _| false)
+    }
+
+    fn assemble(
+        box_: PeriodicBox,
+        species: Vec<Species>,
+        particles: Vec<Particle>,
+        sizes: Option<Vec<f64>>,
+        touching: impl Fn(usize, usize) -> bool,
+    ) -> Result<Self, StateError> {
         if particles.is_empty() {
             return Err(StateError::Empty);
         }
@@ -81,7 +103,26 @@ impl System {
                 ..s
             })
             .collect();
-        let radii: Vec<f64> = species.iter().map(|s| s.shape.bounding_radius()).collect();
+        if let Some(sizes) = &sizes {
+            check_sizes(&species, &particles, sizes)?;
+        }
+        let size = |i: usize| sizes.as_ref().map_or(1.0, |s| s[i]);
+        let body_radii: Vec<f64> = (particles.iter().enumerate())
+            .map(|(i, p)| species[p.species as usize].shape.bounding_radius() * size(i))
+            .collect();
+        // A species' bounds are its largest body's, so that every range,
+        // cell and prefilter sized by species holds for each of its bodies.
+        let mut largest = vec![1.0_f64; species.len()];
+        if let Some(sizes) = &sizes {
+            largest.iter_mut().for_each(|f| *f = 0.0);
+            for (p, f) in particles.iter().zip(sizes) {
+                let s = p.species as usize;
+                largest[s] = largest[s].max(*f);
+            }
+        }
+        let radii: Vec<f64> = (species.iter().zip(&largest))
+            .map(|(s, f)| s.shape.bounding_radius() * f)
+            .collect();
         let max_radius = radii.iter().cloned().fold(0.0, f64::max);
         let range = 2.0 * max_radius;
         let particles: Vec<Particle> = particles
@@ -96,7 +137,9 @@ impl System {
             .map(|p| p.orientation.to_rotation_matrix().into_inner())
             .collect();
         Self::check_box(&box_, range)?;
-        let obb: Vec<V3> = species.iter().map(|s| s.shape.obb_half_extents()).collect();
+        let obb: Vec<V3> = (species.iter().zip(&largest))
+            .map(|(s, f)| s.shape.obb_half_extents() * *f)
+            .collect();
         let aabb: Vec<V3> = particles
             .iter()
             .zip(&rotations)
@@ -112,7 +155,16 @@ impl System {
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
         let kinds: Vec<u16> = particles.iter().map(|p| p.species).collect();
         let all_spheres = species.iter().all(|s| s.shape.is_sphere());
-        let cells = Neighbours::build(&plan, range, &box_, &positions, &aabb, &kinds, &radii);
+        let cells = Neighbours::build(
+            &plan,
+            range,
+            &box_,
+            &positions,
+            &aabb,
+            &kinds,
+            &radii,
+            &body_radii,
+        );
         let system = Self {
             box_,
             species,
@@ -120,6 +172,8 @@ impl System {
             rotations,
             radii,
             max_radius,
+            body_radii,
+            sizes,
             positions: positions.into(),
             obb,
             aabb,
@@ -281,12 +335,36 @@ impl System {
 
     /// φ = Σ vᵢ / V.
     pub fn packing_fraction(&self) -> f64 {
-        let v: f64 = self
-            .particles
-            .iter()
-            .map(|p| self.species[p.species as usize].shape.volume())
-            .sum();
+        let v: f64 = (0..self.len()).map(|i| self.body_volume(i)).sum();
         v / self.box_.volume()
+    }
+
+    /// Each body's size, the scale factor of its species' shape; `None`
+    /// where every body has its species' size.
+    pub fn sizes(&self) -> Option<&[f64]> {
+        self.sizes.as_deref()
+    }
+
+    /// The size of body `i` (1 without sizes).
+    pub fn size_of(&self, i: usize) -> f64 {
+        self.sizes.as_ref().map_or(1.0, |s| s[i])
+    }
+
+    /// The shape of body `i`: its species' scaled by its size.
+    pub fn shape_of(&self, i: usize) -> crate::geometry::Shape {
+        let shape = self.species[self.particles[i].species as usize].shape;
+        match &self.sizes {
+            Some(s) => shape.scaled(s[i]),
+            None => shape,
+        }
+    }
+
+    /// The volume of body `i`.
+    pub fn body_volume(&self, i: usize) -> f64 {
+        let v = self.species[self.particles[i].species as usize]
+            .shape
+            .volume();
+        v * self.size_of(i).powi(3)
     }
 
     /// The contact network of the bodies, pairs closer than
@@ -308,7 +386,13 @@ impl System {
         crate::analysis::packing::ContactNetwork,
     ) {
         let (shapes, bodies) = self.packed();
-        let turns: Vec<bool> = self.species.iter().map(|s| s.rotation).collect();
+        // Whether each shape turns (a sized body's shape is its own).
+        let turns: Vec<bool> = match self.sizes {
+            Some(_) => (self.particles.iter())
+                .map(|p| self.species[p.species as usize].rotation)
+                .collect(),
+            None => self.species.iter().map(|s| s.rotation).collect(),
+        };
         crate::analysis::contact_gap::read_contact_network(
             &self.box_,
             &shapes,
@@ -326,16 +410,41 @@ impl System {
         Vec<crate::geometry::Shape>,
         Vec<crate::analysis::packing::PackedBody>,
     ) {
-        let shapes = self.species.iter().map(|s| s.shape).collect();
-        let bodies = self
-            .particles
-            .iter()
-            .map(|p| crate::analysis::packing::PackedBody {
+        // Bodies of their own sizes each have their own shape.
+        let sized = self.sizes.is_some();
+        let shapes = match sized {
+            true => (0..self.len()).map(|i| self.shape_of(i)).collect(),
+            false => self.species.iter().map(|s| s.shape).collect(),
+        };
+        let bodies = (self.particles.iter().enumerate())
+            .map(|(i, p)| crate::analysis::packing::PackedBody {
                 position: p.position,
                 orientation: p.orientation,
-                shape: p.species as usize,
+                shape: if sized { i } else { p.species as usize },
             })
             .collect();
         (shapes, bodies)
+    }
+}
+
+/// Sizes fit the particles: one finite positive factor each, and every
+/// species a sphere.
+fn check_sizes(
+    species: &[Species],
+    particles: &[Particle],
+    sizes: &[f64],
+) -> Result<(), StateError> {
+    if sizes.len() != particles.len() {
+        return Err(StateError::SizesCount {
+            sizes: sizes.len(),
+            particles: particles.len(),
+        });
+    }
+    if let Some(i) = sizes.iter().position(|f| !(f.is_finite() && *f > 0.0)) {
+        return Err(StateError::BadSize(i, sizes[i]));
+    }
+    match species.iter().find(|s| !s.shape.is_sphere()) {
+        Some(s) => Err(StateError::SizedNonSphere(s.name.clone())),
+        None => Ok(()),
     }
 }

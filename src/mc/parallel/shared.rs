@@ -84,7 +84,8 @@ impl SharingTerms {
         let widths = |dims: [usize; 3]| V3::from_fn(|k, _| lengths[k] / dims[k] as f64);
         // The closest two centres come: the smallest contact distance,
         // less a margin for pairs let through as touching.
-        let closest = 0.999 * 2.0 * system.radii.iter().copied().fold(f64::INFINITY, f64::min);
+        let closest =
+            0.999 * 2.0 * (system.body_radii.iter().copied()).fold(f64::INFINITY, f64::min);
         let cell = widths(cells.dims());
         let mut terms = Self {
             least_width: 2.0 * cell[axis],
