@@ -194,3 +194,95 @@ fn polydisperse_pressure_follows_bmcsl() {
     );
 }
 
+/// A scene with `sizes` runs end to end: its log carries each body's size
+/// (the scene's draw from its seed), every frame is overlap-free at those
+/// sizes by brute force, a resumed run takes them from the log, and a scene
+/// that resumes it without `sizes` is refused.
+#[test]
+fn a_polydisperse_scene_logs_its_sizes_and_resumes_with_them() {
+    use hardbody::log::read::read_log;
+    use hardbody::run::{Silent, run_scene, system_from_record};
+    use hardbody::scene::Scene;
+    use hardbody::scene::plan::Plan;
+    use std::sync::atomic::AtomicBool;
+
+    let dir = std::env::temp_dir().join(format!("hardbody-poly-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = r#"Scene(
+        seed: 9,
+        box: (9.0, 9.0, 9.0),
+        species: [
+            Species(name: "small", shape: Sphere(radius: 0.4), count: 100, sizes: LogNormal(std: 0.15)),
+            Species(name: "big", shape: Sphere(radius: 0.5), count: 150, sizes: Uniform(min: 0.9, max: 1.1)),
+        ],
+        start: Random,
+        stages: [Compress(packing_fraction: 0.4), MonteCarlo(ensemble: Npt(pressure: 5.0), sweeps: 300)],
+        log: Log(path: "poly.mcap", stats_every: 50, frames_every: 100),
+    )"#;
+    let scene = Scene::parse(text).unwrap();
+    let sizes = scene.body_sizes().unwrap();
+    assert_eq!(sizes.len(), 250);
+    assert_eq!(
+        Scene::parse(text).unwrap().body_sizes().unwrap(),
+        sizes,
+        "drawn from the seed"
+    );
+    let path = dir.join("poly.mcap");
+    let stop = AtomicBool::new(false);
+    run_scene(&scene, text, &path, &mut Silent, &stop).unwrap();
+    let log = read_log(&path, true).unwrap();
+    let plan = Plan::of(&scene);
+    assert!(log.states.len() >= 4);
+    let radius = |i: usize| if i < 100 { 0.4 } else { 0.5 } * sizes[i];
+    for (_, state) in &log.states {
+        assert_eq!(state.sizes.as_deref(), Some(sizes.as_slice()));
+        let system = system_from_record(state, &plan).unwrap();
+        let p = system.particles();
+        let box_ = system.periodic_box();
+        for i in 0..p.len() {
+            for j in i + 1..p.len() {
+                let d = box_.minimum_image(&(p[j].position - p[i].position)).norm();
+                assert!(
+                    d > radius(i) + radius(j),
+                    "{i} and {j} overlap at their sizes"
+                );
+            }
+        }
+    }
+    let compressed = log.stats.iter().find(|(_, s)| s.stage_index == 0).unwrap();
+    assert!(compressed.1.packing_fraction > 0.0);
+    let last = &log.states.last().unwrap().1;
+    let volume: f64 = (0..250).map(|i| 4.0 / 3.0 * PI * radius(i).powi(3)).sum();
+    let phi = volume / last.box_lengths.iter().product::<f64>();
+    assert!(
+        (log.stats.last().unwrap().1.packing_fraction - phi).abs() < 1e-9,
+        "the logged packing fraction counts each body at its size"
+    );
+
+    let resumed = text
+        .replace(
+            "start: Random",
+            &format!("start: Resume({:?})", path.display().to_string()),
+        )
+        .replace("Compress(packing_fraction: 0.4), ", "");
+    let scene = Scene::parse(&resumed).unwrap();
+    run_scene(
+        &scene,
+        &resumed,
+        &dir.join("again.mcap"),
+        &mut Silent,
+        &stop,
+    )
+    .unwrap();
+    let again = read_log(&dir.join("again.mcap"), true).unwrap();
+    assert_eq!(again.states[0].1.sizes.as_deref(), Some(sizes.as_slice()));
+    let bare = resumed
+        .replace(", sizes: LogNormal(std: 0.15)", "")
+        .replace(", sizes: Uniform(min: 0.9, max: 1.1)", "");
+    let refused = hardbody::run::check_start(&Scene::parse(&bare).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(refused.contains("sizes of their own"), "{refused}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

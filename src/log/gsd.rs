@@ -287,7 +287,8 @@ fn write_gsd(contents: &LogContents, out: &Path, partial: &Path) -> Result<usize
         .map_err(w)?;
         gsd.write_scalars(
             "particles/diameter",
-            state.species_of.iter().map(|k| of(k).diameter),
+            (state.species_of.iter().enumerate())
+                .map(|(i, k)| of(k).diameter * state.size_of(i) as f32),
         )
         .map_err(w)?;
         gsd.write_arrays(
@@ -308,10 +309,8 @@ fn write_gsd(contents: &LogContents, out: &Path, partial: &Path) -> Result<usize
             .map_err(w)?;
         }
         let volume: f64 = state.box_lengths.iter().product();
-        let packing_fraction = state
-            .species_of
-            .iter()
-            .map(|&k| state.species[k as usize].shape.volume())
+        let packing_fraction = (state.species_of.iter().enumerate())
+            .map(|(i, &k)| state.species[k as usize].shape.volume() * state.size_of(i).powi(3))
             .sum::<f64>()
             / volume;
         for (name, value) in [

@@ -153,6 +153,10 @@ pub struct StateRecord {
     pub positions: Vec<[f64; 3]>,
     /// [w, x, y, z] per particle.
     pub orientations: Vec<[f64; 4]>,
+    /// Each body's size, the scale factor of its species' shape (left
+    /// out where every body has its species' size).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sizes: Option<Vec<f64>>,
     /// Velocities (dynamics only).
     pub velocities: Option<Vec<[f64; 3]>>,
     /// Angular velocities, lab frame (dynamics only).
@@ -265,9 +269,40 @@ impl StateRecord {
                     [q.w, q.i, q.j, q.k]
                 })
                 .collect(),
+            sizes: None,
             velocities: None,
             angular_velocities: None,
             resume: None,
+        }
+    }
+
+    /// The size of body `i` (1 without sizes).
+    pub fn size_of(&self, i: usize) -> f64 {
+        self.sizes.as_ref().map_or(1.0, |s| s[i])
+    }
+
+    /// The shapes the bodies have, with each body's index into them: the
+    /// species' shapes, or with sizes one scaled shape per body.
+    pub fn body_shapes(&self) -> (Vec<Shape>, Vec<usize>) {
+        match &self.sizes {
+            Some(sizes) => (
+                (self.species_of.iter().zip(sizes))
+                    .map(|(&k, &f)| self.species[k as usize].shape.scaled(f))
+                    .collect(),
+                (0..sizes.len()).collect(),
+            ),
+            None => (
+                self.species.iter().map(|s| s.shape).collect(),
+                self.species_of.iter().map(|&k| k as usize).collect(),
+            ),
+        }
+    }
+
+    /// [`StateRecord::of_particles`] of a system, with its bodies' sizes.
+    pub fn of_system(system: &crate::state::System) -> Self {
+        StateRecord {
+            sizes: system.sizes().map(<[f64]>::to_vec),
+            ..Self::of_particles(system.periodic_box(), system.species(), system.particles())
         }
     }
 
@@ -279,6 +314,7 @@ impl StateRecord {
         let lengths = [
             ("positions", Some(self.positions.len())),
             ("orientations", Some(self.orientations.len())),
+            ("sizes", self.sizes.as_ref().map(Vec::len)),
             ("velocities", self.velocities.as_ref().map(Vec::len)),
             (
                 "angular_velocities",

@@ -109,21 +109,25 @@ impl PackingReport {
         reduced_pressure: Option<f64>,
     ) -> Result<Self, BoxError> {
         let box_ = state.periodic_box(walls)?;
-        let shapes: Vec<Shape> = state.species.iter().map(|s| s.shape).collect();
+        let (shapes, shape_of) = state.body_shapes();
         let bodies: Vec<PackedBody> = state
             .positions
             .iter()
             .zip(&state.orientations)
-            .zip(&state.species_of)
+            .zip(&shape_of)
             .map(|((p, q), &k)| PackedBody {
                 position: Vector3::from(*p),
                 orientation: UnitQuaternion::from_quaternion(Quaternion::new(
                     q[0], q[1], q[2], q[3],
                 )),
-                shape: k as usize,
+                shape: k,
             })
             .collect();
-        let turns: Vec<bool> = state.species.iter().map(|s| s.rotation).collect();
+        // Whether each shape turns: its species', whose shape it is.
+        let mut turns = vec![false; shapes.len()];
+        for (&k, &at) in state.species_of.iter().zip(&shape_of) {
+            turns[at] = state.species[k as usize].rotation;
+        }
         let (choice, network) =
             read_contact_network(&box_, &shapes, &turns, &bodies, gap, reduced_pressure);
         let centres: Vec<Vector3<f64>> = bodies.iter().map(|b| b.position).collect();

@@ -97,14 +97,17 @@ impl SceneView {
                 (has_mesh(shape) && *shape != look.shape).then(|| body_mesh(shape))
             })
             .collect();
-        for ((p, q), &s) in state
-            .positions
-            .iter()
+        for (i, ((p, q), &s)) in (state.positions.iter())
             .zip(&state.orientations)
             .zip(&state.species_of)
+            .enumerate()
         {
             let look = &self.looks[s as usize];
-            let shape = shapes[s as usize];
+            // Polydisperse bodies are spheres, drawn at their own sizes.
+            let shape = match &state.sizes {
+                Some(sizes) => shapes[s as usize].scaled(sizes[i]),
+                None => shapes[s as usize],
+            };
             let pose = Some(Pose {
                 position: Some(FVector3 {
                     x: p[0],
@@ -393,6 +396,7 @@ mod tests {
                 [1.0, 0.0, 0.0, 0.0],
                 [1.0, 0.0, 0.0, 0.0],
             ],
+            sizes: None,
             velocities: None,
             angular_velocities: None,
             resume: None,
@@ -446,6 +450,7 @@ mod tests {
             species_of: vec![0, 1],
             positions: vec![[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]],
             orientations: vec![[1.0, 0.0, 0.0, 0.0]; 2],
+            sizes: None,
             velocities: None,
             angular_velocities: None,
             resume: None,

@@ -160,8 +160,7 @@ fn record(runner: &Runner, run: &JamRun, index: usize, complete: bool) -> StateR
             drift: None,
             jam: Some(*run.progress()),
         }),
-        ..StateRecord::of_particles(system.periodic_box(), system.species(), system.particles())
-            .with_velocities(run.velocities())
+        ..StateRecord::of_system(system).with_velocities(run.velocities())
     }
 }
 

@@ -42,7 +42,7 @@ impl Runner {
             stage: self.scene.stages[index].kind().into(),
             sweep: Some(sweep),
             resume: Some(resume),
-            ..StateRecord::of_particles(system.periodic_box(), system.species(), system.particles())
+            ..StateRecord::of_system(system)
         }
     }
 

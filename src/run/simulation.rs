@@ -342,7 +342,7 @@ impl Simulation {
         let of = |system: &System| StateRecord {
             stage_index: index,
             stage: kind(index),
-            ..StateRecord::of_particles(system.periodic_box(), system.species(), system.particles())
+            ..StateRecord::of_system(system)
         };
         Ok(match &self.held {
             Held::Paused(_, record) => StateRecord {

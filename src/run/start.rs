@@ -11,7 +11,7 @@ use crate::log::read::read_log;
 use crate::scene::plan::Plan;
 use crate::scene::{Scene, Start, ValidScene};
 use crate::space::periodic_box::BoxError;
-use crate::state::start::{lattice, random_insertion};
+use crate::state::start::{lattice, random_insertion_sized};
 use crate::state::{Particle, StateError, System};
 
 use super::*;
@@ -33,10 +33,11 @@ pub(super) fn start_state(
         .map_err(|e| RunError::Start(e.into())),
         Start::Random => {
             let n: usize = counts.iter().sum();
-            Ok(random_insertion(
+            Ok(random_insertion_sized(
                 scene.periodic_box(),
                 species,
                 &counts,
+                scene.body_sizes(),
                 1000 * n as u64,
                 rng,
             )?)
@@ -154,6 +155,9 @@ pub enum RecordError {
         /// Particles.
         particles: usize,
     },
+    /// Sizes in the log and none in the scene, or the other way round.
+    #[error("{0}")]
+    Sizes(&'static str),
     /// A box that cannot be.
     #[error("logged box: {0}")]
     Box(#[from] BoxError),
@@ -239,6 +243,17 @@ fn system_from_logged(
             scene: wanted,
         });
     }
+    let polydisperse = plan.species.iter().any(|s| s.polydisperse);
+    if polydisperse != record.sizes.is_some() {
+        return Err(RecordError::Sizes(match polydisperse {
+            true => {
+                "the logged bodies have their species' sizes, and the scene gives sizes: resume a polydisperse log, or leave `sizes` out"
+            }
+            false => {
+                "the logged bodies have sizes of their own, and the scene gives none: give the species the `sizes` that made the log"
+            }
+        }));
+    }
     let n = record.species_of.len();
     if record.positions.len() != n || record.orientations.len() != n {
         return Err(RecordError::Lengths {
@@ -264,6 +279,9 @@ fn system_from_logged(
             species: s,
         })
         .collect::<Vec<Particle>>();
+    if let Some(sizes) = &record.sizes {
+        return Ok(System::with_sizes(box_, species, particles, sizes.clone())?);
+    }
     if !grown {
         return Ok(System::new(box_, species, particles)?);
     }

@@ -5,6 +5,7 @@
 mod error;
 pub mod outline;
 pub mod plan;
+mod sizes;
 pub mod space;
 mod valid;
 mod validate;
@@ -123,6 +124,10 @@ pub struct SpeciesSpec {
     /// Whether orientations change; `false` freezes them.
     #[serde(default = "yes")]
     pub rotation: bool,
+    /// Polydisperse sizes: how the bodies' scale factors of `shape` are
+    /// spread (spheres; drawn from the scene's seed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sizes: Option<crate::state::sizes::SizeDistribution>,
 }
 
 fn one() -> f64 {
@@ -480,16 +485,24 @@ impl Scene {
         self.species.iter().map(|s| s.count).sum()
     }
 
-    /// Σ vᵢ over all particles.
+    /// Σ vᵢ over all particles (at their sizes).
     pub fn particle_volume(&self) -> f64 {
+        if let Some(sizes) = self.body_sizes() {
+            let volumes = self.body_species().map(|s| s.shape.volume());
+            return volumes.zip(sizes).map(|(v, f)| v * f.powi(3)).sum();
+        }
         self.species
             .iter()
             .map(|s| s.count as f64 * s.shape.volume())
             .sum()
     }
 
-    /// The largest bounding radius of any species.
+    /// The largest bounding radius of any body.
     pub fn largest_bounding_radius(&self) -> f64 {
+        if let Some(sizes) = self.body_sizes() {
+            let radii = self.body_species().map(|s| s.shape.bounding_radius());
+            return radii.zip(sizes).map(|(r, f)| r * f).fold(0.0, f64::max);
+        }
         self.species
             .iter()
             .map(|s| s.shape.bounding_radius())
@@ -501,7 +514,10 @@ impl Scene {
     /// (0.7707, Donev et al. 2004); below 1 otherwise.
     pub fn densest_packing_fraction(&self) -> f64 {
         let first = &self.species[0].shape;
-        let all_same = self.species.iter().all(|s| s.shape == *first);
+        let all_same = self
+            .species
+            .iter()
+            .all(|s| s.shape == *first && s.sizes.is_none());
         match first {
             Shape::Sphere(_) if all_same => std::f64::consts::PI / 18f64.sqrt(),
             Shape::Ellipsoid(_) if all_same => 0.7707,

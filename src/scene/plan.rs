@@ -27,6 +27,8 @@ pub struct SpeciesPlan {
     pub mass: f64,
     /// Why it turns or not.
     pub rotation_reason: &'static str,
+    /// Whether its bodies have sizes of their own (`sizes` in the scene).
+    pub polydisperse: bool,
 }
 
 /// The kernels of one pair of species.
@@ -102,6 +104,7 @@ impl Plan {
                     count: s.count,
                     mass: s.mass,
                     rotation_reason,
+                    polydisperse: s.sizes.is_some(),
                 }
             })
             .collect();
@@ -358,7 +361,9 @@ impl fmt::Display for Report<'_> {
             scene.seed
         )?;
         writeln!(f, "species:")?;
-        for s in &plan.species {
+        let sizes = scene.body_sizes();
+        let mut first = 0;
+        for (s, spec) in plan.species.iter().zip(&scene.species) {
             writeln!(
                 f,
                 "  {} x{}: {} (mass {}); {}",
@@ -368,6 +373,20 @@ impl fmt::Display for Report<'_> {
                 Num(s.mass),
                 s.rotation_reason
             )?;
+            if let (Some(sizes), Some(spread)) = (&sizes, &spec.sizes) {
+                let own = &sizes[first..first + s.count];
+                let low = own.iter().copied().fold(f64::INFINITY, f64::min);
+                let high = own.iter().copied().fold(0.0, f64::max);
+                let mean = own.iter().sum::<f64>() / s.count as f64;
+                let variance = own.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / s.count as f64;
+                writeln!(
+                    f,
+                    "    sizes {} (scale factors of the shape, drawn from the seed): {low:.4} to {high:.4}, mean {mean:.4}, standard deviation {:.4}",
+                    ron::to_string(spread).unwrap_or_default(),
+                    variance.sqrt()
+                )?;
+            }
+            first += s.count;
         }
         writeln!(f, "pair kernels (only the pairs present):")?;
         for p in &plan.pairs {

@@ -142,7 +142,7 @@ impl Scene {
             return bad(
                 "species",
                 format!(
-                    "{} species: at most {MAX_SPECIES} (the tables kept per pair of species grow as its square); for a polydisperse system, group the sizes into at most {MAX_SPECIES} species",
+                    "{} species: at most {MAX_SPECIES} (the tables kept per pair of species grow as its square); for a polydisperse system, give a species `sizes`",
                     self.species.len()
                 ),
             );
@@ -158,6 +158,7 @@ impl Scene {
             if s.count == 0 {
                 return bad(&f("count"), "must be at least 1".into());
             }
+            self.validate_sizes_of(i)?;
             let so_far: usize = self.species[..i].iter().map(|t| t.count).sum();
             if s.count > MAX_PARTICLES - so_far {
                 return bad(
@@ -214,6 +215,7 @@ impl Scene {
     /// (a crystal's built once), for the stages.
     fn validate_start(&self) -> Result<PeriodicBox, (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
+        self.validate_sized_run()?;
         let crystal = matches!(self.start, Start::Crystal { .. });
         let n = self.particle_count();
         if let Some(crystal) = self.crystal() {

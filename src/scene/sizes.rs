@@ -1,0 +1,91 @@
+//! Polydisperse species in a scene: the bodies' sizes drawn from the
+//! scene's seed, and what a scene with sizes may ask for so far.
+
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+
+use super::{Scene, SpeciesSpec, Stage, Start};
+
+/// Mixed into the scene's seed for the sizes of species k (the seed xor
+/// this plus k): their own streams, apart from the run's and from each
+/// other's, so that the sizes of one species do not change with another's.
+const SIZES_STREAM: u64 = 0x5129_e5d1_57a1_b000;
+
+impl Scene {
+    /// Each body's size, the bodies species by species as a run places
+    /// them (1 for a species without `sizes`); `None` where no species
+    /// gives sizes. Drawn from the scene's seed: `check` and `run` see the
+    /// same sizes. `None` too for a distribution that validation refuses.
+    pub fn body_sizes(&self) -> Option<Vec<f64>> {
+        if self.species.iter().all(|s| s.sizes.is_none()) {
+            return None;
+        }
+        let mut sizes = Vec::with_capacity(self.particle_count());
+        for (k, s) in self.species.iter().enumerate() {
+            match &s.sizes {
+                Some(d) => {
+                    let mut rng =
+                        Pcg64::seed_from_u64(self.seed ^ SIZES_STREAM.wrapping_add(k as u64));
+                    sizes.extend(d.draw(s.count, &mut rng).ok()?);
+                }
+                None => sizes.extend(std::iter::repeat_n(1.0, s.count)),
+            }
+        }
+        Some(sizes)
+    }
+
+    /// The species of each body, in the order of [`Scene::body_sizes`].
+    pub(super) fn body_species(&self) -> impl Iterator<Item = &SpeciesSpec> {
+        (self.species.iter()).flat_map(|s| std::iter::repeat_n(s, s.count))
+    }
+
+    /// Species `i`'s sizes: a distribution that keeps them positive, on a
+    /// sphere, in a scene of spheres only (field, message).
+    pub(super) fn validate_sizes_of(&self, i: usize) -> Result<(), (String, String)> {
+        let s = &self.species[i];
+        let Some(sizes) = &s.sizes else {
+            return Ok(());
+        };
+        let field = format!("species[{i}].sizes");
+        sizes
+            .check(s.count)
+            .map_err(|e| (field.clone(), e.to_string()))?;
+        match self.species.iter().find(|t| !t.shape.is_sphere()) {
+            Some(t) => Err((
+                field,
+                format!(
+                    "polydisperse sizes are for scenes of spheres only so far, and species \"{}\" is not a sphere ({})",
+                    t.name,
+                    t.shape.kind()
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// What a scene with sizes may start from and run (field, message):
+    /// a random start or a resumed log, and Monte Carlo stages.
+    pub(super) fn validate_sized_run(&self) -> Result<(), (String, String)> {
+        if self.species.iter().all(|s| s.sizes.is_none()) {
+            return Ok(());
+        }
+        if !matches!(self.start, Start::Random | Start::Resume(_)) {
+            return Err((
+                "start".into(),
+                "polydisperse sizes start from Random (or Resume) so far: a lattice's sites are spaced for bodies of one size".into(),
+            ));
+        }
+        match (self.stages.iter().enumerate())
+            .find(|(_, st)| matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. }))
+        {
+            Some((i, st)) => Err((
+                format!("stages[{i}]"),
+                format!(
+                    "polydisperse sizes run in Compress and MonteCarlo stages so far, not in {} stages",
+                    st.kind()
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+}
