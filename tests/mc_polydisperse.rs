@@ -78,6 +78,16 @@ fn each_body_overlaps_at_its_own_size() {
         Err(StateError::BadSize(1, _))
     ));
 
+    // A wall at x = 3 is 0.55 from a centre at 2.45: size 1 clears it,
+    // size 1.2 (radius 0.6) crosses it.
+    let walled = box_.with_walls([true, false, false]).unwrap();
+    let near = vec![at(2.45), at(-1.0)];
+    assert!(System::with_sizes(walled, spheres(), near.clone(), vec![1.0, 1.0]).is_ok());
+    assert_eq!(
+        System::with_sizes(walled, spheres(), near, vec![1.2, 1.0]).unwrap_err(),
+        StateError::WallOverlap(0)
+    );
+
     let mut rng = Pcg64::seed_from_u64(11);
     let n = 400;
     let sizes = SizeDistribution::Uniform { min: 0.6, max: 1.4 }
@@ -130,12 +140,115 @@ fn each_body_overlaps_at_its_own_size() {
     }
 }
 
+/// A size swap is taken exactly where it leaves no overlap: refused where
+/// the larger size would overlap a neighbour, or across species; over many
+/// swaps every state stays overlap-free at its sizes (brute force) and the
+/// sizes stay the same set.
+#[test]
+fn size_swaps_are_taken_where_they_leave_no_overlap() {
+    use hardbody::mc::moves::sweep_with_swaps;
+    let box_ = PeriodicBox::new(Vector3::repeat(6.0)).unwrap();
+    let at = |x: f64| Particle {
+        position: Vector3::new(x, 0.0, 0.0),
+        orientation: UnitQuaternion::identity(),
+        species: 0,
+    };
+    let row = vec![at(0.0), at(1.0), at(2.15)];
+    let mut system = System::with_sizes(box_, spheres(), row, vec![0.9, 1.0, 1.2]).unwrap();
+    // 0 at size 1.2 would reach 0.6 + 0.5 = 1.1 > 1 into its neighbour.
+    assert!(!system.try_swap_sizes(0, 2));
+    assert_eq!(system.sizes(), Some(&[0.9, 1.0, 1.2][..]));
+    assert!(system.try_swap_sizes(0, 1));
+    assert_eq!(system.sizes(), Some(&[1.0, 0.9, 1.2][..]));
+    assert!(!system.try_swap_sizes(1, 1));
+    let mut two = spheres();
+    two.push(Species {
+        name: "other".into(),
+        ..two[0].clone()
+    });
+    let mixed = vec![
+        at(0.0),
+        Particle {
+            species: 1,
+            ..at(2.0)
+        },
+    ];
+    let mut mixed = System::with_sizes(box_, two, mixed, vec![0.9, 1.1]).unwrap();
+    assert!(!mixed.try_swap_sizes(0, 1), "across species");
+
+    let mut rng = Pcg64::seed_from_u64(8);
+    let n = 300;
+    let sizes = SizeDistribution::Uniform { min: 0.6, max: 1.4 }
+        .draw(n, &mut rng)
+        .unwrap();
+    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
+    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
+    let mut system = random_insertion_sized(
+        box_,
+        spheres(),
+        &[n],
+        Some(sizes.clone()),
+        1_000_000,
+        &mut rng,
+    )
+    .unwrap();
+    let moves = MoveSizes {
+        translate: 0.1,
+        rotate: 0.0,
+        volume: 0.0,
+        shear: 0.01,
+    };
+    compress(&mut system, moves, &CompressOptions::to(0.5), &mut rng).unwrap();
+    let mut sorted = sizes.clone();
+    sorted.sort_by(f64::total_cmp);
+    let mut swapped = hardbody::mc::moves::Count::default();
+    for round in 0..4 {
+        for _ in 0..50 {
+            swapped =
+                swapped + sweep_with_swaps(&mut system, &moves, &Ensemble::Nvt, 0.5, &mut rng).swap;
+        }
+        let now = system.sizes().unwrap().to_vec();
+        let p = system.particles();
+        for i in 0..n {
+            for j in i + 1..n {
+                let d = box_.minimum_image(&(p[j].position - p[i].position)).norm();
+                assert!(
+                    d > 0.5 * (now[i] + now[j]),
+                    "round {round}: {i} and {j} overlap"
+                );
+            }
+        }
+        let mut again = now.clone();
+        again.sort_by(f64::total_cmp);
+        assert_eq!(again, sorted, "the sizes are exchanged, never changed");
+        assert_ne!(now, sizes, "round {round}: no swap taken");
+        assert_eq!(system.first_overlap_all_pairs(), None);
+    }
+    assert!(
+        swapped.tried == 4 * 50 * 150 && swapped.accepted > 0,
+        "{swapped:?}"
+    );
+}
+
 /// NVT at φ = 0.45 with Gaussian sizes of deviation 0.1 (mean diameter 1):
 /// the scale-distribution pressure agrees with BMCSL within 1 % and its
 /// error, while the Carnahan–Starling pressure of equal spheres at the
 /// same φ is told apart.
 #[test]
 fn polydisperse_pressure_follows_bmcsl() {
+    pressure_against_bmcsl(0.0);
+}
+
+/// With size swaps the pressure is the same: they sample the same
+/// distribution (a biased swap would change the structure, and with it the
+/// pressure).
+#[test]
+fn polydisperse_pressure_with_swaps_follows_bmcsl() {
+    pressure_against_bmcsl(0.1);
+}
+
+fn pressure_against_bmcsl(swaps: f64) {
+    use hardbody::mc::moves::sweep_with_swaps;
     let mut rng = Pcg64::seed_from_u64(3);
     let n = 1000;
     let sizes = SizeDistribution::Gaussian { std: 0.1 }
@@ -161,15 +274,17 @@ fn polydisperse_pressure_follows_bmcsl() {
     let phi = 0.45;
     compress(&mut system, moves, &CompressOptions::to(phi), &mut rng).unwrap();
     assert!((system.packing_fraction() - phi).abs() < 1e-9);
+    let mut swapped = hardbody::mc::moves::Count::default();
     for _ in 0..2000 {
-        sweep(&mut system, &moves, &Ensemble::Nvt, &mut rng);
+        sweep_with_swaps(&mut system, &moves, &Ensemble::Nvt, swaps, &mut rng);
     }
     let mut estimates = Vec::new();
     for _ in 0..48 {
         let mut sdf = Sdf::new(0.02, 200);
         for _ in 0..100 {
             for _ in 0..5 {
-                sweep(&mut system, &moves, &Ensemble::Nvt, &mut rng);
+                let counts = sweep_with_swaps(&mut system, &moves, &Ensemble::Nvt, swaps, &mut rng);
+                swapped = swapped + counts.swap;
             }
             sdf.add(&system);
         }
@@ -181,7 +296,13 @@ fn polydisperse_pressure_follows_bmcsl() {
     let bmcsl = bmcsl_pressure(rho, &sizes);
     let equal = bmcsl_pressure(rho * sizes.iter().map(|f| f.powi(3)).mean(), &[1.0]);
     eprintln!(
-        "polydisperse phi = {phi}: SDF betaP = {mean:.4} ± {se:.4}, BMCSL {bmcsl:.4}, equal spheres {equal:.4}"
+        "polydisperse phi = {phi}, swaps {swaps} (accepted {:.3}): SDF betaP = {mean:.4} ± {se:.4}, BMCSL {bmcsl:.4}, equal spheres {equal:.4}",
+        swapped.rate()
+    );
+    assert_eq!(swapped.tried > 0, swaps > 0.0);
+    assert!(
+        swaps == 0.0 || swapped.accepted > swapped.tried / 10,
+        "{swapped:?}"
     );
     assert!(se < 0.003 * bmcsl, "error {se} too large to judge 1 %");
     assert!(
@@ -217,7 +338,7 @@ fn a_polydisperse_scene_logs_its_sizes_and_resumes_with_them() {
             Species(name: "big", shape: Sphere(radius: 0.5), count: 150, sizes: Uniform(min: 0.9, max: 1.1)),
         ],
         start: Random,
-        stages: [Compress(packing_fraction: 0.4), MonteCarlo(ensemble: Npt(pressure: 5.0), sweeps: 300)],
+        stages: [Compress(packing_fraction: 0.4), MonteCarlo(ensemble: Npt(pressure: 5.0), sweeps: 300, swaps: 0.2)],
         log: Log(path: "poly.mcap", stats_every: 50, frames_every: 100),
     )"#;
     let scene = Scene::parse(text).unwrap();
@@ -234,9 +355,17 @@ fn a_polydisperse_scene_logs_its_sizes_and_resumes_with_them() {
     let log = read_log(&path, true).unwrap();
     let plan = Plan::of(&scene);
     assert!(log.states.len() >= 4);
-    let radius = |i: usize| if i < 100 { 0.4 } else { 0.5 } * sizes[i];
+    let radius = |i: usize, sizes: &[f64]| if i < 100 { 0.4 } else { 0.5 } * sizes[i];
+    // Each species' sizes, as a set: swaps exchange them within a species.
+    let sets = |sizes: &[f64]| {
+        let mut sets = [sizes[..100].to_vec(), sizes[100..].to_vec()];
+        sets.iter_mut().for_each(|s| s.sort_by(f64::total_cmp));
+        sets
+    };
+    assert_eq!(log.states[0].1.sizes.as_deref(), Some(sizes.as_slice()));
     for (_, state) in &log.states {
-        assert_eq!(state.sizes.as_deref(), Some(sizes.as_slice()));
+        let now = state.sizes.as_deref().unwrap();
+        assert_eq!(sets(now), sets(&sizes));
         let system = system_from_record(state, &plan).unwrap();
         let p = system.particles();
         let box_ = system.periodic_box();
@@ -244,16 +373,24 @@ fn a_polydisperse_scene_logs_its_sizes_and_resumes_with_them() {
             for j in i + 1..p.len() {
                 let d = box_.minimum_image(&(p[j].position - p[i].position)).norm();
                 assert!(
-                    d > radius(i) + radius(j),
+                    d > radius(i, now) + radius(j, now),
                     "{i} and {j} overlap at their sizes"
                 );
             }
         }
     }
-    let compressed = log.stats.iter().find(|(_, s)| s.stage_index == 0).unwrap();
-    assert!(compressed.1.packing_fraction > 0.0);
+    // Swaps are counted where the stage asks for them.
+    for (_, s) in &log.stats {
+        let swapped = s.acceptance_swap;
+        match s.stage_index {
+            0 => assert_eq!(swapped, None),
+            _ => assert!(swapped.is_some_and(|a| a > 0.0 && a < 1.0), "{swapped:?}"),
+        }
+    }
     let last = &log.states.last().unwrap().1;
-    let volume: f64 = (0..250).map(|i| 4.0 / 3.0 * PI * radius(i).powi(3)).sum();
+    let volume: f64 = (0..250)
+        .map(|i| 4.0 / 3.0 * PI * radius(i, &sizes).powi(3))
+        .sum();
     let phi = volume / last.box_lengths.iter().product::<f64>();
     assert!(
         (log.stats.last().unwrap().1.packing_fraction - phi).abs() < 1e-9,
@@ -276,13 +413,125 @@ fn a_polydisperse_scene_logs_its_sizes_and_resumes_with_them() {
     )
     .unwrap();
     let again = read_log(&dir.join("again.mcap"), true).unwrap();
-    assert_eq!(again.states[0].1.sizes.as_deref(), Some(sizes.as_slice()));
+    assert_eq!(
+        again.states[0].1.sizes, last.sizes,
+        "resumed at the log's sizes"
+    );
+    assert_ne!(
+        last.sizes.as_deref(),
+        Some(sizes.as_slice()),
+        "the swaps exchanged sizes"
+    );
     let bare = resumed
         .replace(", sizes: LogNormal(std: 0.15)", "")
-        .replace(", sizes: Uniform(min: 0.9, max: 1.1)", "");
+        .replace(", sizes: Uniform(min: 0.9, max: 1.1)", "")
+        .replace(", swaps: 0.2", "");
     let refused = hardbody::run::check_start(&Scene::parse(&bare).unwrap())
         .unwrap_err()
         .to_string();
     assert!(refused.contains("sizes of their own"), "{refused}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The self overlap Q(t) = ⟨θ(a − |Δrᵢ(t)|)⟩ over bodies and time origins
+/// (a = 0.3 mean diameters), from unwrapped centres sampled `every`
+/// sweeps; and the first lag (in sweeps) where it falls below 1/e.
+fn overlap_decay(
+    system: &mut System,
+    moves: &MoveSizes,
+    swaps: f64,
+    samples: usize,
+    every: usize,
+    rng: &mut Pcg64,
+) -> (Vec<f64>, Option<usize>) {
+    use hardbody::mc::moves::sweep_with_swaps;
+    let n = system.len();
+    let box_ = *system.periodic_box();
+    let mut unwrapped: Vec<Vector3<f64>> = system.particles().iter().map(|p| p.position).collect();
+    let mut last = unwrapped.clone();
+    let mut trajectory = vec![unwrapped.clone()];
+    for _ in 1..samples {
+        for _ in 0..every {
+            sweep_with_swaps(system, moves, &Ensemble::Nvt, swaps, rng);
+        }
+        for (i, p) in system.particles().iter().enumerate() {
+            unwrapped[i] += box_.minimum_image(&(p.position - last[i]));
+            last[i] = p.position;
+        }
+        trajectory.push(unwrapped.clone());
+    }
+    let q: Vec<f64> = (0..samples / 2)
+        .map(|lag| {
+            let origins = samples - lag;
+            let mut held = 0usize;
+            for t in 0..origins {
+                held += (0..n)
+                    .filter(|&i| (trajectory[t + lag][i] - trajectory[t][i]).norm() < 0.3)
+                    .count();
+            }
+            held as f64 / (origins * n) as f64
+        })
+        .collect();
+    let tau = q
+        .iter()
+        .position(|&x| x < (-1.0f64).exp())
+        .map(|lag| lag * every);
+    (q, tau)
+}
+
+/// Size swaps (0.25 per body per sweep) cut the decorrelation time of a
+/// dense polydisperse fluid (500 spheres, Gaussian sizes of deviation 0.15,
+/// φ = 0.58): τ, where the self overlap falls to 1/e, in sweeps, at least 3
+/// times shorter (measured: 96 000 against 14 000 sweeps; the time per
+/// sweep, printed, is 1.7 times longer with swaps). `PHI`, `STD`,
+/// `SAMPLES` and `EVERY` set the state and the sampling
+/// (docs/polydisperse.md has the table).
+#[test]
+#[ignore = "measurement, about 40 s: the decorrelation time with and without swaps"]
+fn swaps_decorrelate_a_dense_polydisperse_fluid_faster() {
+    let var =
+        |name: &str, default: f64| std::env::var(name).map_or(default, |s| s.parse().unwrap());
+    let (std, phi) = (var("STD", 0.15), var("PHI", 0.58));
+    let (samples, every) = (
+        var("SAMPLES", 300.0) as usize,
+        var("EVERY", 1000.0) as usize,
+    );
+    let mut rng = Pcg64::seed_from_u64(21);
+    let n = 500;
+    let sizes = SizeDistribution::Gaussian { std }
+        .draw(n, &mut rng)
+        .unwrap();
+    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
+    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
+    let mut system =
+        random_insertion_sized(box_, spheres(), &[n], Some(sizes), 1_000_000, &mut rng).unwrap();
+    let moves = MoveSizes {
+        translate: 0.08,
+        rotate: 0.0,
+        volume: 0.0,
+        shear: 0.01,
+    };
+    compress(&mut system, moves, &CompressOptions::to(phi), &mut rng).unwrap();
+    let longest = samples / 2 * every;
+    let mut taus = Vec::new();
+    for swaps in [0.0, 0.25] {
+        let mut s = system.clone();
+        let t0 = std::time::Instant::now();
+        let (q, tau) = overlap_decay(&mut s, &moves, swaps, samples, every, &mut rng);
+        let per_sweep = t0.elapsed().as_secs_f64() / (samples * every) as f64;
+        let shown: Vec<String> = q.iter().step_by(10).map(|x| format!("{x:.3}")).collect();
+        eprintln!(
+            "phi {phi}, std {std}, swaps {swaps}: tau {} sweeps, {:.1} us per sweep, Q every {} sweeps {shown:?}",
+            tau.map_or(format!("> {longest}"), |t| t.to_string()),
+            1e6 * per_sweep,
+            10 * every
+        );
+        taus.push(tau);
+    }
+    let swapped = taus[1].expect("with swaps Q falls below 1/e");
+    let plain = taus[0].unwrap_or(longest);
+    assert!(
+        plain >= 3 * swapped,
+        "tau {plain} without swaps, {swapped} with"
+    );
 }

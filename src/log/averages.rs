@@ -58,7 +58,7 @@ pub struct StageAverages {
 /// The observables of a `/stats` message that averages are taken of
 /// (not the box, which follows φ, nor MSD and C₂, which are functions of
 /// time, not stationary values).
-fn observables(s: &Stats) -> [(&'static str, Option<f64>); 13] {
+fn observables(s: &Stats) -> [(&'static str, Option<f64>); 14] {
     let tensor = |k: usize| s.pressure_tensor.map(|t| t[k]);
     [
         ("packing_fraction", Some(s.packing_fraction)),
@@ -74,6 +74,7 @@ fn observables(s: &Stats) -> [(&'static str, Option<f64>); 13] {
         ("acceptance_translate", s.acceptance_translate),
         ("acceptance_rotate", s.acceptance_rotate),
         ("acceptance_volume", s.acceptance_volume),
+        ("acceptance_swap", s.acceptance_swap),
     ]
 }
 

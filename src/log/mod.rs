@@ -21,6 +21,7 @@ pub mod file;
 pub mod gsd;
 pub mod packing;
 pub mod read;
+mod schema;
 pub mod view;
 
 use std::collections::BTreeMap;
@@ -92,6 +93,10 @@ pub struct Stats {
     /// with triclinic box moves); left out otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acceptance_shear: Option<f64>,
+    /// Acceptance of size swaps over the interval (Monte Carlo stages with
+    /// `swaps`); left out otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceptance_swap: Option<f64>,
     /// Collisions since the stage began (dynamics).
     pub collisions: Option<u64>,
     /// kT from the kinetic energy (dynamics).
@@ -384,60 +389,6 @@ pub struct FailureRecord {
     pub dump: Option<crate::edmd::DynamicsDump>,
 }
 
-const FAILURE_SCHEMA: &str = r#"{
-  "type": "object",
-  "description": "why a hardbody run failed; dump: the dynamics' stored state (per body its own time, pose, velocities), to replay the failure",
-  "properties": {
-    "stage_index": {"type": "integer"},
-    "message": {"type": "string"},
-    "dump": {"type": ["object", "null"]}
-  }
-}"#;
-
-const STATS_SCHEMA: &str = r#"{
-  "type": "object",
-  "properties": {
-    "stage": {"type": "string"},
-    "stage_index": {"type": "integer"},
-    "sweep": {"type": ["integer", "null"]},
-    "time": {"type": ["number", "null"]},
-    "packing_fraction": {"type": "number"},
-    "pressure": {"type": ["number", "null"]},
-    "pressure_tensor": {"type": "array", "items": {"type": "number"}, "description": "betaP_ab as (xx, xy, xz, yy, yz, zz) over the interval: dynamics in a periodic box from the collision virial; Monte Carlo stages asked for it from the scale distribution; absent otherwise"},
-    "box": {"type": "array", "items": {"type": "number"}},
-    "tilts": {"type": "array", "items": {"type": "number"}, "description": "box tilt factors (xy, xz, yz); absent when all are zero"},
-    "acceptance_translate": {"type": ["number", "null"]},
-    "acceptance_rotate": {"type": ["number", "null"]},
-    "acceptance_volume": {"type": ["number", "null"]},
-    "acceptance_shear": {"type": "number", "description": "NPT with triclinic box moves; absent otherwise"},
-    "collisions": {"type": ["integer", "null"]},
-    "temperature": {"type": ["number", "null"]},
-    "nematic_order": {"type": ["number", "null"]},
-    "msd": {"type": ["number", "null"]},
-    "c2": {"type": ["number", "null"]},
-    "solver": {"type": ["object", "null"], "description": "dynamics: distances, iterations, fallbacks, iteration_caps, grazing_refinements, roundoff_contacts since the stage began"},
-    "overlap_strains": {"type": ["object", "null"], "description": "Monte Carlo, over the interval: overlap tests GJK left undecided, settled_by_distance or taken_as_overlap"}
-  }
-}"#;
-
-const STATE_SCHEMA: &str = r#"{
-  "type": "object",
-  "description": "hardbody full-precision state; orientations are unit quaternions body->lab as [w, x, y, z]",
-  "properties": {
-    "stage_index": {"type": "integer"},
-    "stage": {"type": "string"},
-    "sweep": {"type": ["integer", "null"]},
-    "time": {"type": ["number", "null"]},
-    "box": {"type": "array", "items": {"type": "number"}},
-    "species": {"type": "array", "items": {"type": "object"}},
-    "species_of": {"type": "array", "items": {"type": "integer"}},
-    "positions": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
-    "orientations": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
-    "velocities": {"type": ["array", "null"]},
-    "angular_velocities": {"type": ["array", "null"]}
-  }
-}"#;
-
 /// Writes a log to `<path>.partial` under an exclusive lock;
 /// [`LogWriter::finish`] renames it to `<path>`.
 pub struct LogWriter {
@@ -565,9 +516,9 @@ impl LogWriter {
             w.add_schema(name, "jsonschema", text.as_bytes())
         };
         let stats_schema =
-            json_schema(&mut writer, "hardbody.Stats", STATS_SCHEMA).map_err(mcap_err)?;
+            json_schema(&mut writer, "hardbody.Stats", schema::STATS_SCHEMA).map_err(mcap_err)?;
         let state_schema =
-            json_schema(&mut writer, "hardbody.State", STATE_SCHEMA).map_err(mcap_err)?;
+            json_schema(&mut writer, "hardbody.State", schema::STATE_SCHEMA).map_err(mcap_err)?;
         let scene_schema = foxglove::messages::SceneUpdate::get_schema()
             .expect("foxglove publishes the SceneUpdate schema");
         let scene_schema = writer
@@ -720,8 +671,11 @@ impl LogWriter {
         let data = serde_json::to_vec(failure).expect("failures serialise");
         let sequence = self.sequence + 1;
         self.attempt(|w| {
-            let schema =
-                w.add_schema("hardbody.Failure", "jsonschema", FAILURE_SCHEMA.as_bytes())?;
+            let schema = w.add_schema(
+                "hardbody.Failure",
+                "jsonschema",
+                schema::FAILURE_SCHEMA.as_bytes(),
+            )?;
             let channel = w.add_channel(schema, "/failure", "json", &BTreeMap::new())?;
             let header = mcap::records::MessageHeader {
                 channel_id: channel,

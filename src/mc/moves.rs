@@ -25,6 +25,10 @@ impl Count {
     pub fn rate(&self) -> f64 {
         self.accepted as f64 / self.tried as f64
     }
+    /// Nothing tried.
+    pub fn is_empty(&self) -> bool {
+        self.tried == 0
+    }
     pub(crate) fn record(&mut self, accepted: bool) {
         self.tried += 1;
         self.accepted += accepted as u64;
@@ -53,6 +57,9 @@ pub struct Counts {
     /// Box moves that shear (a tilt factor).
     #[serde(default)]
     pub shear: Count,
+    /// Two bodies exchanging their sizes (polydisperse spheres).
+    #[serde(default, skip_serializing_if = "Count::is_empty")]
+    pub swap: Count,
     /// Overlap tests the boolean test left undecided (counted by the
     /// scope each thread ran its sweeps in, see
     /// [`crate::geometry::pair::counting_strains`]).
@@ -85,6 +92,7 @@ impl Add for Counts {
             rotate: self.rotate + o.rotate,
             volume: self.volume + o.volume,
             shear: self.shear + o.shear,
+            swap: self.swap + o.swap,
             strains: self.strains + o.strains,
         }
     }
@@ -109,6 +117,7 @@ impl Sub for Counts {
             rotate: self.rotate - o.rotate,
             volume: self.volume - o.volume,
             shear: self.shear - o.shear,
+            swap: self.swap - o.swap,
             strains: self.strains - o.strains,
         }
     }
@@ -172,6 +181,33 @@ pub fn sweep<R: Rng>(
     );
     if let Some(outcome) = ensemble_box_move(system, sizes, ensemble, rng) {
         counts.record_box(outcome);
+    }
+    counts
+}
+
+/// [`sweep`], then `swaps` × N size swaps (rounded down, and up with
+/// the probability of the remainder): each picks two bodies at random and
+/// exchanges their sizes where [`System::try_swap_sizes`] allows (two of
+/// one species, no overlap after). Each kind of move keeps the
+/// equilibrium distribution, so their sequence does; swaps move a
+/// polydisperse fluid through its configurations without the cage
+/// escapes translations wait for.
+pub fn sweep_with_swaps<R: Rng>(
+    system: &mut System,
+    sizes: &MoveSizes,
+    ensemble: &Ensemble,
+    swaps: f64,
+    rng: &mut R,
+) -> Counts {
+    let mut counts = sweep(system, sizes, ensemble, rng);
+    if swaps > 0.0 && system.sizes().is_some() {
+        let n = system.len();
+        let wanted = swaps * n as f64;
+        let tries = wanted.floor() as usize + (rng.r#gen::<f64>() < wanted.fract()) as usize;
+        for _ in 0..tries {
+            let (i, j) = (rng.gen_range(0..n), rng.gen_range(0..n));
+            counts.swap.record(system.try_swap_sizes(i, j));
+        }
     }
     counts
 }

@@ -509,6 +509,7 @@ impl Runner {
                 ensemble,
                 sweeps,
                 pressure_tensor,
+                swaps,
                 ..
             } => {
                 let system = self.to_system(phase)?;
@@ -517,7 +518,7 @@ impl Runner {
                     self,
                     index,
                     system,
-                    (*ensemble, *sweeps, span, *pressure_tensor),
+                    (*ensemble, *sweeps, span, *pressure_tensor, *swaps),
                     resume,
                     log,
                     rng,

@@ -7,7 +7,7 @@ use rand_pcg::Pcg64;
 
 use crate::geometry::pair::{OverlapStrains, counting_strains};
 use crate::log::{NS_PER_SWEEP, ResumeInfo, StateRecord, Stats};
-use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep};
+use crate::mc::moves::{Counts, Ensemble as McEnsemble, sweep_with_swaps};
 use crate::mc::parallel::{MAX_CHUNK, ParallelSweeps, sweeps_on_slabs};
 use crate::mc::sdf::{Sdf, SdfTensor};
 use crate::mc::tuning::{Tuner, TuningSpan};
@@ -56,6 +56,8 @@ pub(super) struct MonteCarloStage<'a> {
     /// drawn from the stage's generator, so that a resumed stage draws the
     /// same ones.
     slabs: Option<ParallelSweeps>,
+    /// Size swaps per body per sweep.
+    swaps: f64,
     seeds: Vec<u64>,
     /// Sweeps done.
     sweep: u64,
@@ -77,7 +79,7 @@ impl<'a> MonteCarloStage<'a> {
         runner: &mut Runner,
         index: usize,
         mut system: System,
-        (ensemble, sweeps, span, pressure_tensor): (Ensemble, u64, TuningSpan, bool),
+        (ensemble, sweeps, span, pressure_tensor, swaps): (Ensemble, u64, TuningSpan, bool, f64),
         resume: Option<ResumeInfo>,
         log: &mut LogWriter,
         rng: &'a mut Pcg64,
@@ -117,7 +119,9 @@ impl<'a> MonteCarloStage<'a> {
         let sdf = (matches!(ensemble, Ensemble::Nvt) && !system.periodic_box().has_walls())
             .then(|| Sdf::new(SDF_X_MAX, SDF_BINS));
         let tensor = pressure_tensor.then(|| SdfTensor::new(SDF_X_MAX, SDF_BINS));
-        let slabs = sweeps_on_slabs(system.len()).then(ParallelSweeps::new);
+        // Size swaps pair bodies anywhere in the box: those stages sweep
+        // serially.
+        let slabs = (sweeps_on_slabs(system.len()) && swaps == 0.0).then(ParallelSweeps::new);
         Ok(Self {
             index,
             system,
@@ -140,6 +144,7 @@ impl<'a> MonteCarloStage<'a> {
                 TuningSpan::UntilSettled { at_least, .. } => at_least,
             },
             slabs,
+            swaps,
             seeds: Vec::with_capacity(MAX_CHUNK),
             sweep: first,
             window,
@@ -219,7 +224,8 @@ impl StageRun for MonteCarloStage<'_> {
             ),
             _ => {
                 self.sweep += 1;
-                sweep(&mut self.system, &runner.sizes, &self.mc_ensemble, self.rng)
+                let (sizes, ensemble) = (&runner.sizes, &self.mc_ensemble);
+                sweep_with_swaps(&mut self.system, sizes, ensemble, self.swaps, self.rng)
             }
         });
         let counts = counts.with_strains(strains);

@@ -101,6 +101,7 @@ impl Runner {
                     rate(&window.volume),
                 ],
                 acceptance_shear: rate(&window.shear),
+                acceptance_swap: rate(&window.swap),
                 nematic_order: self.system_nematic_order(system),
                 overlap_strains: Some(window.strains),
                 ..Interval::default()
@@ -142,6 +143,7 @@ impl Runner {
             acceptance_rotate,
             acceptance_volume,
             acceptance_shear: interval.acceptance_shear,
+            acceptance_swap: interval.acceptance_swap,
             collisions: interval.collisions,
             temperature: interval.temperature,
             nematic_order: interval.nematic_order.filter(|_| self.plan.nematic_order),
@@ -172,6 +174,8 @@ pub(super) struct Interval {
     pub(super) acceptance: [Option<f64>; 3],
     /// Shear acceptance (Monte Carlo, triclinic box moves).
     pub(super) acceptance_shear: Option<f64>,
+    /// Size-swap acceptance (Monte Carlo with swaps).
+    pub(super) acceptance_swap: Option<f64>,
     /// Dynamics: collisions since the stage began, kT.
     pub(super) collisions: Option<u64>,
     pub(super) temperature: Option<f64>,

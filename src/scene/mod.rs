@@ -133,6 +133,9 @@ pub struct SpeciesSpec {
 fn one() -> f64 {
     1.0
 }
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
 fn yes() -> bool {
     true
 }
@@ -199,6 +202,10 @@ pub enum Stage {
         /// with walls, which the scale distribution has no term for).
         #[serde(default)]
         pressure_tensor: bool,
+        /// Size swaps tried per body per sweep, after its N trial moves
+        /// (polydisperse species; default 0: none).
+        #[serde(default, skip_serializing_if = "is_zero")]
+        swaps: f64,
     },
     /// Event-driven molecular dynamics.
     Dynamics {

@@ -595,6 +595,7 @@ impl fmt::Display for Report<'_> {
                     sweeps,
                     tune_sweeps,
                     pressure_tensor,
+                    swaps,
                 } => {
                     let e = match ensemble {
                         Ensemble::Nvt => {
@@ -624,7 +625,15 @@ impl fmt::Display for Report<'_> {
                     } else {
                         ""
                     };
-                    format!("Monte Carlo, {e}, {sweeps} sweeps ({tuned}){tensor}")
+                    let swapped = if *swaps > 0.0 {
+                        format!(
+                            "; {} size swaps per body per sweep (sweeps serial)",
+                            Num(*swaps)
+                        )
+                    } else {
+                        String::new()
+                    };
+                    format!("Monte Carlo, {e}, {sweeps} sweeps ({tuned}){tensor}{swapped}")
                 }
                 Stage::Jam {
                     growth_rate,

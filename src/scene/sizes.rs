@@ -11,6 +11,9 @@ use super::{Scene, SpeciesSpec, Stage, Start};
 /// other's, so that the sizes of one species do not change with another's.
 const SIZES_STREAM: u64 = 0x5129_e5d1_57a1_b000;
 
+/// The most size swaps per body per sweep a stage may ask for.
+pub const MAX_SWAPS: f64 = 100.0;
+
 impl Scene {
     /// Each body's size, the bodies species by species as a run places
     /// them (1 for a species without `sizes`); `None` where no species
@@ -61,6 +64,25 @@ impl Scene {
             )),
             None => Ok(()),
         }
+    }
+
+    /// A Monte Carlo stage's `swaps` (field, message): finite, at least 0,
+    /// at most [`MAX_SWAPS`] per body per sweep, and only with sizes to
+    /// exchange.
+    pub(super) fn validate_swaps(&self, field: &str, swaps: f64) -> Result<(), (String, String)> {
+        if !(swaps.is_finite() && (0.0..=MAX_SWAPS).contains(&swaps)) {
+            return Err((
+                field.into(),
+                format!("must lie in [0, {MAX_SWAPS}] size swaps per body per sweep, got {swaps}"),
+            ));
+        }
+        if swaps > 0.0 && self.species.iter().all(|s| s.sizes.is_none()) {
+            return Err((
+                field.into(),
+                "size swaps exchange the sizes of polydisperse bodies, and no species gives `sizes`".into(),
+            ));
+        }
+        Ok(())
     }
 
     /// What a scene with sizes may start from and run (field, message):

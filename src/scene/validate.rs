@@ -506,10 +506,12 @@ impl Scene {
                     sweeps,
                     tune_sweeps,
                     pressure_tensor,
+                    swaps,
                 } => {
                     if *sweeps == 0 {
                         return bad(&f("sweeps"), "must be at least 1".into());
                     }
+                    self.validate_swaps(&f("swaps"), *swaps)?;
                     if *pressure_tensor && !self.walls.is_empty() {
                         return bad(
                             &f("pressure_tensor"),

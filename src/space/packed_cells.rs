@@ -239,6 +239,12 @@ impl PackedCells {
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 
+    /// Gives particle `i` the radius `radius` (within the range the cells
+    /// were built for).
+    pub fn set_radius(&mut self, i: usize, radius: f64) {
+        self.slots[self.slot_of[i] as usize][3] = radius;
+    }
+
     /// Records that particle `i` now sits at `r` (in the box).
     #[inline]
     pub fn update(&mut self, i: usize, r: &V3) {

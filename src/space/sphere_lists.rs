@@ -189,6 +189,20 @@ impl SphereLists {
         self.link_neighbours(i, |_| true);
     }
 
+    /// Sphere `i`, now of radius `radius` (no larger than the largest the
+    /// lists were built for) and at `centre`: listed afresh if it grew (a
+    /// sphere that shrank keeps its list, which then holds every pair it
+    /// must and more).
+    pub fn resized(&mut self, i: usize, radius: f64, centre: &V3) {
+        debug_assert!(2.0 * radius <= self.sigma_max * (1.0 + 1e-12));
+        let grew = radius > self.radii[i];
+        self.radii[i] = radius;
+        self.references.set_radius(i, radius);
+        if grew {
+            self.relist(i, centre);
+        }
+    }
+
     /// The box has become `box_` from `old`, every centre taken with it
     /// (the same fractional coordinates) to `positions` (in the box): the
     /// references are mapped the same way and the lists kept. The gap

@@ -16,22 +16,17 @@ impl System {
         self.overlaps_at_except(i, position, rotation, |j| j == i)
     }
 
-    /// Whether a body of species `s` at `position` turned by `rotation`
-    /// touches or crosses a hard wall.
-    pub(super) fn touches_wall(&self, s: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
-        let extents = self.species[s].shape.lab_half_extents(rotation);
+    /// Whether body `i` (its species' shape at its size) at `position`
+    /// turned by `rotation` touches or crosses a hard wall.
+    pub(super) fn touches_wall(&self, i: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
+        let s = self.particles[i].species as usize;
+        let extents = self.species[s].shape.lab_half_extents(rotation) * self.size_of(i);
         self.box_.wall_gap(position, &extents) <= 0.0
     }
 
     /// The first particle touching or crossing a hard wall, if any.
     pub fn first_wall_overlap(&self) -> Option<usize> {
-        (0..self.len()).find(|&i| {
-            self.touches_wall(
-                self.particles[i].species as usize,
-                &self.positions[i],
-                &self.rotations[i],
-            )
-        })
+        (0..self.len()).find(|&i| self.touches_wall(i, &self.positions[i], &self.rotations[i]))
     }
 
     /// Whether particle `i` (its species), placed at `position` with
@@ -157,7 +152,7 @@ impl System {
         let si = self.particles[i].species as usize;
         let shape_i = &self.species[si].shape;
         let ri = self.body_radii[i];
-        if self.box_.has_walls() && self.touches_wall(si, position, rotation) {
+        if self.box_.has_walls() && self.touches_wall(i, position, rotation) {
             return true;
         }
         if let (Neighbours::Cells(cells), true) = (&self.cells, self.all_spheres) {

@@ -1,9 +1,84 @@
 //! Polydisperse sizes: the distributions a species' bodies draw their
-//! sizes from (scale factors of the species' shape), and the drawing.
+//! sizes from (scale factors of the species' shape), the drawing, and two
+//! bodies exchanging their sizes.
 
+use nalgebra::Vector3;
 use rand::Rng;
 use rand_distr::{Distribution, LogNormal, Normal};
 use serde::{Deserialize, Serialize};
+
+use super::{Neighbours, System};
+
+impl System {
+    /// Spheres `i` and `j` of one species exchange their sizes, if neither
+    /// then overlaps another body or a wall (their own pair keeps its
+    /// contact distance, the sum of their radii): the size-swap move,
+    /// symmetric and so accepted exactly when it leaves no overlap. False,
+    /// and nothing changed, where it would, and for bodies without sizes
+    /// of their own, of two species, or one body twice.
+    pub fn try_swap_sizes(&mut self, i: usize, j: usize) -> bool {
+        let same = self.particles[i].species == self.particles[j].species;
+        if self.sizes.is_none() || i == j || !same {
+            return false;
+        }
+        // Only the one that grows can come to overlap.
+        let (ri, rj) = (self.body_radii[i], self.body_radii[j]);
+        let (grows, radius) = if rj > ri { (i, rj) } else { (j, ri) };
+        if self.sphere_overlaps_at(grows, radius, |k| k == i || k == j) {
+            return false;
+        }
+        self.swap(i, j)
+    }
+
+    /// Exchanges the sizes of `i` and `j` everywhere they are kept.
+    fn swap(&mut self, i: usize, j: usize) -> bool {
+        let sizes = self.sizes.as_mut().expect("sizes");
+        sizes.swap(i, j);
+        self.body_radii.swap(i, j);
+        for k in [i, j] {
+            let radius = self.body_radii[k];
+            match &mut self.cells {
+                Neighbours::Cells(cells) => cells.set_radius(k, radius),
+                Neighbours::PerSpecies(grids) => {
+                    grids[self.particles[k].species as usize].set_radius(k, radius)
+                }
+                Neighbours::Aabb(_) => {}
+            }
+            if let Some(lists) = &mut self.sphere_lists {
+                lists.resized(k, radius, &self.positions[k]);
+            }
+        }
+        self.changed = true;
+        true
+    }
+
+    /// Whether sphere `k` where it is, at radius `radius`, overlaps a wall
+    /// or a body m (at its own size) but those with `skip(m)`.
+    fn sphere_overlaps_at(&self, k: usize, radius: f64, skip: impl Fn(usize) -> bool) -> bool {
+        let centre = self.positions[k];
+        if self.ideal {
+            return false;
+        }
+        if self.box_.wall_gap(&centre, &Vector3::repeat(radius)) <= 0.0 {
+            return true;
+        }
+        let touches = |m: usize, d: &Vector3<f64>| {
+            let reach = radius + self.body_radii[m];
+            d.norm_squared() <= reach * reach && !skip(m)
+        };
+        match &self.cells {
+            Neighbours::Cells(cells) => cells.any_near(&centre, touches),
+            Neighbours::PerSpecies(grids) => (grids.iter().enumerate())
+                .any(|(s, grid)| grid.any_within(&centre, radius + self.radii[s], touches)),
+            Neighbours::Aabb(cells) => cells.any_near(&centre, &Vector3::repeat(radius), |m| {
+                touches(
+                    m,
+                    &self.box_.minimum_image_near(&(self.positions[m] - centre)),
+                )
+            }),
+        }
+    }
+}
 
 /// How the sizes of a species' bodies are spread, as scale factors of its
 /// shape (a sphere of radius r at size f has radius f r).
