@@ -24,6 +24,31 @@ fn spheres() -> Vec<Species> {
     }]
 }
 
+/// `n` spheres (diameter 1 at size 1) of sizes drawn from `distribution`,
+/// inserted at random at φ = 0.25 and compressed to `phi` with
+/// translations of `step`: the system, the sizes drawn, and the moves.
+fn compressed_fluid(
+    n: usize,
+    distribution: SizeDistribution,
+    phi: f64,
+    step: f64,
+    rng: &mut Pcg64,
+) -> (System, Vec<f64>, MoveSizes) {
+    let sizes = distribution.draw(n, rng).unwrap();
+    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
+    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
+    let mut system =
+        random_insertion_sized(box_, spheres(), &[n], Some(sizes.clone()), 1_000_000, rng).unwrap();
+    let moves = MoveSizes {
+        translate: step,
+        rotate: 0.0,
+        volume: 0.0,
+        shear: 0.01,
+    };
+    compress(&mut system, moves, &CompressOptions::to(phi), rng).unwrap();
+    (system, sizes, moves)
+}
+
 /// βP of additive hard spheres of diameters σᵢ at number density ρ by
 /// Boublik–Mansoori–Carnahan–Starling–Leland (Mansoori, Carnahan,
 /// Starling and Leland, J. Chem. Phys. 54, 1523 (1971); Boublík, J. Chem.
@@ -178,27 +203,9 @@ fn size_swaps_are_taken_where_they_leave_no_overlap() {
 
     let mut rng = Pcg64::seed_from_u64(8);
     let n = 300;
-    let sizes = SizeDistribution::Uniform { min: 0.6, max: 1.4 }
-        .draw(n, &mut rng)
-        .unwrap();
-    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
-    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
-    let mut system = random_insertion_sized(
-        box_,
-        spheres(),
-        &[n],
-        Some(sizes.clone()),
-        1_000_000,
-        &mut rng,
-    )
-    .unwrap();
-    let moves = MoveSizes {
-        translate: 0.1,
-        rotate: 0.0,
-        volume: 0.0,
-        shear: 0.01,
-    };
-    compress(&mut system, moves, &CompressOptions::to(0.5), &mut rng).unwrap();
+    let uniform = SizeDistribution::Uniform { min: 0.6, max: 1.4 };
+    let (mut system, sizes, moves) = compressed_fluid(n, uniform, 0.5, 0.1, &mut rng);
+    let box_ = *system.periodic_box();
     let mut sorted = sizes.clone();
     sorted.sort_by(f64::total_cmp);
     let mut swapped = hardbody::mc::moves::Count::default();
@@ -251,28 +258,9 @@ fn pressure_against_bmcsl(swaps: f64) {
     use hardbody::mc::moves::sweep_with_swaps;
     let mut rng = Pcg64::seed_from_u64(3);
     let n = 1000;
-    let sizes = SizeDistribution::Gaussian { std: 0.1 }
-        .draw(n, &mut rng)
-        .unwrap();
-    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
-    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
-    let mut system = random_insertion_sized(
-        box_,
-        spheres(),
-        &[n],
-        Some(sizes.clone()),
-        1_000_000,
-        &mut rng,
-    )
-    .unwrap();
-    let moves = MoveSizes {
-        translate: 0.1,
-        rotate: 0.0,
-        volume: 0.0,
-        shear: 0.01,
-    };
     let phi = 0.45;
-    compress(&mut system, moves, &CompressOptions::to(phi), &mut rng).unwrap();
+    let gaussian = SizeDistribution::Gaussian { std: 0.1 };
+    let (mut system, sizes, moves) = compressed_fluid(n, gaussian, phi, 0.1, &mut rng);
     assert!((system.packing_fraction() - phi).abs() < 1e-9);
     let mut swapped = hardbody::mc::moves::Count::default();
     for _ in 0..2000 {
@@ -497,21 +485,8 @@ fn swaps_decorrelate_a_dense_polydisperse_fluid_faster() {
         var("EVERY", 1000.0) as usize,
     );
     let mut rng = Pcg64::seed_from_u64(21);
-    let n = 500;
-    let sizes = SizeDistribution::Gaussian { std }
-        .draw(n, &mut rng)
-        .unwrap();
-    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
-    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
-    let mut system =
-        random_insertion_sized(box_, spheres(), &[n], Some(sizes), 1_000_000, &mut rng).unwrap();
-    let moves = MoveSizes {
-        translate: 0.08,
-        rotate: 0.0,
-        volume: 0.0,
-        shear: 0.01,
-    };
-    compress(&mut system, moves, &CompressOptions::to(phi), &mut rng).unwrap();
+    let gaussian = SizeDistribution::Gaussian { std };
+    let (system, _, moves) = compressed_fluid(500, gaussian, phi, 0.08, &mut rng);
     let longest = samples / 2 * every;
     let mut taus = Vec::new();
     for swaps in [0.0, 0.25] {
