@@ -41,11 +41,13 @@ from ._scene import (
     Dodecahedron,
     Dynamics,
     Ellipsoid,
+    Gaussian,
     Jam,
     Lattice,
     Layered,
     Lists,
     Log,
+    LogNormal,
     MonteCarlo,
     Npt,
     Nvt,
@@ -53,12 +55,14 @@ from ._scene import (
     Random,
     Resume,
     Scene,
+    SizeList,
     Species,
     Sphere,
     Spherocylinder,
     Superellipsoid,
     Tetrahedron,
     TruncatedOctahedron,
+    Uniform,
 )
 
 __version__ = _core.__version__
@@ -69,5 +73,5 @@ __all__ = [
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
     "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder", "ConvexPolyhedron",
     "Tetrahedron", "Cube", "Octahedron", "Dodecahedron", "Icosahedron", "TruncatedOctahedron",
-    "Superellipsoid", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
+    "Superellipsoid", "Gaussian", "LogNormal", "Uniform", "SizeList", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
 ]

@@ -68,6 +68,7 @@ class Frame:
     orientations: npt.NDArray[np.float64]
     velocities: Optional[npt.NDArray[np.float64]]
     angular_velocities: Optional[npt.NDArray[np.float64]]
+    sizes: Optional[npt.NDArray[np.float64]]
     species_of: npt.NDArray[np.int64]
     species_json: str
     def __len__(self) -> int: ...

@@ -51,6 +51,13 @@ class Frame:
         return self._core.angular_velocities
 
     @property
+    def sizes(self) -> Optional[np.ndarray]:
+        """Each body's size, the scale factor of its species' shape (a
+        polydisperse species'); None where every body has its species'
+        size."""
+        return self._core.sizes
+
+    @property
     def species_of(self) -> np.ndarray:
         return self._core.species_of
 
@@ -108,7 +115,8 @@ class Frame:
 
     def to_gsd(self):
         """The frame as a `gsd.hoomd.Frame` (types named after the
-        species; orientations as GSD orders them, w first)."""
+        species; orientations as GSD orders them, w first; a polydisperse
+        frame's spheres with their diameters)."""
         import gsd.hoomd
 
         frame = gsd.hoomd.Frame()
@@ -121,7 +129,16 @@ class Frame:
         frame.particles.orientation = self.orientations.astype(np.float32)
         if self.velocities is not None:
             frame.particles.velocity = self.velocities.astype(np.float32)
+        if self.sizes is not None:
+            species = json.loads(self._core.species_json)
+            radius = np.array([_sphere_radius(species[k]["shape"]) for k in self.species_of])
+            frame.particles.diameter = (2.0 * radius * self.sizes).astype(np.float32)
         return frame
+
+
+def _sphere_radius(shape: dict) -> float:
+    """The radius of a sphere's JSON shape (sizes are for spheres only)."""
+    return float(shape["Sphere"]["radius"])
 
 
 class RunLog:

@@ -21,19 +21,26 @@ _VARIANTS: dict = {}
 
 
 def _variant(cls):
-    _VARIANTS[cls.__name__] = cls
+    _VARIANTS[_ron_name(cls)] = cls
     return cls
+
+
+def _ron_name(cls) -> str:
+    """The variant's name in RON (a class may spell it otherwise in Python,
+    where the RON name would shadow a builtin or a typing name)."""
+    return getattr(cls, "_ron", cls.__name__)
 
 
 def _encode(value: Any) -> Any:
     """The JSON serde reads for `value` (externally tagged enums)."""
     if isinstance(value, _Unit):
-        return type(value).__name__
+        return _ron_name(type(value))
     if isinstance(value, _Newtype):
-        return {type(value).__name__: _encode(value._inner())}
+        return {_ron_name(type(value)): _encode(value._inner())}
     if hasattr(value, "__dataclass_fields__"):
         body = {f.name: _encode(getattr(value, f.name)) for f in fields(value)}
-        return {type(value).__name__: body} if type(value).__name__ in _VARIANTS else body
+        name = _ron_name(type(value))
+        return {name: body} if _VARIANTS.get(name) is type(value) else body
     if isinstance(value, (list, tuple)):
         return [_encode(v) for v in value]
     if isinstance(value, os.PathLike):
@@ -191,16 +198,69 @@ Shape = Union[
 ]
 
 
+# Size distributions (polydisperse spheres) ----------------------------------
+
+
+@_variant
+@dataclass
+class Gaussian:
+    """Sizes normal with mean 1 and deviation `std` (< 1/3), cut at 1 ± 3 std."""
+
+    std: float
+
+
+@_variant
+@dataclass
+class LogNormal:
+    """Sizes log-normal with mean 1 and standard deviation `std`."""
+
+    std: float
+
+
+@_variant
+@dataclass
+class Uniform:
+    """Sizes uniform on [`min`, `max`], 0 < min <= max."""
+
+    min: float
+    max: float
+
+
+@_variant
+class SizeList(_Newtype):
+    """One size per body (RON `List([...])`)."""
+
+    _ron = "List"
+
+    def __init__(self, sizes: Sequence[float]):
+        self.sizes = [float(s) for s in sizes]
+
+    def _inner(self):
+        return self.sizes
+
+    def __eq__(self, other):
+        return isinstance(other, SizeList) and other.sizes == self.sizes
+
+    def __repr__(self):
+        return f"SizeList({self.sizes!r})"
+
+
+SizeDistribution = Union[Gaussian, LogNormal, Uniform, SizeList]
+
+
 @dataclass
 class Species:
     """A kind of particle: `count` bodies of `shape`, named `name`;
-    `mass` (dynamics) and `rotation` (False freezes orientations)."""
+    `mass` (dynamics), `rotation` (False freezes orientations) and, for
+    spheres, `sizes`: a distribution of the bodies' scale factors
+    (`Gaussian(0.1)`, ...; drawn from the scene's seed)."""
 
     name: str
     shape: Shape
     count: int
     mass: float = 1.0
     rotation: bool = True
+    sizes: Optional[SizeDistribution] = None
 
 
 # Starts -------------------------------------------------------------------
@@ -361,12 +421,14 @@ class Compress:
 class MonteCarlo:
     """Metropolis Monte Carlo: `sweeps` sweeps in `ensemble` (`Nvt()` or
     `Npt(pressure)`); move sizes tuned over `tune_sweeps`; the pressure
-    tensor by the scale distribution in `/stats` with `pressure_tensor`."""
+    tensor by the scale distribution in `/stats` with `pressure_tensor`;
+    `swaps` size swaps per body per sweep (polydisperse species)."""
 
     ensemble: Union[Nvt, Npt]
     sweeps: int
     tune_sweeps: Optional[int] = None
     pressure_tensor: bool = False
+    swaps: float = 0.0
 
 
 @_variant
@@ -540,7 +602,9 @@ class Scene:
         box = d.get("box")
         scene.box = Triclinic(**box) if isinstance(box, dict) else None if box is None else tuple(box)
         scene.species = [
-            Species(s["name"], _decode(s["shape"]), s["count"], s["mass"], s["rotation"])
+            Species(
+                s["name"], _decode(s["shape"]), s["count"], s["mass"], s["rotation"], _decode(s.get("sizes"))
+            )
             for s in d["species"]
         ]
         scene.stages = [_decode(s) for s in d["stages"]]

@@ -104,6 +104,15 @@ impl Frame {
             .as_deref()
             .map(|v| rows(py, v))
     }
+    /// Each body's size, the scale factor of its species' shape, shape
+    /// (N,); None where every body has its species' size.
+    #[getter]
+    fn sizes<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.record
+            .sizes
+            .as_deref()
+            .map(|s| PyArray1::from_slice(py, s))
+    }
     /// The species index of every particle, shape (N,).
     #[getter]
     fn species_of<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {

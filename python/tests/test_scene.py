@@ -4,6 +4,7 @@
 import json
 import subprocess
 
+import numpy as np
 import pytest
 
 import hardbody as hb
@@ -176,3 +177,38 @@ def test_a_scene_file_that_does_not_parse_names_the_file(tmp_path):
         hb.Scene.load(path)
     with pytest.raises(FileNotFoundError):
         hb.Scene.load(tmp_path / "missing.ron")
+
+
+def test_polydisperse_sizes_and_swaps_round_trip_run_and_read_back(tmp_path):
+    sizes = [hb.Gaussian(0.1), hb.LogNormal(0.2), hb.Uniform(0.8, 1.2), hb.SizeList([1.0, 1.1, 0.9, 1.2])]
+    for spread in sizes:
+        scene = hb.Scene(
+            box=(8, 8, 8),
+            species=[hb.Species("s", hb.Sphere(0.5), 4, sizes=spread)],
+            start=hb.Random(),
+            stages=[hb.MonteCarlo(hb.Nvt(), sweeps=10, swaps=0.5)],
+        )
+        text = scene.to_ron()
+        assert "sizes:" in text and "swaps: 0.5" in text, text
+        assert hb.Scene.from_ron(text) == scene
+    with pytest.raises(hb.SceneError, match=r"species\[0\]\.sizes"):
+        hb.Scene(box=(8, 8, 8), species=[hb.Species("s", hb.Sphere(0.5), 4, sizes=hb.Gaussian(0.4))],
+                 stages=[hb.MonteCarlo(hb.Nvt(), sweeps=10)])
+    scene = hb.Scene(
+        seed=4,
+        box=(9, 9, 9),
+        species=[hb.Species("s", hb.Sphere(0.5), 200, sizes=hb.Gaussian(0.1))],
+        start=hb.Random(),
+        stages=[hb.Compress(packing_fraction=0.3), hb.MonteCarlo(hb.Nvt(), sweeps=200, swaps=0.25)],
+        log=hb.Log(path=str(tmp_path / "poly.mcap"), stats_every=50, frames_every=100),
+    )
+    log = hb.run(scene, progress=False)
+    first, last = log.frames[0], log.frames[-1]
+    assert first.sizes.shape == (200,) and first.sizes.dtype == np.float64
+    assert abs(first.sizes.mean() - 1.0) < 0.05 and 0.05 < first.sizes.std() < 0.15
+    # Swaps exchange sizes among the bodies, never change them.
+    assert np.array_equal(np.sort(last.sizes), np.sort(first.sizes))
+    assert not np.array_equal(last.sizes, first.sizes)
+    volume = (np.pi / 6 * last.sizes**3).sum() / np.prod(last.box)
+    assert abs(volume - 0.3) < 1e-9
+    assert np.allclose(last.to_gsd().particles.diameter, last.sizes, rtol=1e-6)
