@@ -510,3 +510,51 @@ fn swaps_decorrelate_a_dense_polydisperse_fluid_faster() {
         "tau {plain} without swaps, {swapped} with"
     );
 }
+
+/// A lattice start spaces its sites for each species' largest body, so
+/// that every body at its own size fits: the start is overlap-free at the
+/// drawn sizes, and a box that holds the sites for bodies of size 1 but
+/// not for the largest is refused as too small.
+#[test]
+fn a_polydisperse_lattice_start_spaces_its_sites_for_the_largest_body() {
+    use hardbody::run::{Silent, run_scene};
+    use hardbody::scene::Scene;
+    use std::sync::atomic::AtomicBool;
+
+    let text = |edge: f64| {
+        format!(
+            r#"Scene(seed: 2, box: ({edge}, {edge}, {edge}),
+            species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 125, sizes: Uniform(min: 0.8, max: 1.3))],
+            start: Lattice, stages: [MonteCarlo(ensemble: Nvt, sweeps: 20)],
+            log: Log(path: "lattice.mcap", stats_every: 10, frames_every: 10))"#
+        )
+    };
+    // Five sites of size-1 spheres fit along 5.5, not five of the largest.
+    let refused = Scene::parse(&text(5.5)).unwrap_err().to_string();
+    assert!(refused.contains("a lattice in this box holds"), "{refused}");
+    let scene = Scene::parse(&text(7.0)).unwrap();
+    let dir = std::env::temp_dir().join(format!("hardbody-poly-lattice-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("lattice.mcap");
+    run_scene(
+        &scene,
+        &text(7.0),
+        &path,
+        &mut Silent,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let log = hardbody::log::read::read_log(&path, true).unwrap();
+    let first = &log.states[0].1;
+    let sizes = first.sizes.as_deref().unwrap();
+    assert_eq!(sizes, scene.body_sizes().unwrap().as_slice());
+    let box_ = first.periodic_box([false; 3]).unwrap();
+    for i in 0..125 {
+        for j in i + 1..125 {
+            let d = Vector3::from(first.positions[j]) - Vector3::from(first.positions[i]);
+            let d = box_.minimum_image(&d).norm();
+            assert!(d > 0.5 * (sizes[i] + sizes[j]), "{i} and {j} overlap");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

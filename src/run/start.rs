@@ -25,7 +25,17 @@ pub(super) fn start_state(
     let species = plan.mc_species();
     let counts: Vec<usize> = plan.species.iter().map(|s| s.count).collect();
     match &scene.start {
-        Start::Lattice => Ok(lattice(scene.periodic_box(), species, &counts, rng)?),
+        Start::Lattice => match scene.body_sizes() {
+            // Sites spaced for each species' largest body, then each body
+            // at its own size.
+            Some(sizes) => {
+                let sites = lattice(scene.periodic_box(), scene.lattice_species(), &counts, rng)?;
+                let particles = sites.particles().to_vec();
+                System::with_sizes(*sites.periodic_box(), species, particles, sizes)
+                    .map_err(|e| RunError::Start(e.into()))
+            }
+            None => Ok(lattice(scene.periodic_box(), species, &counts, rng)?),
+        },
         Start::Layered(axis) => layered(
             lattice(scene.periodic_box(), species, &counts, rng)?,
             *axis as usize,

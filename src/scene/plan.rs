@@ -176,8 +176,12 @@ impl Plan {
                 .collect(),
             random_orientations: match scene.start {
                 Start::Lattice | Start::Layered(_) => Some(
-                    lattice_plan(&scene.box_vector(), &mc_species, scene.particle_count())
-                        .random_orientations,
+                    lattice_plan(
+                        &scene.box_vector(),
+                        &scene.lattice_species(),
+                        scene.particle_count(),
+                    )
+                    .random_orientations,
                 ),
                 Start::Random => Some(true),
                 Start::Resume(_) | Start::Crystal { .. } => None,

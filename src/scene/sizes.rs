@@ -37,6 +37,22 @@ impl Scene {
         Some(sizes)
     }
 
+    /// The species as a lattice start spaces them: each at its largest
+    /// body's size (the species the drivers take, without sizes).
+    pub fn lattice_species(&self) -> Vec<crate::state::Species> {
+        let sizes = self.body_sizes();
+        let mut first = 0;
+        let mut species = self.mc_species();
+        for (s, spec) in species.iter_mut().zip(&self.species) {
+            if let (Some(sizes), Some(_)) = (&sizes, &spec.sizes) {
+                let largest = sizes[first..first + spec.count].iter().copied();
+                s.shape = s.shape.scaled(largest.fold(0.0, f64::max));
+            }
+            first += spec.count;
+        }
+        species
+    }
+
     /// The species of each body, in the order of [`Scene::body_sizes`].
     pub(super) fn body_species(&self) -> impl Iterator<Item = &SpeciesSpec> {
         (self.species.iter()).flat_map(|s| std::iter::repeat_n(s, s.count))
@@ -91,10 +107,13 @@ impl Scene {
         if self.species.iter().all(|s| s.sizes.is_none()) {
             return Ok(());
         }
-        if !matches!(self.start, Start::Random | Start::Resume(_)) {
+        if !matches!(
+            self.start,
+            Start::Random | Start::Lattice | Start::Resume(_)
+        ) {
             return Err((
                 "start".into(),
-                "polydisperse sizes start from Random (or Resume) so far: a lattice's sites are spaced for bodies of one size".into(),
+                "polydisperse sizes start from Random, Lattice or Resume so far: a crystal's or a layered start's sites are placed for bodies of one size".into(),
             ));
         }
         match (self.stages.iter().enumerate())

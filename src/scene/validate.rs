@@ -265,8 +265,8 @@ impl Scene {
         let phi0 = self.particle_volume() / box_.volume();
         match &self.start {
             Start::Lattice | Start::Layered(_) => {
-                let plan =
-                    crate::state::start::lattice_plan(&self.box_vector(), &self.mc_species(), n);
+                let spaced = self.lattice_species();
+                let plan = crate::state::start::lattice_plan(&self.box_vector(), &spaced, n);
                 if plan.sites.iter().product::<usize>() < n {
                     let w = plan.spacing;
                     return bad(
