@@ -67,7 +67,10 @@ impl System {
             d.norm_squared() <= reach * reach && !skip(m)
         };
         match &self.cells {
-            Neighbours::Cells(cells) => cells.any_near(&centre, touches),
+            // The cells keep each body's radius beside its centre.
+            Neighbours::Cells(cells) => {
+                cells.sphere_overlaps_where(&centre, radius, |m| !skip(m as usize))
+            }
             Neighbours::PerSpecies(grids) => (grids.iter().enumerate())
                 .any(|(s, grid)| grid.any_within(&centre, radius + self.radii[s], touches)),
             Neighbours::Aabb(cells) => cells.any_near(&centre, &Vector3::repeat(radius), |m| {
