@@ -46,6 +46,28 @@ pub struct PackedBody {
     pub shape: usize,
 }
 
+/// The shapes a packing's bodies have, whether each turns, and each body's
+/// index into them: body i of species `species_of[i]` has the species'
+/// shape (`shapes[k]`, turning as `turns[k]`), or, where the bodies have
+/// sizes of their own, a shape of its own scaled by `sizes[i]`.
+pub fn body_shapes(
+    shapes: &[Shape],
+    turns: &[bool],
+    species_of: &[usize],
+    sizes: Option<&[f64]>,
+) -> (Vec<Shape>, Vec<bool>, Vec<usize>) {
+    match sizes {
+        Some(sizes) => (
+            (species_of.iter().zip(sizes))
+                .map(|(&k, &f)| shapes[k].scaled(f))
+                .collect(),
+            species_of.iter().map(|&k| turns[k]).collect(),
+            (0..species_of.len()).collect(),
+        ),
+        None => (shapes.to_vec(), turns.to_vec(), species_of.to_vec()),
+    }
+}
+
 /// The contact network of a packing.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ContactNetwork {

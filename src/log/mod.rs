@@ -286,21 +286,13 @@ impl StateRecord {
         self.sizes.as_ref().map_or(1.0, |s| s[i])
     }
 
-    /// The shapes the bodies have, with each body's index into them: the
-    /// species' shapes, or with sizes one scaled shape per body.
-    pub fn body_shapes(&self) -> (Vec<Shape>, Vec<usize>) {
-        match &self.sizes {
-            Some(sizes) => (
-                (self.species_of.iter().zip(sizes))
-                    .map(|(&k, &f)| self.species[k as usize].shape.scaled(f))
-                    .collect(),
-                (0..sizes.len()).collect(),
-            ),
-            None => (
-                self.species.iter().map(|s| s.shape).collect(),
-                self.species_of.iter().map(|&k| k as usize).collect(),
-            ),
-        }
+    /// The shapes the bodies have, whether each turns, and each body's
+    /// index into them (see [`crate::analysis::packing::body_shapes`]).
+    pub fn body_shapes(&self) -> (Vec<Shape>, Vec<bool>, Vec<usize>) {
+        let shapes: Vec<Shape> = self.species.iter().map(|s| s.shape).collect();
+        let turns: Vec<bool> = self.species.iter().map(|s| s.rotation).collect();
+        let species_of: Vec<usize> = self.species_of.iter().map(|&k| k as usize).collect();
+        crate::analysis::packing::body_shapes(&shapes, &turns, &species_of, self.sizes.as_deref())
     }
 
     /// [`StateRecord::of_particles`] of a system, with its bodies' sizes.

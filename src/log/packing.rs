@@ -109,7 +109,7 @@ impl PackingReport {
         reduced_pressure: Option<f64>,
     ) -> Result<Self, BoxError> {
         let box_ = state.periodic_box(walls)?;
-        let (shapes, shape_of) = state.body_shapes();
+        let (shapes, turns, shape_of) = state.body_shapes();
         let bodies: Vec<PackedBody> = state
             .positions
             .iter()
@@ -123,11 +123,6 @@ impl PackingReport {
                 shape: k,
             })
             .collect();
-        // Whether each shape turns: its species', whose shape it is.
-        let mut turns = vec![false; shapes.len()];
-        for (&k, &at) in state.species_of.iter().zip(&shape_of) {
-            turns[at] = state.species[k as usize].rotation;
-        }
         let (choice, network) =
             read_contact_network(&box_, &shapes, &turns, &bodies, gap, reduced_pressure);
         let centres: Vec<Vector3<f64>> = bodies.iter().map(|b| b.position).collect();

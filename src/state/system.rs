@@ -371,7 +371,7 @@ impl System {
     /// `gap_tolerance` times the smaller one's smallest half-extent (see
     /// [`crate::analysis::packing::contact_network`]).
     pub fn contact_network(&self, gap_tolerance: f64) -> crate::analysis::packing::ContactNetwork {
-        let (shapes, bodies) = self.packed();
+        let (shapes, _, bodies) = self.packed();
         crate::analysis::packing::contact_network(&self.box_, &shapes, &bodies, gap_tolerance)
     }
 
@@ -385,14 +385,7 @@ impl System {
         crate::analysis::contact_gap::GapChoice,
         crate::analysis::packing::ContactNetwork,
     ) {
-        let (shapes, bodies) = self.packed();
-        // Whether each shape turns (a sized body's shape is its own).
-        let turns: Vec<bool> = match self.sizes {
-            Some(_) => (self.particles.iter())
-                .map(|p| self.species[p.species as usize].rotation)
-                .collect(),
-            None => self.species.iter().map(|s| s.rotation).collect(),
-        };
+        let (shapes, turns, bodies) = self.packed();
         crate::analysis::contact_gap::read_contact_network(
             &self.box_,
             &shapes,
@@ -403,27 +396,32 @@ impl System {
         )
     }
 
-    /// The shapes and the bodies as the packing analysis takes them.
+    /// The shapes, whether each turns, and the bodies as the packing
+    /// analysis takes them.
     fn packed(
         &self,
     ) -> (
         Vec<crate::geometry::Shape>,
+        Vec<bool>,
         Vec<crate::analysis::packing::PackedBody>,
     ) {
-        // Bodies of their own sizes each have their own shape.
-        let sized = self.sizes.is_some();
-        let shapes = match sized {
-            true => (0..self.len()).map(|i| self.shape_of(i)).collect(),
-            false => self.species.iter().map(|s| s.shape).collect(),
-        };
-        let bodies = (self.particles.iter().enumerate())
-            .map(|(i, p)| crate::analysis::packing::PackedBody {
+        let shapes: Vec<_> = self.species.iter().map(|s| s.shape).collect();
+        let turns: Vec<bool> = self.species.iter().map(|s| s.rotation).collect();
+        let species_of: Vec<usize> = self.particles.iter().map(|p| p.species as usize).collect();
+        let (shapes, turns, shape_of) = crate::analysis::packing::body_shapes(
+            &shapes,
+            &turns,
+            &species_of,
+            self.sizes.as_deref(),
+        );
+        let bodies = (self.particles.iter().zip(shape_of))
+            .map(|(p, shape)| crate::analysis::packing::PackedBody {
                 position: p.position,
                 orientation: p.orientation,
-                shape: if sized { i } else { p.species as usize },
+                shape,
             })
             .collect();
-        (shapes, bodies)
+        (shapes, turns, bodies)
     }
 }
 
