@@ -754,7 +754,7 @@ fn two_cubes(half: f64, d: [f64; 3], qa: [f64; 4], qb: [f64; 4]) -> hardbody::st
     }];
     let box_ = PeriodicBox::new(Vector3::repeat(40.0)).unwrap();
     // In contact to round-off (the overlap kernels may call it either way).
-    System::with_touching(box_, species, particles, 1e-12).unwrap()
+    System::with_touching(box_, species, particles, None, 1e-12).unwrap()
 }
 
 /// The pair's contact was resolved: between one and `most` collisions,

@@ -635,3 +635,67 @@ fn a_settling_jam_resumes_bit_for_bit() {
         .expect("a frame after the rest");
     resumes_bit_for_bit(&dir, &path, &whole, [resting, after]);
 }
+
+/// Polydisperse spheres through every driver in one scene (compression,
+/// Monte Carlo with swaps, dynamics, growth to a dense glass): each frame
+/// carries the sizes, as the swaps left them, overlap-free at them, and
+/// the resumed run writes the uninterrupted one's frames bit for bit from
+/// a frame of the dynamics and one of the growth. (Jamming polydisperse
+/// spheres to a certified packing: tests/edmd_polydisperse.rs.)
+#[test]
+fn polydisperse_spheres_run_dynamics_and_grow_and_resume_bit_for_bit() {
+    const SCENE: &str = r#"Scene(
+    seed: 7,
+    box: (7.0, 7.0, 7.0),
+    species: [Species(name: "sphere", shape: Sphere(radius: 0.5), count: 100, sizes: Gaussian(std: 0.12))],
+    start: Random,
+    stages: [
+        Compress(packing_fraction: 0.4),
+        MonteCarlo(ensemble: Nvt, sweeps: 200, swaps: 0.5),
+        Dynamics(duration: 4.0, frames_every: 1.0),
+        Jam(growth_rate: 0.01, packing_fraction: 0.6),
+    ],
+    log: Log(path: "run.mcap", stats_every: 50, frames_every: 100),
+)"#;
+    let (dir, path, _) = run_scene_in("jam-polydisperse", SCENE);
+    let whole = read_log(&path, true).unwrap();
+    let sorted = |s: &[f64]| {
+        let mut s = s.to_vec();
+        s.sort_by(f64::total_cmp);
+        s
+    };
+    let drawn = Scene::parse(SCENE).unwrap().body_sizes().unwrap();
+    let stage_of = |k: usize| whole.states[k].1.stage.as_str();
+    let (dynamics, jammed): (Vec<usize>, Vec<usize>) = (
+        (0..whole.states.len())
+            .filter(|&k| stage_of(k) == "dynamics")
+            .collect(),
+        (0..whole.states.len())
+            .filter(|&k| stage_of(k) == "jam")
+            .collect(),
+    );
+    assert!(
+        dynamics.len() >= 3 && jammed.len() >= 2,
+        "{dynamics:?} {jammed:?}"
+    );
+    for (_, state) in &whole.states {
+        let sizes = state.sizes.as_deref().expect("every frame has the sizes");
+        assert_eq!(sorted(sizes), sorted(&drawn));
+    }
+    // The dynamics moves no size: its frames have the last sweep's.
+    let first = &whole.states[dynamics[0]].1.sizes;
+    assert!(dynamics.iter().all(|&k| &whole.states[k].1.sizes == first));
+    let plan = hardbody::scene::plan::Plan::of(&Scene::parse(SCENE).unwrap());
+    for (_, state) in &whole.states {
+        let system = hardbody::run::system_from_record(state, &plan).unwrap();
+        assert_eq!(system.sizes(), state.sizes.as_deref());
+    }
+    let last = hardbody::run::system_from_record(&whole.states.last().unwrap().1, &plan).unwrap();
+    assert!(
+        (last.packing_fraction() - 0.6).abs() < 1e-9,
+        "{}",
+        last.packing_fraction()
+    );
+    resumes_bit_for_bit(&dir, &path, &whole, [dynamics[1], jammed[0]]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

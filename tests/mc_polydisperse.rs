@@ -2,9 +2,12 @@
 //! honoured by the overlap tests (against brute force), and the pressure
 //! against the Boublik–Mansoori–Carnahan–Starling–Leland equation of state.
 
+mod common;
+
 use std::f64::consts::PI;
 
-use hardbody::mc::compress::{CompressOptions, compress};
+use common::polydisperse::{bmcsl_pressure, compressed_fluid, spheres};
+
 use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::sdf::Sdf;
 use hardbody::space::PeriodicBox;
@@ -15,53 +18,6 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use statrs::statistics::Statistics;
-
-fn spheres() -> Vec<Species> {
-    vec![Species {
-        name: "sphere".into(),
-        shape: "Sphere(radius: 0.5)".parse().unwrap(),
-        rotation: false,
-    }]
-}
-
-/// `n` spheres (diameter 1 at size 1) of sizes drawn from `distribution`,
-/// inserted at random at φ = 0.25 and compressed to `phi` with
-/// translations of `step`: the system, the sizes drawn, and the moves.
-fn compressed_fluid(
-    n: usize,
-    distribution: SizeDistribution,
-    phi: f64,
-    step: f64,
-    rng: &mut Pcg64,
-) -> (System, Vec<f64>, MoveSizes) {
-    let sizes = distribution.draw(n, rng).unwrap();
-    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
-    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
-    let mut system =
-        random_insertion_sized(box_, spheres(), &[n], Some(sizes.clone()), 1_000_000, rng).unwrap();
-    let moves = MoveSizes {
-        translate: step,
-        rotate: 0.0,
-        volume: 0.0,
-        shear: 0.01,
-    };
-    compress(&mut system, moves, &CompressOptions::to(phi), rng).unwrap();
-    (system, sizes, moves)
-}
-
-/// βP of additive hard spheres of diameters σᵢ at number density ρ by
-/// Boublik–Mansoori–Carnahan–Starling–Leland (Mansoori, Carnahan,
-/// Starling and Leland, J. Chem. Phys. 54, 1523 (1971); Boublík, J. Chem.
-/// Phys. 53, 471 (1970)):
-/// with ξₖ = (π/6) ρ ⟨σᵏ⟩,
-/// βP = (6/π) [ξ₀/(1 − ξ₃) + 3ξ₁ξ₂/(1 − ξ₃)² + (3 − ξ₃) ξ₂³/(1 − ξ₃)³].
-fn bmcsl_pressure(rho: f64, diameters: &[f64]) -> f64 {
-    let n = diameters.len() as f64;
-    let xi = |k: i32| PI / 6.0 * rho * diameters.iter().map(|s| s.powi(k)).sum::<f64>() / n;
-    let (x0, x1, x2, x3) = (xi(0), xi(1), xi(2), xi(3));
-    let e = 1.0 - x3;
-    6.0 / PI * (x0 / e + 3.0 * x1 * x2 / (e * e) + (3.0 - x3) * x2.powi(3) / e.powi(3))
-}
 
 /// For one size it is Carnahan–Starling, βPσ³ = ρσ³(1 + η + η² − η³)/(1 − η)³.
 #[test]

@@ -101,6 +101,7 @@ impl Runner {
             stage_index: index,
             stage: "dynamics".into(),
             time: Some(progress.time - progress.start_time),
+            sizes: dynamics.sizes().map(<[f64]>::to_vec),
             resume: Some(ResumeInfo {
                 stage_clock: self.clock,
                 stage_complete: complete,

@@ -289,16 +289,17 @@ fn system_from_logged(
             species: s,
         })
         .collect::<Vec<Particle>>();
-    if let Some(sizes) = &record.sizes {
-        return Ok(System::with_sizes(box_, species, particles, sizes.clone())?);
-    }
     if !grown {
-        return Ok(System::new(box_, species, particles)?);
+        return Ok(match &record.sizes {
+            Some(sizes) => System::with_sizes(box_, species, particles, sizes.clone())?,
+            None => System::new(box_, species, particles)?,
+        });
     }
     Ok(System::with_touching(
         box_,
         species,
         particles,
+        record.sizes.clone(),
         JAM_FRAME_TOUCHING,
     )?)
 }

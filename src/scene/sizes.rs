@@ -4,7 +4,7 @@
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
-use super::{Scene, SpeciesSpec, Stage, Start};
+use super::{Scene, SpeciesSpec, Start};
 
 /// Mixed into the scene's seed for the sizes of species k (the seed xor
 /// this plus k): their own streams, apart from the run's and from each
@@ -102,7 +102,7 @@ impl Scene {
     }
 
     /// What a scene with sizes may start from and run (field, message):
-    /// a random start or a resumed log, and Monte Carlo stages.
+    /// a random or lattice start, or a resumed log.
     pub(super) fn validate_sized_run(&self) -> Result<(), (String, String)> {
         if self.species.iter().all(|s| s.sizes.is_none()) {
             return Ok(());
@@ -116,17 +116,6 @@ impl Scene {
                 "polydisperse sizes start from Random, Lattice or Resume so far: a crystal's or a layered start's sites are placed for bodies of one size".into(),
             ));
         }
-        match (self.stages.iter().enumerate())
-            .find(|(_, st)| matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. }))
-        {
-            Some((i, st)) => Err((
-                format!("stages[{i}]"),
-                format!(
-                    "polydisperse sizes run in Compress and MonteCarlo stages so far, not in {} stages",
-                    st.kind()
-                ),
-            )),
-            None => Ok(()),
-        }
+        Ok(())
     }
 }

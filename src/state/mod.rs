@@ -447,11 +447,12 @@ mod tests {
             (d - 1.0).abs() <= 1e-12
         };
         assert_eq!(
-            System::with_contacts(box_, species.clone(), particles.clone(), touching).unwrap_err(),
+            System::with_contacts(box_, species.clone(), particles.clone(), None, touching)
+                .unwrap_err(),
             StateError::Overlap(2, 3)
         );
         let apart = vec![particles[0], particles[1], particles[2]];
-        let system = System::with_contacts(box_, species, apart, touching).unwrap();
+        let system = System::with_contacts(box_, species, apart, None, touching).unwrap();
         assert_eq!(system.len(), 3);
         // A move of a touching sphere is judged as usual: into its partner
         // rejected, away from it accepted.

@@ -18,31 +18,37 @@ impl System {
         species: Vec<Species>,
         particles: Vec<Particle>,
     ) -> Result<Self, StateError> {
-        Self::with_contacts(box_, species, particles, |_, _| false)
+        Self::with_contacts(box_, species, particles, None, |_, _| false)
     }
 
     /// A system whose pairs may touch as the event-driven dynamics hands
     /// them on: [`System::with_contacts`], a pair let through where its
     /// signed distance, by the geometry layer's distance kernel (the one
     /// the predictions follow), is no deeper than `tolerance` times the
-    /// smaller body's smallest half-extent.
+    /// smaller body's smallest half-extent. `sizes` as in
+    /// [`System::with_sizes`].
     pub fn with_touching(
         box_: PeriodicBox,
         species: Vec<Species>,
         particles: Vec<Particle>,
+        sizes: Option<Vec<f64>>,
         tolerance: f64,
     ) -> Result<Self, StateError> {
+        let shape = |i: usize| {
+            let shape = species[particles[i].species as usize].shape;
+            match &sizes {
+                Some(f) => shape.scaled(f[i]),
+                None => shape,
+            }
+        };
         let touching = |i: usize, j: usize| {
             let (a, b) = (&particles[i], &particles[j]);
-            let (sa, sb) = (
-                &species[a.species as usize].shape,
-                &species[b.species as usize].shape,
-            );
+            let (sa, sb) = (shape(i), shape(j));
             let d = box_.minimum_image(&(b.position - a.position));
             let rel = crate::geometry::Relative::new(&d, &a.orientation, &b.orientation);
             let contact = crate::geometry::distance(
-                sa,
-                sb,
+                &sa,
+                &sb,
                 &rel,
                 &crate::geometry::DistanceOptions::default(),
                 None,
@@ -50,23 +56,30 @@ impl System {
             let scale = sa.min_half_extent().min(sb.min_half_extent());
             contact.distance >= -tolerance * scale
         };
-        Self::with_contacts(box_, species.clone(), particles.clone(), touching)
+        Self::with_contacts(
+            box_,
+            species.clone(),
+            particles.clone(),
+            sizes.clone(),
+            touching,
+        )
     }
 
-    /// As [`System::new`], except that pairs (i < j) for which
-    /// `touching(i, j)` holds are let through where the overlap kernels
-    /// count them as overlapping: a state of the event-driven dynamics
-    /// holds the pair of its last collision touching to round-off, which
-    /// another kernel's arithmetic may put either side of contact. A move
-    /// of such a particle is then judged against its partner as usual
-    /// (moves that part them are accepted).
+    /// As [`System::new`] (or [`System::with_sizes`] with `sizes`), except
+    /// that pairs (i < j) for which `touching(i, j)` holds are let through
+    /// where the overlap kernels count them as overlapping: a state of the
+    /// event-driven dynamics holds the pair of its last collision touching
+    /// to round-off, which another kernel's arithmetic may put either side
+    /// of contact. A move of such a particle is then judged against its
+    /// partner as usual (moves that part them are accepted).
     pub fn with_contacts(
         box_: PeriodicBox,
         species: Vec<Species>,
         particles: Vec<Particle>,
+        sizes: Option<Vec<f64>>,
         touching: impl Fn(usize, usize) -> bool,
     ) -> Result<Self, StateError> {
-        Self::assemble(box_, species, particles, None, touching)
+        Self::assemble(box_, species, particles, sizes, touching)
     }
 
     /// A system of polydisperse spheres: body i is its species' sphere

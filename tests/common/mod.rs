@@ -3,6 +3,8 @@
 //! scene files, and logs cut as a crash would leave them.
 #![allow(dead_code)]
 
+pub mod polydisperse;
+
 use hardbody::geometry::gjk::{GjkOutcome, gjk_distance, gjk_intersect};
 use hardbody::geometry::implicit::SmoothSurface;
 use hardbody::geometry::newton::{NewtonOptions, newton_distance};

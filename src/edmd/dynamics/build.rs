@@ -175,6 +175,7 @@ impl Dynamics {
                 })
                 .collect(),
             growth: self.growth,
+            sizes: self.sizes.clone(),
         }
     }
 
@@ -268,7 +269,8 @@ impl Dynamics {
         // The dumped state is the dynamics' own, its failure included (a
         // pair overlapping where a contact was missed): it is replayed, not
         // judged again.
-        let system = System::with_contacts(box_, now_species, particles, |_, _| true)?;
+        let sizes = dump.sizes.clone();
+        let system = System::with_contacts(box_, now_species, particles, sizes, |_, _| true)?;
         let mut dynamics = Self::assemble(
             &system,
             species.to_vec(),
@@ -321,13 +323,23 @@ impl Dynamics {
     pub(super) fn assemble(
         system: &System,
         species: Vec<Species>,
-        kinds: Vec<Kind>,
+        mut kinds: Vec<Kind>,
         bodies: Vec<Body>,
         options: &DynamicsOptions,
         now: f64,
         growth: Option<Growth>,
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
+        let sizes = system.sizes().map(<[f64]>::to_vec);
+        let body_radii = match &sizes {
+            Some(sizes) => {
+                size_kinds_for_largest(&mut kinds, &species, &bodies, sizes);
+                (bodies.iter().zip(sizes))
+                    .map(|(b, f)| species[b.species as usize].shape.bounding_radius() * f)
+                    .collect()
+            }
+            None => Vec::new(),
+        };
         let rotors = kinds_rotating(&bodies, &kinds);
         let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
         let rotating = rotors > 0;
@@ -396,9 +408,14 @@ impl Dynamics {
                 } else {
                     Regions::Spheres
                 };
+                let body_reach = match regions {
+                    Regions::Spheres => body_radii.iter().map(|r| r + shell).collect(),
+                    Regions::Boxes { .. } => Vec::new(),
+                };
                 let mut spheres = NeighbourSpheres {
                     shell,
                     reach,
+                    body_reach,
                     centres: positions,
                     regions,
                     lists: NeighbourLists::new(n, 16),
@@ -430,6 +447,8 @@ impl Dynamics {
             closed_form,
             narrow,
             contact_sums,
+            sizes,
+            body_radii,
             cells,
             cell_lengths,
             neighbours,
@@ -586,7 +605,11 @@ fn overlapping_in<'a>(
     let reach = &spheres.reach;
     let reach_i = reach[bodies[i].species as usize];
     let centres = &spheres.centres;
-    if reach.len() == 1 {
+    if let Some(own) = spheres.body_reach.get(i) {
+        let body_reach = &spheres.body_reach;
+        let contact = |j: usize| own + body_reach[j];
+        overlapping_into(i, after, cells, centres, image, contact, into)
+    } else if reach.len() == 1 {
         let contact = reach_i + reach[0];
         overlapping_into(i, after, cells, centres, image, |_| contact, into)
     } else {
@@ -658,6 +681,22 @@ fn keep_box_overlaps<'a>(
         }
     }
     &near[..kept]
+}
+
+/// Gives each kind of polydisperse bodies its species' shape at the
+/// largest of their `sizes` (a species without bodies keeps its own), so
+/// that every bound taken from a kind's shape holds for each of its bodies.
+fn size_kinds_for_largest(kinds: &mut [Kind], species: &[Species], bodies: &[Body], sizes: &[f64]) {
+    let mut largest = vec![0.0_f64; kinds.len()];
+    for (b, f) in bodies.iter().zip(sizes) {
+        let s = b.species as usize;
+        largest[s] = largest[s].max(*f);
+    }
+    for ((kind, s), f) in kinds.iter_mut().zip(species).zip(largest) {
+        if f > 0.0 {
+            kind.shape = s.shape.scaled(f);
+        }
+    }
 }
 
 /// `species` with their shapes scaled by `scale` (as they are at 1).

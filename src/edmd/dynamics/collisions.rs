@@ -31,7 +31,7 @@ impl Dynamics {
         // A collision that fails leaves both bodies as they were, so that a
         // dump taken then replays it (see `DynamicsDump`). Two spheres are
         // checked before anything changes; bodies are kept aside.
-        let spheres = self.contact_sums[self.pair_index(i, j)].is_some();
+        let spheres = self.contact_sum(i, j).is_some();
         let kept = (!spheres)
             .then(|| [i, j].map(|k| (self.bodies[k], self.cell_shifts[k], self.images[k])));
         let impulse = match self.impulse_at_contact(i, j) {
@@ -95,7 +95,7 @@ impl Dynamics {
     /// succeeds.
     pub(super) fn impulse_at_contact(&mut self, i: usize, j: usize) -> Result<(V3, V3), EdmdError> {
         let (si, sj) = (self.species_of(i), self.species_of(j));
-        let sphere_contact = self.contact_sums[self.pair_index(i, j)];
+        let sphere_contact = self.contact_sum(i, j);
         // The separation now, from the positions `advance` will store (to
         // the bit), before either body is touched.
         let now = |k: usize| {

@@ -238,6 +238,20 @@ impl Dynamics {
         t
     }
 
+    /// Body `i`'s size relative to its kind's shape: 1, or with sizes its
+    /// own over its species' largest.
+    #[inline]
+    pub(super) fn relative_size(&self, i: usize) -> f64 {
+        match self.body_radii.get(i) {
+            Some(r) => {
+                r / self.kinds[self.bodies[i].species as usize]
+                    .shape
+                    .bounding_radius()
+            }
+            None => 1.0,
+        }
+    }
+
     /// The gap between body `i` at absolute time `t` (relative to the
     /// origin) and the nearest wall: min over walled axes of
     /// L/2 − |rₖ| − hₖ(R), with the axis and side.
@@ -247,7 +261,8 @@ impl Dynamics {
         let (r, q) = self.pose_by(i, top, t);
         let h = kind
             .shape
-            .lab_half_extents(&q.to_rotation_matrix().into_inner());
+            .lab_half_extents(&q.to_rotation_matrix().into_inner())
+            * self.relative_size(i);
         let h = match self.growth {
             None => h,
             Some(g) => h * g.at(t),
@@ -282,7 +297,8 @@ impl Dynamics {
         if !kind.rotates || b.angular_velocity == V3::zeros() {
             let h = kind
                 .shape
-                .lab_half_extents(&b.orientation.to_rotation_matrix().into_inner());
+                .lab_half_extents(&b.orientation.to_rotation_matrix().into_inner())
+                * self.relative_size(i);
             let mut best = WallContact::None;
             let mut best_t = t_end;
             for k in (0..3).filter(|&k| walls[k]) {
@@ -377,7 +393,7 @@ impl Dynamics {
             * kind
                 .shape
                 .support(&b.orientation.inverse_transform_vector(&normal))
-            * scale;
+            * (scale * self.relative_size(i));
         let gap = 0.5 * self.box_.lengths()[axis] - (b.position[axis] + arm[axis]) * normal[axis];
         let size = kind.shape.min_half_extent();
         if gap.abs() > 1e3 * self.predictor.contact_tolerance() * size {

@@ -38,7 +38,8 @@ impl Dynamics {
         // the same bits).
         let at_now = self.bodies[i].time == self.now;
         let sigma = |j| self.sigma(i, j);
-        match (at_now, self.kinds.len() == 1, self.box_.is_tilted()) {
+        let one_sum = self.kinds.len() == 1 && self.body_radii.is_empty();
+        match (at_now, one_sum, self.box_.is_tilted()) {
             (_, _, true) => {
                 self.earliest_in_lanes::<false, true>(i, lanes, &keep, &mut horizon, sigma)
             }

@@ -101,7 +101,10 @@ pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> 
             .iter()
             .map(|s| 2.0 * s.shape.bounding_radius())
             .fold(f64::INFINITY, f64::min);
-        (packing_fraction >= SPHERE_LISTS_FROM).then_some(0.25 * diameter)
+        // Read to 10⁻⁶ (as `free_path_scale` does), so that a plan's φ and
+        // its run's, which differ in the last bits, choose alike.
+        let micro = |phi: f64| (phi * 1e6).round();
+        (micro(packing_fraction) >= micro(SPHERE_LISTS_FROM)).then_some(0.25 * diameter)
     } else {
         let thickness = species
             .iter()
@@ -145,6 +148,9 @@ struct NeighbourSpheres {
     /// region (bounding radius + shell for spheres, the box's half-diagonal
     /// for boxes).
     reach: Vec<f64>,
+    /// Polydisperse spheres: per body, its own radius + shell (its
+    /// species' `reach` is its largest body's); empty otherwise.
+    body_reach: Vec<f64>,
     /// Where each body's region is centred (its centre when it was built,
     /// wrapped into the box).
     centres: Vec<V3>,
@@ -293,6 +299,10 @@ pub struct DynamicsDump {
     /// (those of [`Dynamics::species`]), scaled by `growth.at(now)` now.
     #[serde(default)]
     pub growth: Option<Growth>,
+    /// Polydisperse spheres: each body's size relative to its species'
+    /// shape ([`crate::state::System::sizes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sizes: Option<Vec<f64>>,
 }
 
 /// Event-driven molecular dynamics of hard bodies in a periodic box.
@@ -303,6 +313,16 @@ pub struct Dynamics {
     kinds: Vec<Kind>,
     /// Closed-form contact distance per species pair (spheres), else None.
     contact_sums: Vec<Option<f64>>,
+    /// Polydisperse spheres: each body's size, the scale factor of its
+    /// species' shape (as [`crate::state::System::sizes`]); `None` where every body has
+    /// its species' size.
+    sizes: Option<Vec<f64>>,
+    /// With `sizes`: each body's radius at its species' full size, whose
+    /// sums are the pairs' contact distances in place of `contact_sums`.
+    /// The kinds' shapes are then their species' largest bodies', so that
+    /// cells, neighbour spheres and bounds hold for every body. Empty
+    /// without sizes.
+    body_radii: Vec<f64>,
     /// Every pair in closed form (spheres only): a contact time is exact
     /// whenever it is found, so searches need no horizon, and a body that
     /// crosses into a cell searches only the layer of cells it now
@@ -567,7 +587,10 @@ mod tests {
         let mut md = Dynamics::from_state(&system, &options, &mut rng).unwrap();
         let check = |md: &Dynamics| {
             let spheres = md.neighbours.as_ref().unwrap();
-            let reach = |k: usize| spheres.reach[md.bodies[k].species as usize];
+            let reach = |k: usize| match spheres.body_reach.get(k) {
+                Some(r) => *r,
+                None => spheres.reach[md.bodies[k].species as usize],
+            };
             let mut longest = 0;
             for i in 0..md.bodies.len() {
                 let mut listed = spheres.lists.of(i).to_vec();

@@ -300,7 +300,19 @@ impl Dynamics {
     /// their size now.
     pub fn to_system(&self) -> Result<System, StateError> {
         let tolerance = self.predictor.contact_tolerance();
-        System::with_touching(self.box_, self.species_now(), self.particles(), tolerance)
+        System::with_touching(
+            self.box_,
+            self.species_now(),
+            self.particles(),
+            self.sizes.clone(),
+            tolerance,
+        )
+    }
+
+    /// Polydisperse spheres: each body's size relative to its species'
+    /// shape, as the state it was built from gave them.
+    pub fn sizes(&self) -> Option<&[f64]> {
+        self.sizes.as_deref()
     }
 
     /// The species the dynamics was built with: for growing bodies, the

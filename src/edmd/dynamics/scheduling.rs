@@ -196,7 +196,18 @@ impl Dynamics {
     /// (which meets nothing).
     #[inline(always)]
     pub(super) fn sigma(&self, i: usize, j: usize) -> f64 {
-        self.contact_sums[self.pair_index(i, j)].unwrap_or(f64::NAN)
+        self.contact_sum(i, j).unwrap_or(f64::NAN)
+    }
+
+    /// The contact distance of bodies `i` and `j` at full size if both are
+    /// spheres: their species' table, or with sizes their own radii.
+    #[inline(always)]
+    pub(super) fn contact_sum(&self, i: usize, j: usize) -> Option<f64> {
+        if self.body_radii.is_empty() {
+            self.contact_sums[self.pair_index(i, j)]
+        } else {
+            Some(self.body_radii[i] + self.body_radii[j])
+        }
     }
 
     /// [`Dynamics::earliest_closed_form_listed`] over the members of
@@ -258,7 +269,7 @@ impl Dynamics {
     #[inline(always)]
     pub(super) fn closed_form_contact(&self, i: usize, j: usize) -> f64 {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-        let Some(sigma) = self.contact_sums[self.pair_index(i, j)] else {
+        let Some(sigma) = self.contact_sum(i, j) else {
             return f64::INFINITY;
         };
         // From the later of the two stored poses, whenever the search runs:
@@ -401,8 +412,7 @@ impl Dynamics {
         stopped: &mut Option<Progress>,
     ) -> Result<Found, EdmdError> {
         let (ba, bb) = (&self.bodies[a], &self.bodies[b]);
-        let pair = ba.species as usize * self.kinds.len() + bb.species as usize;
-        if let Some(sigma) = self.contact_sums[pair] {
+        if let Some(sigma) = self.contact_sum(a, b) {
             let t = match self.growth {
                 None => crate::geometry::pair::sphere_contact_time_or_never(d, dv, sigma),
                 Some(g) => grown_sphere_contact(d, dv, sigma, g, t0),
