@@ -514,3 +514,97 @@ fn a_polydisperse_lattice_start_spaces_its_sites_for_the_largest_body() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The first frame of the scene `text`, run to a log in a fresh directory
+/// named after `tag`.
+fn first_frame(tag: &str, text: &str) -> hardbody::log::StateRecord {
+    use hardbody::run::{Silent, run_scene};
+    use std::sync::atomic::AtomicBool;
+    let dir = std::env::temp_dir().join(format!("hardbody-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("run.mcap");
+    let scene = hardbody::scene::Scene::parse(text).unwrap();
+    run_scene(&scene, text, &path, &mut Silent, &AtomicBool::new(false)).unwrap();
+    let log = hardbody::log::read::read_log(&path, true).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    log.states[0].1.clone()
+}
+
+/// Each pair of the frame apart by more than the sum of its radii (all
+/// pairs), the radius of body i `radius(i)` times its size.
+fn assert_apart(frame: &hardbody::log::StateRecord, radius: impl Fn(usize) -> f64) {
+    let box_ = frame.periodic_box([false; 3]).unwrap();
+    let n = frame.positions.len();
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = Vector3::from(frame.positions[j]) - Vector3::from(frame.positions[i]);
+            let sigma = radius(i) * frame.size_of(i) + radius(j) * frame.size_of(j);
+            assert!(box_.minimum_image(&d).norm() > sigma, "{i} and {j} overlap");
+        }
+    }
+}
+
+/// A polydisperse fcc crystal: its packing fraction counts each body at
+/// its size (the box is larger than equal spheres' by the cube root of
+/// ⟨f³⟩), its bodies sit on the fcc sites overlap-free at their sizes,
+/// and one so dense that its largest body would touch on its site is
+/// refused, naming where. A layered start of two polydisperse species
+/// puts each in its layer at its own sizes.
+#[test]
+fn polydisperse_crystal_and_layered_starts_hold_each_body_at_its_size() {
+    let crystal = |phi: f64| {
+        format!(
+            r#"Scene(seed: 4,
+            species: [Species(name: "s", shape: Sphere(radius: 0.5), count: 108, sizes: Gaussian(std: 0.04))],
+            start: Crystal(lattice: Fcc, cells: (3, 3, 3), packing_fraction: {phi}),
+            stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
+            log: Log(path: "c.mcap", stats_every: 10, frames_every: 10))"#
+        )
+    };
+    let frame = first_frame("poly-crystal", &crystal(0.5));
+    let sizes = frame.sizes.clone().unwrap();
+    let mean_cube = sizes.iter().map(|f| f.powi(3)).mean();
+    let volume: f64 = frame.box_lengths.iter().product();
+    let phi = 108.0 * PI / 6.0 * mean_cube / volume;
+    assert!((phi - 0.5).abs() < 1e-12, "{phi}");
+    // Equal spheres at 0.5 in the same cells: the box is scaled by ⟨f³⟩^⅓.
+    let equal = 108.0 * PI / 6.0 / 0.5;
+    assert!((volume / equal - mean_cube).abs() < 1e-12);
+    assert_apart(&frame, |_| 0.5);
+    let largest = sizes.iter().copied().fold(0.0, f64::max);
+    let limit = PI / 18f64.sqrt() * mean_cube / largest.powi(3);
+    let refused = hardbody::scene::Scene::parse(&crystal(limit + 1e-3))
+        .unwrap_err()
+        .to_string();
+    let stated: f64 = refused
+        .split("its bodies touch at ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("{refused}"));
+    assert!((stated - limit).abs() < 1e-9, "{limit}: {refused}");
+    hardbody::scene::Scene::parse(&crystal(limit - 1e-3)).unwrap();
+
+    let layered = r#"Scene(seed: 5, box: (16.0, 8.0, 8.0),
+        species: [Species(name: "a", shape: Sphere(radius: 0.5), count: 100, sizes: Uniform(min: 0.7, max: 1.3)),
+                  Species(name: "b", shape: Sphere(radius: 0.4), count: 100, sizes: Gaussian(std: 0.1))],
+        start: Layered(X), stages: [MonteCarlo(ensemble: Nvt, sweeps: 10)],
+        log: Log(path: "l.mcap", stats_every: 10, frames_every: 10))"#;
+    let frame = first_frame("poly-layered", layered);
+    let drawn = hardbody::scene::Scene::parse(layered)
+        .unwrap()
+        .body_sizes()
+        .unwrap();
+    assert_eq!(frame.sizes.as_deref(), Some(drawn.as_slice()));
+    let radius = |i: usize| if frame.species_of[i] == 0 { 0.5 } else { 0.4 };
+    assert_apart(&frame, radius);
+    let frame = &frame;
+    let x = |s: u16| {
+        (0..200)
+            .filter(move |&i| frame.species_of[i] == s)
+            .map(|i| frame.positions[i][0])
+    };
+    let a_high = x(0).fold(f64::NEG_INFINITY, f64::max);
+    let b_low = x(1).fold(f64::INFINITY, f64::min);
+    assert!(a_high <= b_low, "a up to {a_high}, b from {b_low}");
+}

@@ -212,3 +212,33 @@ def test_polydisperse_sizes_and_swaps_round_trip_run_and_read_back(tmp_path):
     volume = (np.pi / 6 * last.sizes**3).sum() / np.prod(last.box)
     assert abs(volume - 0.3) < 1e-9
     assert np.allclose(last.to_gsd().particles.diameter, last.sizes, rtol=1e-6)
+
+
+def test_polydisperse_spheres_run_dynamics_and_grow_with_their_sizes(tmp_path):
+    scene = hb.Scene(
+        seed=6,
+        box=(8, 8, 8),
+        species=[hb.Species("s", hb.Sphere(0.5), 150, sizes=hb.Uniform(0.8, 1.2))],
+        start=hb.Random(),
+        stages=[
+            hb.Compress(packing_fraction=0.35),
+            hb.Dynamics(duration=2.0, frames_every=1.0),
+            hb.Jam(growth_rate=0.01, packing_fraction=0.55),
+        ],
+        log=hb.Log(path=str(tmp_path / "grow.mcap"), stats_every=50, frames_every=100),
+    )
+    log = hb.run(scene, progress=False)
+    moving = [f for f in log.frames if f.stage == "dynamics"]
+    grown = [f for f in log.frames if f.stage == "jam"]
+    assert moving and grown
+    drawn = log.frames[0].sizes
+    for frame in moving + grown:
+        # The dynamics and the growth keep every body's own size.
+        assert np.array_equal(frame.sizes, drawn)
+        assert frame.velocities is not None
+    # The species grew; each body is its grown shape at its own size.
+    last = grown[-1]
+    radius = last.species[0].shape.radius * last.sizes
+    assert last.species[0].shape.radius > 0.5
+    phi = (4 / 3 * np.pi * radius**3).sum() / np.prod(last.box)
+    assert abs(phi - 0.55) < 1e-9, phi

@@ -36,8 +36,12 @@ pub(super) fn start_state(
             }
             None => Ok(lattice(scene.periodic_box(), species, &counts, rng)?),
         },
+        // Sites spaced for each species' largest body; the bodies keep
+        // their sizes as they take their layers' sites.
         Start::Layered(axis) => layered(
-            lattice(scene.periodic_box(), species, &counts, rng)?,
+            lattice(scene.periodic_box(), scene.lattice_species(), &counts, rng)?,
+            species,
+            scene.body_sizes(),
             *axis as usize,
         )
         .map_err(|e| RunError::Start(e.into())),
@@ -57,15 +61,26 @@ pub(super) fn start_state(
             let crystal = (scene.crystal())
                 .expect("a Crystal start")
                 .map_err(|e| RunError::Start(e.into()))?;
-            Ok(crate::state::crystal::crystal(&crystal, species, &counts)
-                .map_err(|e| RunError::Start(e.into()))?)
+            let built = match scene.body_sizes() {
+                Some(sizes) => {
+                    crate::state::crystal::crystal_sized(&crystal, species, &counts, sizes)
+                }
+                None => crate::state::crystal::crystal(&crystal, species, &counts),
+            };
+            Ok(built.map_err(|e| RunError::Start(e.into()))?)
         }
     }
 }
 
 /// The species of a lattice start put in layers along `axis`: the sites
-/// sorted by that coordinate, the first species on the lowest.
-pub(super) fn layered(system: System, axis: usize) -> Result<System, StateError> {
+/// sorted by that coordinate, the first species on the lowest; `species`
+/// and `sizes` (one per body, in species order) those of the bodies.
+pub(super) fn layered(
+    system: System,
+    species: Vec<crate::state::Species>,
+    sizes: Option<Vec<f64>>,
+    axis: usize,
+) -> Result<System, StateError> {
     let mut sites: Vec<Particle> = system.particles().to_vec();
     sites.sort_by(|a, b| a.position[axis].total_cmp(&b.position[axis]));
     let mut kinds: Vec<u16> = system.particles().iter().map(|p| p.species).collect();
@@ -76,7 +91,10 @@ pub(super) fn layered(system: System, axis: usize) -> Result<System, StateError>
     for (p, k) in sites.iter_mut().zip(kinds) {
         p.species = k;
     }
-    System::new(*system.periodic_box(), system.species().to_vec(), sites)
+    match sizes {
+        Some(sizes) => System::with_sizes(*system.periodic_box(), species, sites, sizes),
+        None => System::new(*system.periodic_box(), species, sites),
+    }
 }
 
 /// Whether the scene's start can be made before anything runs: a

@@ -576,6 +576,24 @@ impl Scene {
         )
     }
 
+    /// The box and sites of a `Crystal` start, each body at its size if
+    /// the species give sizes.
+    pub fn crystal_sites(
+        &self,
+    ) -> Option<
+        Result<
+            (crate::space::PeriodicBox, Vec<crate::state::Particle>),
+            crate::state::crystal::CrystalError,
+        >,
+    > {
+        let sizes = self.body_sizes();
+        let species = self.mc_species();
+        Some(
+            self.crystal()?
+                .and_then(|c| c.build_sized(&species, &self.counts(), sizes.as_deref())),
+        )
+    }
+
     /// The species' counts, in scene order.
     pub fn counts(&self) -> Vec<usize> {
         self.species.iter().map(|s| s.count).collect()
@@ -644,13 +662,8 @@ impl Scene {
     /// The starting box, with its walls (of a scene whose box and start
     /// passed validation: see [`ValidScene::periodic_box`]).
     fn periodic_box(&self) -> crate::space::PeriodicBox {
-        if let Some(crystal) = self.crystal() {
-            let species = self.mc_species();
-            return (crystal
-                .expect("a validated crystal")
-                .build(&species, &self.counts()))
-            .expect("a validated crystal")
-            .0;
+        if let Some(sites) = self.crystal_sites() {
+            return sites.expect("a validated crystal").0;
         }
         let spec = self.box_spec.expect("a validated box");
         let v = |t: (f64, f64, f64)| nalgebra::Vector3::new(t.0, t.1, t.2);

@@ -4,7 +4,7 @@
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
-use super::{Scene, SpeciesSpec, Start};
+use super::{Scene, SpeciesSpec};
 
 /// Mixed into the scene's seed for the sizes of species k (the seed xor
 /// this plus k): their own streams, apart from the run's and from each
@@ -96,24 +96,6 @@ impl Scene {
             return Err((
                 field.into(),
                 "size swaps exchange the sizes of polydisperse bodies, and no species gives `sizes`".into(),
-            ));
-        }
-        Ok(())
-    }
-
-    /// What a scene with sizes may start from and run (field, message):
-    /// a random or lattice start, or a resumed log.
-    pub(super) fn validate_sized_run(&self) -> Result<(), (String, String)> {
-        if self.species.iter().all(|s| s.sizes.is_none()) {
-            return Ok(());
-        }
-        if !matches!(
-            self.start,
-            Start::Random | Start::Lattice | Start::Resume(_)
-        ) {
-            return Err((
-                "start".into(),
-                "polydisperse sizes start from Random, Lattice or Resume so far: a crystal's or a layered start's sites are placed for bodies of one size".into(),
             ));
         }
         Ok(())

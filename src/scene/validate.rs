@@ -215,11 +215,9 @@ impl Scene {
     /// (a crystal's built once), for the stages.
     fn validate_start(&self) -> Result<PeriodicBox, (String, String)> {
         let bad = |field: &str, message: String| Err((field.to_string(), message));
-        self.validate_sized_run()?;
         let crystal = matches!(self.start, Start::Crystal { .. });
         let n = self.particle_count();
-        if let Some(crystal) = self.crystal() {
-            let built = crystal.and_then(|c| c.build(&self.mc_species(), &self.counts()));
+        if let Some(built) = self.crystal_sites() {
             match built {
                 Err(e) => return bad("start", e.to_string()),
                 Ok((box_, _)) => {

@@ -194,6 +194,19 @@ impl CrystalSpec {
         species: &[Species],
         counts: &[usize],
     ) -> Result<(PeriodicBox, Vec<Particle>), CrystalError> {
+        self.build_sized(species, counts, None)
+    }
+
+    /// [`CrystalSpec::build`] for polydisperse bodies, `sizes` one per
+    /// site in order: the packing fraction counts each body at its size,
+    /// and the crystal is too dense where the largest body of each species
+    /// would touch on its site.
+    pub fn build_sized(
+        &self,
+        species: &[Species],
+        counts: &[usize],
+        sizes: Option<&[f64]>,
+    ) -> Result<(PeriodicBox, Vec<Particle>), CrystalError> {
         let cell = &self.cell;
         cell.check()?;
         let [n1, n2, n3] = self.cells;
@@ -217,14 +230,17 @@ impl CrystalSpec {
         let kinds: Vec<u16> = (counts.iter().enumerate())
             .flat_map(|(s, &k)| std::iter::repeat_n(s as u16, k))
             .collect();
-        // The volume the bodies fill per cell fixes the scale.
-        let filled: f64 = kinds
-            .iter()
-            .map(|&k| species[k as usize].shape.volume())
+        // The volume the bodies fill fixes the scale.
+        let size = |i: usize| sizes.map_or(1.0, |f| f[i]);
+        let filled: f64 = (kinds.iter().enumerate())
+            .map(|(i, &k)| species[k as usize].shape.volume() * size(i).powi(3))
             .sum();
         let det = cell.vectors.determinant() * (n1 * n2 * n3) as f64;
         let scale = (filled / (phi * det)).cbrt();
-        let touching = touching_scale(cell, &kinds, species)?;
+        let touching = match sizes {
+            None => touching_scale(cell, &kinds, species)?,
+            Some(sizes) => touching_scale(cell, &kinds, &largest_of(species, &kinds, sizes))?,
+        };
         if scale <= touching {
             return Err(CrystalError::TooDense {
                 asked: phi,
@@ -279,6 +295,21 @@ impl CrystalSpec {
         let touching = touching_scale(&self.cell, &kinds, species)?;
         Ok(filled / (self.cell.vectors.determinant() * touching.powi(3)))
     }
+}
+
+/// `species` at the largest of their bodies' `sizes` (`kinds[i]` the
+/// species of body i); a species without bodies as it is.
+fn largest_of(species: &[Species], kinds: &[u16], sizes: &[f64]) -> Vec<Species> {
+    let mut largest = vec![0.0_f64; species.len()];
+    for (&k, &f) in kinds.iter().zip(sizes) {
+        largest[k as usize] = largest[k as usize].max(f);
+    }
+    (species.iter().zip(largest))
+        .map(|(s, f)| Species {
+            shape: if f > 0.0 { s.shape.scaled(f) } else { s.shape },
+            ..s.clone()
+        })
+        .collect()
 }
 
 /// The rotation R and upper-triangular U with positive diagonal such that
@@ -406,6 +437,17 @@ pub fn crystal(
 ) -> Result<System, CrystalError> {
     let (box_, particles) = spec.build(&species, counts)?;
     Ok(System::new(box_, species, particles)?)
+}
+
+/// [`crystal`] of polydisperse bodies (see [`CrystalSpec::build_sized`]).
+pub fn crystal_sized(
+    spec: &CrystalSpec,
+    species: Vec<Species>,
+    counts: &[usize],
+    sizes: Vec<f64>,
+) -> Result<System, CrystalError> {
+    let (box_, particles) = spec.build_sized(&species, counts, Some(&sizes))?;
+    Ok(System::with_sizes(box_, species, particles, sizes)?)
 }
 
 #[cfg(test)]

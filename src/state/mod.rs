@@ -425,6 +425,22 @@ mod tests {
         }
     }
 
+    /// A species without bodies keeps its own bound among polydisperse
+    /// ones (a bound of zero would let a body of it, once placed, go
+    /// unseen by the cells); one with bodies takes its largest's.
+    #[test]
+    fn a_species_without_bodies_keeps_its_own_bound_among_sized_ones() {
+        let (mut species, box_) = unit_spheres_in_a_box_of_six();
+        species.push(Species {
+            name: "none".into(),
+            shape: "Sphere(radius: 0.7)".parse().unwrap(),
+            rotation: false,
+        });
+        let particles = vec![sphere_at(-2.0), sphere_at(1.0)];
+        let system = System::with_sizes(box_, species, particles, vec![0.8, 1.2]).unwrap();
+        assert_eq!(system.radii, vec![0.5 * 1.2, 0.7]);
+    }
+
     /// Spheres exactly in contact count as overlapping for the kernels;
     /// `with_contacts` lets through the pairs its judge calls touching,
     /// and only those: a deeper pair is still named.
