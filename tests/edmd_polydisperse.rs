@@ -7,12 +7,11 @@
 
 mod common;
 
-use common::polydisperse::{bmcsl_pressure, compressed_fluid, spheres};
+use common::polydisperse::{bmcsl_pressure, compressed_fluid, inserted, spheres};
 use hardbody::edmd::jam::{JamEnd, JamOptions, jam};
 use hardbody::edmd::{Dynamics, DynamicsOptions};
 use hardbody::space::PeriodicBox;
 use hardbody::state::sizes::SizeDistribution;
-use hardbody::state::start::random_insertion_sized;
 use hardbody::state::{Particle, System};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
@@ -212,20 +211,7 @@ fn polydisperse_spheres_jam_with_an_isostatic_backbone() {
     let sizes = SizeDistribution::Gaussian { std: 0.1 }
         .draw(n, &mut rng)
         .unwrap();
-    let volume: f64 = sizes
-        .iter()
-        .map(|f| std::f64::consts::PI / 6.0 * f.powi(3))
-        .sum();
-    let box_ = PeriodicBox::new(V3::repeat((volume / 0.3).cbrt())).unwrap();
-    let start = random_insertion_sized(
-        box_,
-        spheres(),
-        &[n],
-        Some(sizes.clone()),
-        1_000_000,
-        &mut rng,
-    )
-    .unwrap();
+    let start = inserted(&sizes, 0.3, &mut rng);
     let out = jam(
         &start,
         &JamOptions::default(),

@@ -32,10 +32,7 @@ pub fn compressed_fluid(
     rng: &mut Pcg64,
 ) -> (System, Vec<f64>, MoveSizes) {
     let sizes = distribution.draw(n, rng).unwrap();
-    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
-    let box_ = PeriodicBox::new(Vector3::repeat((volume / 0.25).cbrt())).unwrap();
-    let mut system =
-        random_insertion_sized(box_, spheres(), &[n], Some(sizes.clone()), 1_000_000, rng).unwrap();
+    let mut system = inserted(&sizes, 0.25, rng);
     let moves = MoveSizes {
         translate: step,
         rotate: 0.0,
@@ -44,6 +41,23 @@ pub fn compressed_fluid(
     };
     compress(&mut system, moves, &CompressOptions::to(phi), rng).unwrap();
     (system, sizes, moves)
+}
+
+/// Spheres of `sizes` inserted at random at packing fraction `phi` in a
+/// cube.
+pub fn inserted(sizes: &[f64], phi: f64, rng: &mut Pcg64) -> System {
+    let volume: f64 = sizes.iter().map(|f| PI / 6.0 * f.powi(3)).sum();
+    let box_ = PeriodicBox::new(Vector3::repeat((volume / phi).cbrt())).unwrap();
+    let counts = [sizes.len()];
+    random_insertion_sized(
+        box_,
+        spheres(),
+        &counts,
+        Some(sizes.to_vec()),
+        1_000_000,
+        rng,
+    )
+    .unwrap()
 }
 
 /// βP of additive hard spheres of diameters σᵢ at number density ρ by
