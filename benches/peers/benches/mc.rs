@@ -5,7 +5,9 @@
 //!
 //! Systems (φ = 0.5, N ≈ 4096): spheres; ellipsoids a = 2.5, b = c = 0.5
 //! (the shape of HOOMD's benchmark harness); cubes; cubes and tetrahedra
-//! (φ = 0.3) as convex polyhedra of their corners. Both codes start from
+//! (φ = 0.3) as convex polyhedra of their corners; spherocylinders of
+//! length 5 and radius 0.5 (L/D = 5, φ = 0.3, each code's closed form of
+//! the segments' distance). Both codes start from
 //! hardbody's dense lattice start, equilibrated by hardbody for 60 sweeps,
 //! and each tunes its own move sizes to 30 % acceptance (hardbody draws
 //! translations from a cube, hoomd-mc from a ball, so equal acceptance is
@@ -24,7 +26,7 @@ use hardbody::mc::moves::{Ensemble, MoveSizes, sweep};
 use hardbody::mc::tuning::Tuner;
 use hardbody::state::{Particle, System};
 use hoomd_geometry::Convex;
-use hoomd_geometry::shape::{ConvexPolyhedron, Hypercuboid, Hyperellipsoid};
+use hoomd_geometry::shape::{Capsule, ConvexPolyhedron, Hypercuboid, Hyperellipsoid};
 use hoomd_interaction::PairwiseCutoff;
 use hoomd_interaction::pairwise::{HardShape, HardSphere};
 use hoomd_mc::{Count, Rotate, Sweep, Translate, Trial, tune_by_scaling};
@@ -354,6 +356,25 @@ fn main() {
         }
         report(name, system.len(), pick(&mut a), pick(&mut b));
     }
+
+    // Spherocylinders: both along the body z axis.
+    let rod: Shape = "Spherocylinder(radius: 0.5, length: 5.0)".parse().unwrap();
+    let mut system = dense_start(&rod, n, 0.3).unwrap();
+    let g = Capsule {
+        radius: pos(0.5),
+        height: pos(5.0),
+    };
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for _ in 0..rounds {
+        a.push(ours(&mut system, repeats, sweeps));
+        b.push(theirs_oriented(&system, g.clone(), 6.0, repeats, sweeps));
+    }
+    report(
+        "spherocylinders L/D = 5",
+        system.len(),
+        pick(&mut a),
+        pick(&mut b),
+    );
 }
 
 /// The median rate of the rounds, with its acceptance.

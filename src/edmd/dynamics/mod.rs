@@ -520,6 +520,19 @@ mod tests {
         md
     }
 
+    /// Spheres at φ = 0.45 get lists whichever last bits the packing
+    /// fraction has (a plan's φ and its run's, counted body by body, may
+    /// differ there), and cells below.
+    #[test]
+    fn spheres_choose_lists_from_phi_045_to_round_off() {
+        let species = spheres(&["Sphere(radius: 0.5)"]);
+        let at = |phi: f64| automatic_neighbour_shell(&species, phi);
+        assert_eq!(at(0.45), Some(0.25));
+        assert_eq!(at(0.45f64.next_down()), Some(0.25));
+        assert_eq!(at(0.4499999999999999), Some(0.25));
+        assert_eq!(at(0.4499), None);
+    }
+
     /// A thousand collisions of one pair in a row that change nothing are
     /// let be (a grazing pair may give a few); the next is reported, with
     /// the pair. A collision that changes velocities, or one of another
