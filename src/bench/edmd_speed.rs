@@ -251,12 +251,16 @@ fn cells_and_lists(
 
 /// The shell the dynamics picks by itself for `system`.
 fn auto_shell(system: &System) -> Result<f64, BenchError> {
-    crate::edmd::automatic_neighbour_shell(system.species(), system.packing_fraction()).ok_or_else(
-        || BenchError::Wrong {
-            system: "this system".into(),
-            what: "no automatic neighbour lists".into(),
-        },
+    let polydisperse = system.sizes().is_some();
+    crate::edmd::automatic_neighbour_shell(
+        system.species(),
+        system.packing_fraction(),
+        polydisperse,
     )
+    .ok_or_else(|| BenchError::Wrong {
+        system: "this system".into(),
+        what: "no automatic neighbour lists".into(),
+    })
 }
 
 /// Times one system with one neighbour structure: 10 collisions per body

@@ -72,6 +72,7 @@ pub fn run(quick: bool) -> Result<Vec<SceneRow>, BenchError> {
         neighbour_shell: crate::edmd::automatic_neighbour_shell(
             system.species(),
             system.packing_fraction(),
+            system.sizes().is_some(),
         ),
         ..DynamicsOptions::default()
     };

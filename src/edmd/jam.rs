@@ -416,6 +416,7 @@ impl JamRun {
                 neighbour_shell: automatic_neighbour_shell(
                     self.state.species(),
                     self.state.packing_fraction(),
+                    self.state.sizes().is_some(),
                 )
                 .map(|shell| shell * settled),
                 ..self.dynamics.clone()

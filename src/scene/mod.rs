@@ -644,7 +644,10 @@ impl Scene {
         packing_fraction: f64,
     ) -> Option<f64> {
         match self.accuracy.neighbours {
-            Neighbours::Auto => crate::edmd::automatic_neighbour_shell(species, packing_fraction),
+            Neighbours::Auto => {
+                let polydisperse = self.species.iter().any(|s| s.sizes.is_some());
+                crate::edmd::automatic_neighbour_shell(species, packing_fraction, polydisperse)
+            }
             Neighbours::Cells => None,
             Neighbours::Lists { shell } => Some(shell),
         }

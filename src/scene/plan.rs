@@ -71,7 +71,8 @@ pub struct Plan {
     /// (`Some(None)`: cells), where the packing fraction it starts at is
     /// known before running; `None` where it is not (after an NPT stage,
     /// or from a resumed state) and the choice depends on it (spheres get
-    /// cells below φ = [`crate::edmd::dynamics::SPHERE_LISTS_FROM`]).
+    /// cells below φ = [`crate::edmd::dynamics::SPHERE_LISTS_FROM`], or
+    /// [`crate::edmd::dynamics::POLYDISPERSE_SPHERE_LISTS_FROM`]).
     pub dynamics_shells: Vec<(usize, Option<Option<f64>>)>,
     /// Whether a lattice start orients the bodies at random (`Some(true)`)
     /// or aligns them with the box because its sites are closer than a
@@ -485,7 +486,7 @@ impl fmt::Display for Report<'_> {
         if plan.has_dynamics {
             let spheres = plan.species.iter().all(|s| s.species.shape.is_sphere());
             let why = if plan.neighbours == Neighbours::Auto {
-                "automatic: oriented boxes grown at phi = 0.5 by a tenth of the thinnest body's thickness times the square root of the largest elongation, wider as the free path between collisions grows (1.76x at phi = 0.3, 6.5x at phi = 0.1); for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the stage starts below phi = 0.45; accuracy.neighbours: Cells or Lists(shell: ...) to choose"
+                "automatic: oriented boxes grown at phi = 0.5 by a tenth of the thinnest body's thickness times the square root of the largest elongation, wider as the free path between collisions grows (1.76x at phi = 0.3, 6.5x at phi = 0.1); for spheres bounding spheres grown by a quarter of the diameter, and cells instead when the stage starts below phi = 0.45 (0.3 for polydisperse spheres); accuracy.neighbours: Cells or Lists(shell: ...) to choose"
             } else {
                 "accuracy.neighbours"
             };
@@ -500,7 +501,11 @@ impl fmt::Display for Report<'_> {
                     ),
                     None if spheres => format!(
                         "decided when the stage starts: linked cells below phi = {}, above it lists of the bodies whose bounding spheres grown by a quarter of the diameter overlap (the packing fraction it starts at is not known before running)",
-                        crate::edmd::dynamics::SPHERE_LISTS_FROM
+                        if plan.species.iter().any(|s| s.polydisperse) {
+                            crate::edmd::dynamics::POLYDISPERSE_SPHERE_LISTS_FROM
+                        } else {
+                            crate::edmd::dynamics::SPHERE_LISTS_FROM
+                        }
                     ),
                     None => "decided when the stage starts: lists of the bodies whose oriented bounding boxes grown by a shell that follows the packing fraction overlap (the packing fraction it starts at is not known before running)".to_string(),
                 };

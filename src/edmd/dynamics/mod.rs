@@ -84,10 +84,17 @@ impl Default for DynamicsOptions {
 /// Below this packing fraction hard spheres run faster with cells.
 pub const SPHERE_LISTS_FROM: f64 = 0.45;
 
+/// The same for polydisperse spheres, whose cells are as wide as their
+/// largest pair: 1000 spheres of Gaussian sizes (std 0.05, 0.1, 0.2) ran
+/// lists in 0.8–0.9 of the cells' time at φ = 0.3 (0.6 of it at std 0.2)
+/// and 0.5 at φ = 0.4, cells in 0.8 of the lists' at φ = 0.2
+/// (docs/polydisperse.md).
+pub const POLYDISPERSE_SPHERE_LISTS_FROM: f64 = 0.3;
+
 /// The neighbour structure a scene gets unless it names one, at packing
-/// fraction `packing_fraction`: for spheres, cells below φ = 0.45 and
-/// lists (bounding spheres) with a shell of a quarter of the diameter
-/// above; for every other system, oriented-box lists with a shell of a
+/// fraction `packing_fraction`: for spheres, cells below φ = 0.45 (0.3
+/// where the bodies have sizes of their own, `polydisperse`) and lists
+/// (bounding spheres) with a shell of a quarter of the diameter above; for every other system, oriented-box lists with a shell of a
 /// tenth of the thinnest body's thickness (twice its smallest half-extent)
 /// times the square root of the largest elongation (longest over shortest
 /// half-extent) at φ = 0.5, wider where the free path between collisions
@@ -95,7 +102,11 @@ pub const SPHERE_LISTS_FROM: f64 = 0.45;
 /// boxes often, and so do bodies that fly far between collisions. Chosen
 /// from `hardbody bench edmd-shell`, `edmd-density`, `edmd-elongation`
 /// and the runs of docs/benchmarks/edmd-bodies-2026-12-02.md.
-pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> Option<f64> {
+pub fn automatic_neighbour_shell(
+    species: &[Species],
+    packing_fraction: f64,
+    polydisperse: bool,
+) -> Option<f64> {
     if species.iter().all(|s| s.shape.is_sphere()) {
         let diameter = species
             .iter()
@@ -104,7 +115,12 @@ pub fn automatic_neighbour_shell(species: &[Species], packing_fraction: f64) -> 
         // Read to 10⁻⁶ (as `free_path_scale` does), so that a plan's φ and
         // its run's, which differ in the last bits, choose alike.
         let micro = |phi: f64| (phi * 1e6).round();
-        (micro(packing_fraction) >= micro(SPHERE_LISTS_FROM)).then_some(0.25 * diameter)
+        let from = if polydisperse {
+            POLYDISPERSE_SPHERE_LISTS_FROM
+        } else {
+            SPHERE_LISTS_FROM
+        };
+        (micro(packing_fraction) >= micro(from)).then_some(0.25 * diameter)
     } else {
         let thickness = species
             .iter()
@@ -522,15 +538,20 @@ mod tests {
 
     /// Spheres at φ = 0.45 get lists whichever last bits the packing
     /// fraction has (a plan's φ and its run's, counted body by body, may
-    /// differ there), and cells below.
+    /// differ there), and cells below; polydisperse ones from φ = 0.3.
     #[test]
     fn spheres_choose_lists_from_phi_045_to_round_off() {
         let species = spheres(&["Sphere(radius: 0.5)"]);
-        let at = |phi: f64| automatic_neighbour_shell(&species, phi);
+        let at = |phi: f64| automatic_neighbour_shell(&species, phi, false);
         assert_eq!(at(0.45), Some(0.25));
         assert_eq!(at(0.45f64.next_down()), Some(0.25));
         assert_eq!(at(0.4499999999999999), Some(0.25));
         assert_eq!(at(0.4499), None);
+        // Polydisperse spheres from φ = 0.3.
+        let sized = |phi: f64| automatic_neighbour_shell(&species, phi, true);
+        assert_eq!(sized(0.4), Some(0.25));
+        assert_eq!(sized(0.3f64.next_down()), Some(0.25));
+        assert_eq!(sized(0.2999), None);
     }
 
     /// A thousand collisions of one pair in a row that change nothing are
