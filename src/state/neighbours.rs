@@ -165,13 +165,17 @@ pub const CAPSULE_PAD: f64 = 0.25;
 pub const CAPSULE_CELLS: f64 = 1.3;
 
 /// The most the bounding capsule of a species may hold over the body's
-/// own volume for the capsule lists to be used: cubes (2.7) keep to
-/// their AABB cells, which fit them well. Measured side by side (φ = 0.5,
-/// N = 4096): needles 2.5:0.5:0.5 (capsule 1.4 volumes) 1.42–1.50x faster
-/// on lists on one core, 1.1–1.2x with two threads; oblate ellipsoids
-/// 1:1:0.5 (2.0) 1.95x and 1.4–1.7x; cubes 1.07x on one core but 0.9x with
-/// two threads (every thread places, and relists, every accepted move).
-pub const CAPSULE_FIT: f64 = 2.5;
+/// own volume for the capsule lists to be used. Measured side by side
+/// (NVT after compression, the same Markov chain either way, lists
+/// against AABB cells alone, one core unless said): needles 2.5:0.5:0.5
+/// (capsule 1.4 volumes, φ = 0.5, N = 4096) 1.42–1.50x faster on lists,
+/// 1.1–1.2x with two threads; oblate ellipsoids 1:1:0.5 (2.0) 1.95x and
+/// 1.4–1.7x; N = 1000 (docs/benchmarks/mc-capsule-fit-2026-12-04.md):
+/// cubes (2.7, φ = 0.5) 1.7x, 1.45x on two threads at N = 4096; cuboids
+/// 0.8:0.5:0.3 (2.6) 1.7x; tetrahedra (8.2, φ = 0.3) 1.16x, 1.06x on two
+/// threads; plates 1:1:0.2 (6.9) 1.05x; octahedra (3.1) and superballs
+/// of exponents 4 even.
+pub const CAPSULE_FIT: f64 = 10.0;
 
 /// Whether every species fills its bounding capsule well enough for the
 /// capsule lists (see [`CAPSULE_FIT`]).
