@@ -1,5 +1,6 @@
 //! Polydisperse species in a scene: the bodies' sizes drawn from the
-//! scene's seed, and what a scene with sizes may ask for so far.
+//! scene's seed, the species a lattice start spaces by them, and the
+//! checks of a species' sizes and of a stage's size swaps.
 
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -40,17 +41,15 @@ impl Scene {
     /// The species as a lattice start spaces them: each at its largest
     /// body's size (the species the drivers take, without sizes).
     pub fn lattice_species(&self) -> Vec<crate::state::Species> {
-        let sizes = self.body_sizes();
-        let mut first = 0;
-        let mut species = self.mc_species();
-        for (s, spec) in species.iter_mut().zip(&self.species) {
-            if let (Some(sizes), Some(_)) = (&sizes, &spec.sizes) {
-                let largest = sizes[first..first + spec.count].iter().copied();
-                s.shape = s.shape.scaled(largest.fold(0.0, f64::max));
+        let species = self.mc_species();
+        match self.body_sizes() {
+            Some(sizes) => {
+                let species_of = (self.species.iter().enumerate())
+                    .flat_map(|(k, s)| std::iter::repeat_n(k as u16, s.count));
+                crate::state::sizes::species_at_largest(&species, species_of, &sizes)
             }
-            first += spec.count;
+            None => species,
         }
-        species
     }
 
     /// The species of each body, in the order of [`Scene::body_sizes`].

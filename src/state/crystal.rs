@@ -239,7 +239,11 @@ impl CrystalSpec {
         let scale = (filled / (phi * det)).cbrt();
         let touching = match sizes {
             None => touching_scale(cell, &kinds, species)?,
-            Some(sizes) => touching_scale(cell, &kinds, &largest_of(species, &kinds, sizes))?,
+            Some(sizes) => {
+                let at_largest =
+                    super::sizes::species_at_largest(species, kinds.iter().copied(), sizes);
+                touching_scale(cell, &kinds, &at_largest)?
+            }
         };
         if scale <= touching {
             return Err(CrystalError::TooDense {
@@ -295,21 +299,6 @@ impl CrystalSpec {
         let touching = touching_scale(&self.cell, &kinds, species)?;
         Ok(filled / (self.cell.vectors.determinant() * touching.powi(3)))
     }
-}
-
-/// `species` at the largest of their bodies' `sizes` (`kinds[i]` the
-/// species of body i); a species without bodies as it is.
-fn largest_of(species: &[Species], kinds: &[u16], sizes: &[f64]) -> Vec<Species> {
-    let mut largest = vec![0.0_f64; species.len()];
-    for (&k, &f) in kinds.iter().zip(sizes) {
-        largest[k as usize] = largest[k as usize].max(f);
-    }
-    (species.iter().zip(largest))
-        .map(|(s, f)| Species {
-            shape: if f > 0.0 { s.shape.scaled(f) } else { s.shape },
-            ..s.clone()
-        })
-        .collect()
 }
 
 /// The rotation R and upper-triangular U with positive diagonal such that

@@ -83,6 +83,43 @@ impl System {
     }
 }
 
+/// Per species, the largest size among its bodies (`species_of[i]` the
+/// species of body i, `sizes[i]` its size); 1 for a species without
+/// bodies. What every bound sized by species (cells, ranges, a lattice's
+/// spacing) is taken at, so that it holds for each of its bodies.
+pub fn largest_sizes(
+    species: usize,
+    species_of: impl IntoIterator<Item = u16>,
+    sizes: &[f64],
+) -> Vec<f64> {
+    let mut largest = vec![0.0_f64; species];
+    for (k, &f) in species_of.into_iter().zip(sizes) {
+        largest[k as usize] = largest[k as usize].max(f);
+    }
+    largest
+        .iter_mut()
+        .filter(|f| **f == 0.0)
+        .for_each(|f| *f = 1.0);
+    largest
+}
+
+/// `species` with each shape at its largest body's size
+/// ([`largest_sizes`]).
+pub fn species_at_largest(
+    species: &[super::Species],
+    species_of: impl IntoIterator<Item = u16>,
+    sizes: &[f64],
+) -> Vec<super::Species> {
+    (species
+        .iter()
+        .zip(largest_sizes(species.len(), species_of, sizes)))
+    .map(|(s, f)| super::Species {
+        shape: if f == 1.0 { s.shape } else { s.shape.scaled(f) },
+        ..s.clone()
+    })
+    .collect()
+}
+
 /// How the sizes of a species' bodies are spread, as scale factors of its
 /// shape (a sphere of radius r at size f has radius f r).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

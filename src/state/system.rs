@@ -125,19 +125,14 @@ impl System {
             .collect();
         // A species' bounds are its largest body's, so that every range,
         // cell and prefilter sized by species holds for each of its bodies.
-        // A species without bodies keeps its own size.
-        let mut largest = vec![1.0_f64; species.len()];
-        if let Some(sizes) = &sizes {
-            largest.iter_mut().for_each(|f| *f = 0.0);
-            for (p, f) in particles.iter().zip(sizes) {
-                let s = p.species as usize;
-                largest[s] = largest[s].max(*f);
-            }
-            largest
-                .iter_mut()
-                .filter(|f| **f == 0.0)
-                .for_each(|f| *f = 1.0);
-        }
+        let largest = match &sizes {
+            Some(sizes) => super::sizes::largest_sizes(
+                species.len(),
+                particles.iter().map(|p| p.species),
+                sizes,
+            ),
+            None => vec![1.0_f64; species.len()],
+        };
         let radii: Vec<f64> = (species.iter().zip(&largest))
             .map(|(s, f)| s.shape.bounding_radius() * f)
             .collect();

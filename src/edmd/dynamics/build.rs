@@ -10,6 +10,7 @@ use crate::edmd::motion::position_after;
 use crate::edmd::predict::Predictor;
 use crate::geometry::pair::contact_sum;
 use crate::space::{CellList, NeighbourLists, PeriodicBox};
+use crate::state::sizes::species_at_largest;
 use crate::state::{Species, System};
 
 type V3 = Vector3<f64>;
@@ -333,7 +334,11 @@ impl Dynamics {
         let sizes = system.sizes().map(<[f64]>::to_vec);
         let body_radii = match &sizes {
             Some(sizes) => {
-                size_kinds_for_largest(&mut kinds, &species, &bodies, sizes);
+                let at_largest =
+                    species_at_largest(&species, bodies.iter().map(|b| b.species), sizes);
+                for (kind, s) in kinds.iter_mut().zip(at_largest) {
+                    kind.shape = s.shape;
+                }
                 (bodies.iter().zip(sizes))
                     .map(|(b, f)| species[b.species as usize].shape.bounding_radius() * f)
                     .collect()
@@ -681,22 +686,6 @@ fn keep_box_overlaps<'a>(
         }
     }
     &near[..kept]
-}
-
-/// Gives each kind of polydisperse bodies its species' shape at the
-/// largest of their `sizes` (a species without bodies keeps its own), so
-/// that every bound taken from a kind's shape holds for each of its bodies.
-fn size_kinds_for_largest(kinds: &mut [Kind], species: &[Species], bodies: &[Body], sizes: &[f64]) {
-    let mut largest = vec![0.0_f64; kinds.len()];
-    for (b, f) in bodies.iter().zip(sizes) {
-        let s = b.species as usize;
-        largest[s] = largest[s].max(*f);
-    }
-    for ((kind, s), f) in kinds.iter_mut().zip(species).zip(largest) {
-        if f > 0.0 {
-            kind.shape = s.shape.scaled(f);
-        }
-    }
 }
 
 /// `species` with their shapes scaled by `scale` (as they are at 1).
