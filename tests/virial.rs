@@ -278,6 +278,67 @@ fn polyhedron_pairs() {
     );
 }
 
+/// A body swept by a ball of radius r (Steiner: V + S r + M r² + 4πr³/3,
+/// S + 2 M r + 4πr², M + 4πr).
+fn swept(x: &Minkowski, r: f64) -> Minkowski {
+    Minkowski {
+        v: x.v + x.s * r + x.m * r * r + 4.0 / 3.0 * PI * r.powi(3),
+        s: x.s + 2.0 * x.m * r + 4.0 * PI * r * r,
+        m: x.m + 4.0 * PI * r,
+    }
+}
+
+/// Spheropolyhedra (GJK between the cores against the rounding) with each
+/// other and with every other shape: a rounded tetrahedron, a rounded
+/// cube and a rounded octahedron.
+#[test]
+fn spheropolyhedron_pairs() {
+    let tetra = "Spheropolyhedron(vertices: [(1.0, 1.0, 1.0), (1.0, -1.0, -1.0), \
+                 (-1.0, 1.0, -1.0), (-1.0, -1.0, 1.0)], radius: 0.25)";
+    let cube = "Spheropolyhedron(vertices: [(0.5, 0.5, 0.5), (0.5, 0.5, -0.5), (0.5, -0.5, 0.5), \
+                (0.5, -0.5, -0.5), (-0.5, 0.5, 0.5), (-0.5, 0.5, -0.5), (-0.5, -0.5, 0.5), \
+                (-0.5, -0.5, -0.5)], radius: 0.1)";
+    let octa = "Spheropolyhedron(vertices: [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), \
+                (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)], radius: 0.4)";
+    let t = swept(&tetrahedron(8f64.sqrt()), 0.25);
+    let c = swept(&cuboid(0.5, 0.5, 0.5), 0.1);
+    let o = swept(&octahedron(2f64.sqrt()), 0.4);
+    check(tetra, tetra, isihara_hadwiger(&t, &t), 31);
+    check(cube, cube, isihara_hadwiger(&c, &c), 32);
+    check(tetra, octa, isihara_hadwiger(&t, &o), 33);
+    check(
+        cube,
+        "Sphere(radius: 0.6)",
+        isihara_hadwiger(&c, &sphere(0.6)),
+        34,
+    );
+    check(
+        octa,
+        "Spherocylinder(radius: 0.3, length: 1.0)",
+        isihara_hadwiger(&o, &spherocylinder(0.3, 1.0)),
+        35,
+    );
+    check(
+        "Ellipsoid(a: 1.0, b: 1.0, c: 0.5)",
+        tetra,
+        isihara_hadwiger(&spheroid(1.0, 0.5), &t),
+        36,
+    );
+    check(
+        cube,
+        "Cuboid(a: 0.5, b: 0.4, c: 0.3)",
+        isihara_hadwiger(&c, &cuboid(0.5, 0.4, 0.3)),
+        37,
+    );
+    check(
+        "ConvexPolyhedron(vertices: [(1.0, 1.0, 1.0), (1.0, -1.0, -1.0), (-1.0, 1.0, -1.0), \
+         (-1.0, -1.0, 1.0)])",
+        cube,
+        isihara_hadwiger(&tetrahedron(8f64.sqrt()), &c),
+        38,
+    );
+}
+
 /// The command line end to end: JSON with the documented keys, and a clear
 /// error for a bad shape.
 #[test]

@@ -36,6 +36,7 @@ from ._scene import (
     Triclinic,
     Compress,
     ConvexPolyhedron,
+    Spheropolyhedron,
     Cube,
     Cuboid,
     Dodecahedron,
@@ -71,7 +72,7 @@ __all__ = [
     "Accuracy", "Auto", "Bcc", "Cells", "Crystal", "Custom", "Densest", "Fcc", "Hcp",
     "SimpleCubic", "Triclinic", "Compress", "Cuboid", "Dynamics", "Ellipsoid", "Frame",
     "Jam", "Lattice", "Layered", "Lists", "Log", "LogError", "MonteCarlo", "Npt", "Nvt",
-    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder", "ConvexPolyhedron",
+    "Random", "Resume", "RunError", "RunLog", "Scene", "SceneError", "Simulation", "Species", "Sphere", "Spherocylinder", "ConvexPolyhedron", "Spheropolyhedron",
     "Tetrahedron", "Cube", "Octahedron", "Dodecahedron", "Icosahedron", "TruncatedOctahedron",
     "Superellipsoid", "Gaussian", "LogNormal", "Uniform", "SizeList", "analyze", "coexistence", "free_energy", "open_log", "resume", "run",
 ]

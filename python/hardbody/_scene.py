@@ -146,6 +146,16 @@ class ConvexPolyhedron:
 
 @_variant
 @dataclass
+class Spheropolyhedron:
+    """The convex hull of `vertices` (as ConvexPolyhedron) swept by a ball of
+    `radius` > 0: every point within `radius` of the hull (rounded cubes)."""
+
+    vertices: List[Tuple[float, float, float]]
+    radius: float
+
+
+@_variant
+@dataclass
 class Tetrahedron:
     """The regular tetrahedron of edge `edge`, a convex polyhedron."""
 
@@ -193,7 +203,7 @@ class TruncatedOctahedron:
 
 
 Shape = Union[
-    Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder, ConvexPolyhedron,
+    Sphere, Ellipsoid, Superellipsoid, Cuboid, Spherocylinder, ConvexPolyhedron, Spheropolyhedron,
     Tetrahedron, Cube, Octahedron, Dodecahedron, Icosahedron, TruncatedOctahedron,
 ]
 

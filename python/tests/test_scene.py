@@ -121,6 +121,22 @@ def test_a_convex_polyhedron_round_trips_and_bad_vertices_are_refused():
     assert hb.Scene.from_ron(named.to_ron()) == named
 
 
+def test_a_spheropolyhedron_round_trips_and_a_bad_radius_is_refused():
+    corners = [(1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)]
+    rounded = hb.Spheropolyhedron(corners, 0.25)
+    scene = hb.Scene(box=(12, 12, 12), species=[hb.Species("t", rounded, 8)],
+                     stages=[hb.MonteCarlo(ensemble=hb.Nvt(), sweeps=10)])
+    assert "Spheropolyhedron(" in scene.to_ron()
+    assert hb.Scene.from_ron(scene.to_ron()) == scene
+    assert "rounding" in scene.plan()["pairs"][0]["distance"]
+    with pytest.raises(hb.SceneError) as e:
+        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", hb.Spheropolyhedron(corners, -0.1), 8)], stages=[])
+    assert "radius must be" in str(e.value)
+    with pytest.raises(hb.SceneError) as e:
+        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", rounded, 8)], stages=[hb.Dynamics(duration=1.0)])
+    assert e.value.field == "stages[0]" and "spheropolyhedron" in str(e.value)
+
+
 def test_refusals_name_the_field_as_the_command_line_does():
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(8, 8, 8), species=[hb.Species("a", hb.Sphere(0.5), 0)], stages=[])

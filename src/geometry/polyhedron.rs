@@ -13,6 +13,11 @@ use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
 
+mod convex;
+mod swept;
+
+pub use convex::ConvexPolyhedron;
+
 /// The most points a polyhedron may be given.
 pub const MAX_VERTICES: usize = 64;
 
@@ -359,74 +364,6 @@ impl Polyhedron {
                 * (v / 20.0);
         }
         sum
-    }
-}
-
-/// The convex polyhedron shape: a hull kept for the life of the program
-/// (so that the shape stays a small `Copy` value, as every shape is), at
-/// a scale (a growing body's).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ConvexPolyhedron {
-    hull: &'static Polyhedron,
-    scale: f64,
-}
-
-impl ConvexPolyhedron {
-    /// The polyhedron of `points` at scale 1 ([`Polyhedron::new`]'s
-    /// refusals). Polyhedra of the same points share one hull.
-    pub fn new(points: &[V3]) -> Result<Self, PolyhedronError> {
-        Ok(Self {
-            hull: intern(points, None)?,
-            scale: 1.0,
-        })
-    }
-
-    /// The named solid of edge length `edge` (> 0), centred on its centroid.
-    pub fn solid(solid: super::solids::Solid, edge: f64) -> Result<Self, PolyhedronError> {
-        if !(edge.is_finite() && edge > 0.0) {
-            return Err(PolyhedronError::Edge(edge));
-        }
-        Ok(Self {
-            hull: intern(&solid.corners(edge), Some((solid, edge)))?,
-            scale: 1.0,
-        })
-    }
-
-    /// The hull at scale 1.
-    pub fn hull(&self) -> &'static Polyhedron {
-        self.hull
-    }
-
-    /// The factor every length of the hull is multiplied by.
-    pub fn scale(&self) -> f64 {
-        self.scale
-    }
-
-    /// The same body `factor` times larger: the polyhedron of its corners
-    /// scaled (so that it is, to the bit, the shape its record reads back
-    /// to; each new size is a new hull kept for the program's life).
-    pub fn scaled(&self, factor: f64) -> Self {
-        let scale = self.scale * factor;
-        let corners: Vec<V3> = self.hull.vertices.iter().map(|v| v * scale).collect();
-        match intern(&corners, None) {
-            Ok(hull) => Self { hull, scale: 1.0 },
-            // Sizes so far from 1 that the corners underflow or overflow.
-            Err(_) => Self {
-                hull: self.hull,
-                scale,
-            },
-        }
-    }
-
-    /// The corner farthest along `dir`.
-    #[inline]
-    pub fn support(&self, dir: &V3) -> V3 {
-        self.hull.support(dir) * self.scale
-    }
-
-    /// The hull's corners at the body's scale, about its centroid.
-    pub fn corners(&self) -> impl Iterator<Item = V3> + '_ {
-        self.hull.vertices.iter().map(|v| v * self.scale)
     }
 }
 

@@ -43,7 +43,11 @@ pub enum ShapeError {
     Polyhedron(#[from] super::polyhedron::PolyhedronError),
 }
 
-fn positive(shape: &'static str, field: &'static str, value: f64) -> Result<f64, ShapeError> {
+pub(super) fn positive(
+    shape: &'static str,
+    field: &'static str,
+    value: f64,
+) -> Result<f64, ShapeError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
@@ -209,7 +213,8 @@ pub enum Shape {
     Cuboid(Cuboid),
     /// A spherocylinder along the body z axis.
     Spherocylinder(Spherocylinder),
-    /// A convex polyhedron.
+    /// A convex polyhedron, or a spheropolyhedron (one swept by a ball:
+    /// [`ConvexPolyhedron::rounding`] > 0).
     ConvexPolyhedron(ConvexPolyhedron),
 }
 
@@ -269,6 +274,7 @@ impl Shape {
             Shape::Superellipsoid(_) => "superellipsoid",
             Shape::Cuboid(_) => "cuboid",
             Shape::Spherocylinder(_) => "spherocylinder",
+            Shape::ConvexPolyhedron(p) if p.rounding() > 0.0 => "spheropolyhedron",
             Shape::ConvexPolyhedron(_) => "convex_polyhedron",
         }
     }
@@ -285,7 +291,7 @@ impl Shape {
                 let (r, h) = (s.radius, s.half_length);
                 PI * r * r * (2.0 * h + 4.0 / 3.0 * r)
             }
-            Shape::ConvexPolyhedron(p) => p.hull().volume() * p.scale().powi(3),
+            Shape::ConvexPolyhedron(p) => p.volume(),
         }
     }
 
@@ -339,6 +345,9 @@ impl Shape {
     /// polyhedron, whose tensor is its own).
     pub fn inertia_tensor(&self, mass: f64) -> Matrix3<f64> {
         if let Shape::ConvexPolyhedron(p) = self {
+            if p.rounding() > 0.0 {
+                return p.inertia() * mass;
+            }
             return p.hull().inertia() * (mass * p.scale() * p.scale());
         }
         let m2 = self.second_moments() * (mass / self.volume());
@@ -390,7 +399,7 @@ impl Shape {
             Shape::Superellipsoid(s) => s.bounding_radius,
             Shape::Cuboid(c) => c.half_extents.norm(),
             Shape::Spherocylinder(s) => s.radius + s.half_length,
-            Shape::ConvexPolyhedron(p) => p.hull().circumradius() * p.scale(),
+            Shape::ConvexPolyhedron(p) => p.bounding_radius(),
         }
     }
 
@@ -502,7 +511,7 @@ impl Shape {
             Shape::Superellipsoid(s) => s.semi_axes,
             Shape::Cuboid(c) => c.half_extents,
             Shape::Spherocylinder(s) => Vector3::new(s.radius, s.radius, s.radius + s.half_length),
-            Shape::ConvexPolyhedron(p) => p.hull().half_extents() * p.scale(),
+            Shape::ConvexPolyhedron(p) => p.half_extents(),
         }
     }
 

@@ -66,6 +66,16 @@ pub enum ShapeSpec {
         /// The points (4 to 64) whose hull the body is.
         vertices: Vec<(f64, f64, f64)>,
     },
+    /// `Spheropolyhedron(vertices: [(x, y, z), ...], radius: r)`: the
+    /// convex hull of the points (as `ConvexPolyhedron`) swept by a ball
+    /// of `radius`: every point within r of the hull (rounded cubes; the
+    /// hull of two points swept so is `Spherocylinder`).
+    Spheropolyhedron {
+        /// The points (4 to 64) whose hull is the core.
+        vertices: Vec<(f64, f64, f64)>,
+        /// The radius of the sweeping ball (> 0).
+        radius: f64,
+    },
     /// `Tetrahedron(edge: )`: the regular tetrahedron, a polyhedron.
     Tetrahedron {
         /// Edge length.
@@ -149,6 +159,11 @@ impl TryFrom<ShapeSpec> for Shape {
                 let points: Vec<V3> = vertices.iter().map(|&(x, y, z)| V3::new(x, y, z)).collect();
                 Shape::ConvexPolyhedron(ConvexPolyhedron::new(&points)?)
             }
+            ShapeSpec::Spheropolyhedron { vertices, radius } => {
+                let radius = super::shape::positive("Spheropolyhedron", "radius", radius)?;
+                let points: Vec<V3> = vertices.iter().map(|&(x, y, z)| V3::new(x, y, z)).collect();
+                Shape::ConvexPolyhedron(ConvexPolyhedron::new(&points)?.rounded(radius))
+            }
             ShapeSpec::Tetrahedron { .. }
             | ShapeSpec::Cube { .. }
             | ShapeSpec::Octahedron { .. }
@@ -184,6 +199,15 @@ impl From<Shape> for ShapeSpec {
             Shape::Spherocylinder(s) => ShapeSpec::Spherocylinder {
                 radius: s.radius(),
                 length: 2.0 * s.half_length(),
+            },
+            Shape::ConvexPolyhedron(p) if p.rounding() > 0.0 => ShapeSpec::Spheropolyhedron {
+                vertices: (p.hull().given().iter())
+                    .map(|v| {
+                        let v = v * p.scale();
+                        (v.x, v.y, v.z)
+                    })
+                    .collect(),
+                radius: p.rounding(),
             },
             Shape::ConvexPolyhedron(p) => match p.hull().named().filter(|_| p.scale() == 1.0) {
                 Some((solid, edge)) => ShapeSpec::of_solid(solid, edge),

@@ -69,8 +69,11 @@ pub fn type_shape(shape: &Shape) -> String {
             let vertices: Vec<String> = (p.corners())
                 .map(|v| format!("[{}, {}, {}]", v.x, v.y, v.z))
                 .collect();
+            // HOOMD's ConvexSpheropolyhedron is the same body as a
+            // ConvexPolyhedron with its rounding radius.
             format!(
-                r#"{{"type": "ConvexPolyhedron", "rounding_radius": 0, "vertices": [{}]}}"#,
+                r#"{{"type": "ConvexPolyhedron", "rounding_radius": {}, "vertices": [{}]}}"#,
+                p.rounding(),
                 vertices.join(", ")
             )
         }

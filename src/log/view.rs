@@ -257,9 +257,12 @@ fn radial_extent(shape: &Shape, u: &Vector3<f64>) -> f64 {
 /// A body-frame triangle mesh of a body's surface: a polyhedron's faces
 /// as fans of triangles; for superellipsoids and spherocylinders,
 /// directions on a latitude–longitude grid, each scaled to the surface by
-/// [`radial_extent`].
+/// [`radial_extent`]; for spheropolyhedra the support points of the
+/// grid's directions.
 pub(crate) fn body_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
-    if let Shape::ConvexPolyhedron(p) = shape {
+    if let Shape::ConvexPolyhedron(p) = shape
+        && p.rounding() == 0.0
+    {
         let points = (p.corners())
             .map(|v| Point3 {
                 x: v.x,
@@ -277,11 +280,16 @@ pub(crate) fn body_mesh(shape: &Shape) -> (Vec<Point3>, Vec<u32>) {
         return (points, indices);
     }
     let surface = |u: Vector3<f64>| {
-        let t = radial_extent(shape, &u);
+        // A spheropolyhedron's grid direction goes to its support point
+        // there (its flat faces spanned by the triangles between them).
+        let x = match shape {
+            Shape::ConvexPolyhedron(p) => p.support(&u),
+            _ => u * radial_extent(shape, &u),
+        };
         Point3 {
-            x: t * u.x,
-            y: t * u.y,
-            z: t * u.z,
+            x: x.x,
+            y: x.y,
+            z: x.z,
         }
     };
     let mut points = vec![surface(Vector3::z())];

@@ -364,8 +364,9 @@ impl Scene {
                 return bad(
                     &format!("stages[{i}]"),
                     format!(
-                        "species \"{}\" is a convex polyhedron: {} stages do not simulate polyhedra yet (Monte Carlo stages do)",
+                        "species \"{}\" is a {}: {} stages do not simulate polyhedra or spheropolyhedra yet (Monte Carlo stages do)",
                         polyhedron.name,
+                        polyhedron.shape.kind().replace('_', " "),
                         st.kind()
                     ),
                 );

@@ -34,7 +34,7 @@ pub fn intersect(a: &Shape, b: &Shape, rel: &Relative, max_iterations: usize) ->
 }
 
 /// The length unit of the tolerances: the smaller body's smallest half-extent.
-fn length(a: &Shape, b: &Shape) -> f64 {
+pub(super) fn length(a: &Shape, b: &Shape) -> f64 {
     a.min_half_extent().min(b.min_half_extent())
 }
 
@@ -54,10 +54,23 @@ pub fn distance_with_stall(
     rel: &Relative,
     opts: &DistanceOptions,
 ) -> (Contact, bool) {
-    let not_short = |c: Contact| (c, false);
     let tol = opts.gjk_tolerance * length(a, b);
     let (sa, sb) = supports(a, b, rel);
-    let g = gjk_distance(&sa, &sb, rel.translation, tol, opts.gjk_max_iterations);
+    distance_of_supports(&sa, &sb, rel, tol, opts)
+}
+
+/// [`distance_with_stall`] of the bodies of support mappings `sa` and `sb`
+/// (both in A's frame, B's centre at `rel.translation`), to the absolute
+/// tolerance `tol`.
+pub fn distance_of_supports(
+    sa: &impl Fn(&V3) -> V3,
+    sb: &impl Fn(&V3) -> V3,
+    rel: &Relative,
+    tol: f64,
+    opts: &DistanceOptions,
+) -> (Contact, bool) {
+    let not_short = |c: Contact| (c, false);
+    let g = gjk_distance(sa, sb, rel.translation, tol, opts.gjk_max_iterations);
     let iterations = g.iterations as u32;
     let touching = Contact {
         distance: -0.0,
@@ -69,7 +82,7 @@ pub fn distance_with_stall(
         warm_start: None,
     };
     let penetration = |simplex: &[Vertex; 4], iterations: u32| -> Contact {
-        match epa(&sa, &sb, simplex, tol, EPA_MAX_ITERATIONS) {
+        match epa(sa, sb, simplex, tol, EPA_MAX_ITERATIONS) {
             Some(p) => Contact {
                 distance: -p.depth,
                 point_a: p.point_a,
@@ -102,7 +115,7 @@ pub fn distance_with_stall(
                 // as apart by 2.5e-8; a superellipsoid against a cuboid
                 // overlapping by 1e-10, as apart by 6e-13). Decide with the
                 // boolean GJK and measure the depth from its tetrahedron.
-                match gjk_enclose(&sa, &sb, rel.translation, opts.gjk_max_iterations) {
+                match gjk_enclose(sa, sb, rel.translation, opts.gjk_max_iterations) {
                     Enclosure::Enclosed(Some(simplex)) => {
                         return not_short(penetration(&simplex, iterations));
                     }

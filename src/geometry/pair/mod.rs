@@ -17,6 +17,7 @@ mod quadric_quadric;
 mod smooth_smooth;
 mod sphere_sphere;
 mod spherocylinder;
+mod spheropolyhedron;
 mod strains;
 
 use nalgebra::{Matrix3, Vector3};
@@ -100,7 +101,13 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         return false;
     }
     match (a, b) {
-        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => polyhedron::overlap(a, b, rel),
+        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => {
+            if is_rounded(a) || is_rounded(b) {
+                spheropolyhedron::overlap(a, b, rel)
+            } else {
+                polyhedron::overlap(a, b, rel)
+            }
+        }
         (Spherocylinder(_), _) | (_, Spherocylinder(_)) => spherocylinder::overlap(a, b, rel),
         (Sphere(p), Sphere(q)) => sphere_sphere::overlap(p, q, rel),
         (Cuboid(c), Sphere(s)) => cuboid_sphere::overlap(c, s, rel),
@@ -114,6 +121,11 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
             cuboid_smooth::overlap(b, a, &rel.inverse())
         }
     }
+}
+
+/// Whether `shape` is a spheropolyhedron (a polyhedron with a rounding).
+fn is_rounded(shape: &Shape) -> bool {
+    matches!(shape, Shape::ConvexPolyhedron(p) if p.rounding() > 0.0)
 }
 
 /// A body's shape as placed in the lab frame (its rotation applied), for a
@@ -203,7 +215,11 @@ pub fn distance(
     use Shape::*;
     match (a, b) {
         (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => {
-            polyhedron::distance(a, b, rel, opts)
+            if is_rounded(a) || is_rounded(b) {
+                spheropolyhedron::distance(a, b, rel, opts)
+            } else {
+                polyhedron::distance(a, b, rel, opts)
+            }
         }
         (Spherocylinder(_), _) | (_, Spherocylinder(_)) => {
             spherocylinder::distance(a, b, rel, opts)
@@ -411,6 +427,10 @@ pub use sphere_sphere::grown_contact_time_from_products as grown_sphere_contact_
 pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
     use Shape::*;
     match (a, b) {
+        _ if is_rounded(a) || is_rounded(b) => (
+            "OBB, then GJK between the cores against the rounding (the distance where GJK cannot decide)",
+            "GJK/EPA between the cores, less the rounding",
+        ),
         (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => (
             "OBB, then GJK on support points (the distance where GJK cannot decide)",
             "GJK/EPA",
