@@ -208,7 +208,7 @@ Shape = Union[
 ]
 
 
-# Size distributions (polydisperse spheres) ----------------------------------
+# Size distributions (polydisperse bodies) -----------------------------------
 
 
 @_variant
@@ -261,9 +261,10 @@ SizeDistribution = Union[Gaussian, LogNormal, Uniform, SizeList]
 @dataclass
 class Species:
     """A kind of particle: `count` bodies of `shape`, named `name`;
-    `mass` (dynamics), `rotation` (False freezes orientations) and, for
-    spheres, `sizes`: a distribution of the bodies' scale factors
-    (`Gaussian(0.1)`, ...; drawn from the scene's seed)."""
+    `mass` (dynamics), `rotation` (False freezes orientations) and
+    `sizes`: a distribution of the bodies' scale factors (`Gaussian(0.1)`,
+    ...; drawn from the scene's seed; Monte Carlo stages for every shape,
+    dynamics for spheres only so far)."""
 
     name: str
     shape: Shape

@@ -296,7 +296,11 @@ fn write_gsd(contents: &LogContents, out: &Path, partial: &Path) -> Result<usize
         .map_err(w)?;
         gsd.write_arrays(
             "particles/moment_inertia",
-            state.species_of.iter().map(|k| of(k).moments),
+            // A body at size f: the species' mass, its moments f² times.
+            (state.species_of.iter().enumerate()).map(|(i, k)| {
+                let f2 = state.size_of(i).powi(2) as f32;
+                of(k).moments.map(|m| m * f2)
+            }),
         )
         .map_err(w)?;
         if let Some(omega) = &state.angular_velocities {

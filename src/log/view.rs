@@ -103,10 +103,13 @@ impl SceneView {
             .enumerate()
         {
             let look = &self.looks[s as usize];
-            // Polydisperse bodies are spheres, drawn at their own sizes.
-            let shape = match &state.sizes {
-                Some(sizes) => shapes[s as usize].scaled(sizes[i]),
-                None => shapes[s as usize],
+            // Polydisperse bodies at their own sizes: primitives of the
+            // shape scaled, meshes of the species' shape with their points
+            // scaled.
+            let factor = state.sizes.as_ref().map_or(1.0, |sizes| sizes[i]);
+            let shape = match factor == 1.0 || has_mesh(&shapes[s as usize]) {
+                true => shapes[s as usize],
+                false => shapes[s as usize].scaled(factor),
             };
             let pose = Some(Pose {
                 position: Some(FVector3 {
@@ -148,10 +151,15 @@ impl SceneView {
                 Shape::Superellipsoid(_)
                 | Shape::Spherocylinder(_)
                 | Shape::ConvexPolyhedron(_) => {
-                    let (points, indices) = grown_meshes[s as usize]
+                    let (mut points, indices) = grown_meshes[s as usize]
                         .clone()
                         .or_else(|| look.mesh.clone())
                         .expect("made in new()");
+                    if factor != 1.0 {
+                        for p in &mut points {
+                            (p.x, p.y, p.z) = (p.x * factor, p.y * factor, p.z * factor);
+                        }
+                    }
                     particles.triangles.push(TriangleListPrimitive {
                         pose,
                         points,

@@ -57,7 +57,7 @@ pub struct Counts {
     /// Box moves that shear (a tilt factor).
     #[serde(default)]
     pub shear: Count,
-    /// Two bodies exchanging their sizes (polydisperse spheres).
+    /// Two bodies exchanging their sizes (polydisperse bodies).
     #[serde(default, skip_serializing_if = "Count::is_empty")]
     pub swap: Count,
     /// Overlap tests the boolean test left undecided (counted by the

@@ -188,7 +188,6 @@ impl Sdf {
     /// any (pairs that stay beyond reach never do).
     fn pair_shrink(&self, system: &System, i: usize, j: usize, side: f64) -> Option<f64> {
         let (pi, pj) = (&system.particles[i], &system.particles[j]);
-        let (si, sj) = (pi.species as usize, pj.species as usize);
         let d = system.box_.minimum_image(&(pj.position - pi.position));
         let reach = system.body_radii[i] + system.body_radii[j];
         // The closest the centres come on [0, x_max]: a uniform shrink
@@ -208,7 +207,7 @@ impl Sdf {
         if self.deformed_separation(&d, &u, closest).norm_squared() > reach * reach {
             return None;
         }
-        let (shape_i, shape_j) = (&system.species[si].shape, &system.species[sj].shape);
+        let (shape_i, shape_j) = (system.body_shape(i), system.body_shape(j));
         if shape_i.is_sphere() && shape_j.is_sphere() {
             if self.deformation.is_none() {
                 return Some(1.0 - reach / d.norm());

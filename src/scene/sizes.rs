@@ -57,28 +57,15 @@ impl Scene {
         (self.species.iter()).flat_map(|s| std::iter::repeat_n(s, s.count))
     }
 
-    /// Species `i`'s sizes: a distribution that keeps them positive, on a
-    /// sphere, in a scene of spheres only (field, message).
+    /// Species `i`'s sizes: a distribution that keeps them positive (field,
+    /// message).
     pub(super) fn validate_sizes_of(&self, i: usize) -> Result<(), (String, String)> {
         let s = &self.species[i];
         let Some(sizes) = &s.sizes else {
             return Ok(());
         };
         let field = format!("species[{i}].sizes");
-        sizes
-            .check(s.count)
-            .map_err(|e| (field.clone(), e.to_string()))?;
-        match self.species.iter().find(|t| !t.shape.is_sphere()) {
-            Some(t) => Err((
-                field,
-                format!(
-                    "polydisperse sizes are for scenes of spheres only so far, and species \"{}\" is not a sphere ({})",
-                    t.name,
-                    t.shape.kind()
-                ),
-            )),
-            None => Ok(()),
-        }
+        sizes.check(s.count).map_err(|e| (field, e.to_string()))
     }
 
     /// A Monte Carlo stage's `swaps` (field, message): finite, at least 0,

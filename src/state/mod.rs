@@ -107,9 +107,10 @@ pub enum StateError {
     /// A size that is not finite and positive.
     #[error("particle {0} has size {1}: a size is a finite positive scale factor")]
     BadSize(usize, f64),
-    /// Sizes where some species is not a sphere.
+    /// Sizes where some species is not a sphere, for a driver that takes
+    /// sizes for spheres only (the dynamics).
     #[error(
-        "species {0} is not a sphere: polydisperse sizes are for systems of spheres only so far"
+        "species {0} is not a sphere: the dynamics simulates polydisperse sizes for spheres only so far (Monte Carlo for every shape)"
     )]
     SizedNonSphere(String),
 }
@@ -131,8 +132,11 @@ pub struct System {
     /// Bounding radius per body: its species' times its size.
     pub(crate) body_radii: Vec<f64>,
     /// Each body's size, the scale factor of its species' shape (absent:
-    /// every body at size 1). Spheres only (see [`StateError::SizedNonSphere`]).
+    /// every body at size 1).
     pub(crate) sizes: Option<Vec<f64>>,
+    /// With sizes, each body's shape: its species' scaled by its size
+    /// (what every overlap test of it reads).
+    pub(crate) body_shapes: Option<Vec<crate::geometry::Shape>>,
     /// Centres, contiguous (the hot loop reads only these); kept equal to
     /// `particles[i].position`.
     pub(crate) positions: Slots<V3>,

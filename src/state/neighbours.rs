@@ -236,7 +236,7 @@ impl System {
         } else {
             self.particles[i].orientation = orientation;
             self.rotations[i] = rotation;
-            self.placed[i] = Placed::new(&self.species[species].shape, &rotation);
+            self.placed[i] = Placed::new(self.body_shape(i), &rotation);
             let h = aabb_half_extents(&rotation, &self.obb[species]);
             self.aabb[i] = h;
             h

@@ -54,7 +54,7 @@ impl System {
         if d.norm_squared() > reach * reach {
             return false;
         }
-        let (shape_i, shape_j) = (&self.species[si].shape, &self.species[sj].shape);
+        let (shape_i, shape_j) = (self.body_shape(i), self.body_shape(j));
         if shape_i.is_sphere() && shape_j.is_sphere() {
             return true;
         }
@@ -150,7 +150,7 @@ impl System {
             return false;
         }
         let si = self.particles[i].species as usize;
-        let shape_i = &self.species[si].shape;
+        let shape_i = self.body_shape(i);
         let ri = self.body_radii[i];
         if self.box_.has_walls() && self.touches_wall(i, position, rotation) {
             return true;
@@ -184,8 +184,7 @@ impl System {
             if d2 > reach * reach {
                 return false;
             }
-            let sj = self.particles[j].species as usize;
-            let shape_j = &self.species[sj].shape;
+            let shape_j = self.body_shape(j);
             if shape_i.is_sphere() && shape_j.is_sphere() {
                 return true; // within the sum of radii
             }

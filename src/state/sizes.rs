@@ -10,18 +10,30 @@ use serde::{Deserialize, Serialize};
 use super::{Neighbours, System};
 
 impl System {
-    /// Spheres `i` and `j` of one species exchange their sizes, if neither
-    /// then overlaps another body or a wall (their own pair keeps its
-    /// contact distance, the sum of their radii): the size-swap move,
-    /// symmetric and so accepted exactly when it leaves no overlap. False,
-    /// and nothing changed, where it would, and for bodies without sizes
-    /// of their own, of two species, or one body twice.
+    /// Bodies `i` and `j` of one species exchange their sizes, if neither
+    /// then overlaps another body, the other or a wall: the size-swap
+    /// move, symmetric and so accepted exactly when it leaves no overlap.
+    /// False, and nothing changed, where it would, and for bodies without
+    /// sizes of their own, of two species, or one body twice.
     pub fn try_swap_sizes(&mut self, i: usize, j: usize) -> bool {
         let same = self.particles[i].species == self.particles[j].species;
         if self.sizes.is_none() || i == j || !same {
             return false;
         }
-        // Only the one that grows can come to overlap.
+        if !self.body_shape(i).is_sphere() {
+            // Turned bodies: each tried at the other's size where it is,
+            // their own pair included (its contact depends on how they
+            // face each other).
+            self.swap(i, j);
+            let clear = (!self.overlaps_at(i, &self.positions[i], &self.rotations[i]))
+                && !self.overlaps_at(j, &self.positions[j], &self.rotations[j]);
+            if !clear {
+                self.swap(i, j);
+            }
+            return clear;
+        }
+        // Spheres: their own pair keeps its contact distance, the sum of
+        // their radii, and only the one that grows can come to overlap.
         let (ri, rj) = (self.body_radii[i], self.body_radii[j]);
         let (grows, radius) = if rj > ri { (i, rj) } else { (j, ri) };
         if self.sphere_overlaps_at(grows, radius, |k| k == i || k == j) {
@@ -35,6 +47,12 @@ impl System {
         let sizes = self.sizes.as_mut().expect("sizes");
         sizes.swap(i, j);
         self.body_radii.swap(i, j);
+        if let Some(shapes) = &mut self.body_shapes {
+            shapes.swap(i, j);
+            for k in [i, j] {
+                self.placed[k] = crate::geometry::Placed::new(&shapes[k], &self.rotations[k]);
+            }
+        }
         for k in [i, j] {
             let radius = self.body_radii[k];
             match &mut self.cells {

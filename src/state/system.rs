@@ -117,7 +117,7 @@ impl System {
             })
             .collect();
         if let Some(sizes) = &sizes {
-            check_sizes(&species, &particles, sizes)?;
+            check_sizes(&particles, sizes)?;
         }
         let size = |i: usize| sizes.as_ref().map_or(1.0, |s| s[i]);
         let body_radii: Vec<f64> = (particles.iter().enumerate())
@@ -158,13 +158,33 @@ impl System {
             .zip(&rotations)
             .map(|(p, r)| aabb_half_extents(r, &obb[p.species as usize]))
             .collect();
-        let placed: Vec<Placed> = particles
-            .iter()
-            .zip(&rotations)
-            .map(|(p, r)| Placed::new(&species[p.species as usize].shape, r))
+        // A body at size 1 keeps its species' very shape.
+        let body_shapes: Option<Vec<Shape>> = sizes.as_ref().map(|sizes| {
+            (particles.iter().zip(sizes))
+                .map(|(p, &f)| {
+                    let shape = species[p.species as usize].shape;
+                    if f == 1.0 { shape } else { shape.scaled(f) }
+                })
+                .collect()
+        });
+        let shape_of = |i: usize| match &body_shapes {
+            Some(shapes) => shapes[i],
+            None => species[particles[i].species as usize].shape,
+        };
+        let placed: Vec<Placed> = (rotations.iter().enumerate())
+            .map(|(i, r)| Placed::new(&shape_of(i), r))
             .collect();
         let plan = NeighbourPlan::for_species(&species);
-        let capsules = species.iter().map(|s| bounding_capsule(&s.shape)).collect();
+        let capsules = (species.iter().zip(&largest))
+            .map(|(s, &f)| {
+                let (axis, c) = bounding_capsule(&s.shape);
+                let scaled = crate::geometry::capsule::Capsule {
+                    half_length: c.half_length * f,
+                    radius: c.radius * f,
+                };
+                (axis, if f == 1.0 { c } else { scaled })
+            })
+            .collect();
         let positions: Vec<V3> = particles.iter().map(|p| p.position).collect();
         let kinds: Vec<u16> = particles.iter().map(|p| p.species).collect();
         let all_spheres = species.iter().all(|s| s.shape.is_sphere());
@@ -187,6 +207,7 @@ impl System {
             max_radius,
             body_radii,
             sizes,
+            body_shapes,
             positions: positions.into(),
             obb,
             aabb,
@@ -365,10 +386,15 @@ impl System {
 
     /// The shape of body `i`: its species' scaled by its size.
     pub fn shape_of(&self, i: usize) -> crate::geometry::Shape {
-        let shape = self.species[self.particles[i].species as usize].shape;
-        match &self.sizes {
-            Some(s) => shape.scaled(s[i]),
-            None => shape,
+        *self.body_shape(i)
+    }
+
+    /// [`System::shape_of`], borrowed (the overlap tests' read).
+    #[inline]
+    pub(crate) fn body_shape(&self, i: usize) -> &crate::geometry::Shape {
+        match &self.body_shapes {
+            Some(shapes) => &shapes[i],
+            None => &self.species[self.particles[i].species as usize].shape,
         }
     }
 
@@ -438,13 +464,8 @@ impl System {
     }
 }
 
-/// Sizes fit the particles: one finite positive factor each, and every
-/// species a sphere.
-fn check_sizes(
-    species: &[Species],
-    particles: &[Particle],
-    sizes: &[f64],
-) -> Result<(), StateError> {
+/// Sizes fit the particles: one finite positive factor each.
+fn check_sizes(particles: &[Particle], sizes: &[f64]) -> Result<(), StateError> {
     if sizes.len() != particles.len() {
         return Err(StateError::SizesCount {
             sizes: sizes.len(),
@@ -454,8 +475,5 @@ fn check_sizes(
     if let Some(i) = sizes.iter().position(|f| !(f.is_finite() && *f > 0.0)) {
         return Err(StateError::BadSize(i, sizes[i]));
     }
-    match species.iter().find(|s| !s.shape.is_sphere()) {
-        Some(s) => Err(StateError::SizedNonSphere(s.name.clone())),
-        None => Ok(()),
-    }
+    Ok(())
 }

@@ -332,6 +332,11 @@ impl Dynamics {
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let sizes = system.sizes().map(<[f64]>::to_vec);
+        if sizes.is_some()
+            && let Some(s) = species.iter().find(|s| !s.shape.is_sphere())
+        {
+            return Err(crate::state::StateError::SizedNonSphere(s.name.clone()).into());
+        }
         let body_radii = match &sizes {
             Some(sizes) => {
                 let at_largest =
