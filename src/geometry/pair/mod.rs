@@ -1,5 +1,5 @@
-//! The pair dispatch: one overlap test and one signed distance for each of the
-//! fifteen unordered pairs of the five shapes, one file per pair kind.
+//! The pair dispatch: one overlap test and one signed distance for every
+//! unordered pair of the shapes, one file per pair kind.
 //!
 //! Frame convention, on every pair function: the kernel works in A's body
 //! frame, with A at the origin; B's centre is `rel.translation`
