@@ -369,4 +369,26 @@ mod tests {
         assert_eq!(err, RowTooLong { bytes: 64, row: 64 });
         assert_eq!(err.to_string(), "64 bytes do not fit a GSD row of 64");
     }
+
+    /// A spheropolyhedron is HOOMD's ConvexPolyhedron with its rounding
+    /// radius, the vertices those of its core; a polyhedron's radius is 0.
+    #[test]
+    fn a_spheropolyhedron_carries_its_rounding_radius() {
+        let corners = "[(1.0, 1.0, 1.0), (1.0, -1.0, -1.0), (-1.0, 1.0, -1.0), (-1.0, -1.0, 1.0)]";
+        for (text, radius) in [
+            (
+                format!("Spheropolyhedron(vertices: {corners}, radius: 0.25)"),
+                0.25,
+            ),
+            (format!("ConvexPolyhedron(vertices: {corners})"), 0.0),
+        ] {
+            let shape: Shape = text.parse().unwrap();
+            let json: serde_json::Value = serde_json::from_str(&type_shape(&shape)).unwrap();
+            assert_eq!(json["type"], "ConvexPolyhedron", "{json}");
+            assert_eq!(json["rounding_radius"].as_f64(), Some(radius), "{json}");
+            let vertices = json["vertices"].as_array().unwrap();
+            assert_eq!(vertices.len(), 4);
+            assert_eq!(vertices[0][0].as_f64().map(f64::abs), Some(1.0));
+        }
+    }
 }
