@@ -525,7 +525,15 @@ pub fn epa(
         Vertex { w: a - b, a, b }
     };
     let mut verts: Vec<Vertex> = start.to_vec();
-    // Faces as vertex triples with outward unit normal and plane distance.
+    // A point inside the polytope, which only grows: the centroid of the
+    // start. Faces are turned to face away from it, not from the origin,
+    // which may lie on a face to rounding (bodies touching to within
+    // rounding): turned by the sign of its own plane distance, such a face
+    // can point inwards, and the expansion then ends on a wrong face (two
+    // touching tetrahedra came out overlapping by a tenth of their edge).
+    let inside = start.iter().map(|v| v.w).sum::<V3>() / 4.0;
+    // Faces as vertex triples with outward unit normal and plane distance
+    // (negative where the origin is outside the face's plane, to rounding).
     struct Face {
         v: [usize; 3],
         n: V3,
@@ -539,16 +547,14 @@ pub fn epa(
             return None;
         }
         let n = n / len;
-        let d = n.dot(&a);
-        // The origin is inside: outward normals have d ≥ 0.
-        Some(if d < 0.0 {
+        Some(if n.dot(&(a - inside)) < 0.0 {
             Face {
                 v: [v[0], v[2], v[1]],
                 n: -n,
-                d: -d,
+                d: -n.dot(&a),
             }
         } else {
-            Face { v, n, d }
+            Face { v, n, d: n.dot(&a) }
         })
     };
     let mut faces = Vec::with_capacity(64);
