@@ -127,4 +127,51 @@ mod tests {
         }
         assert!(overlapping > 1000, "{overlapping}");
     }
+
+    /// Two tetrahedra touching to rounding (met by the dynamics at a
+    /// predicted contact): the signed distance is continuous through the
+    /// touch, EPA's depth as small as GJK's gap on the other side, and the
+    /// normal the same; scaled separations 1 ± 1e-5 give ±4.48e-6.
+    #[test]
+    fn tetrahedra_touching_to_rounding_have_a_depth_of_rounding() {
+        use nalgebra::Quaternion;
+        let t: Shape = "Tetrahedron(edge: 1.0)".parse().unwrap();
+        let d = Vector3::new(
+            -0.6164396569415922,
+            0.30676503341979944,
+            -0.018442679617881264,
+        );
+        let q = |w, x, y, z| UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+        let qa = q(
+            -0.6196306736010364,
+            0.6103995652072742,
+            0.48900012085766886,
+            0.06594756196162022,
+        );
+        let qb = q(
+            0.08866082512234816,
+            0.6381775028029585,
+            -0.7624937160333443,
+            -0.05892423961720778,
+        );
+        let at = |s: f64| {
+            distance(
+                &t,
+                &t,
+                &Relative::new(&(d * s), &qa, &qb),
+                &DistanceOptions::default(),
+            )
+        };
+        let (below, touching, above) = (at(1.0 - 1e-5), at(1.0), at(1.0 + 1e-5));
+        assert!(below.distance < 0.0 && above.distance > 0.0);
+        assert!(
+            (below.distance + above.distance).abs() < 1e-12,
+            "{below:?} {above:?}"
+        );
+        assert!(touching.distance.abs() < 1e-12, "{touching:?}");
+        assert!(
+            (touching.normal - above.normal).norm() < 1e-9,
+            "{touching:?}"
+        );
+    }
 }
