@@ -479,7 +479,24 @@ impl Shape {
                     lipschitz,
                 }
             }
-            Shape::Superellipsoid(_) | Shape::ConvexPolyhedron(_) => SupportGrowth {
+            Shape::ConvexPolyhedron(p) => {
+                // max(h + b₀τ, h₂ + b_maxτ) = h + b₀τ + max(0, sτ − Δ) with
+                // s = b_max − b₀, Δ = h − h₂: the hinge is the kink
+                // ½(|sτ − Δ| − Δ) plus ½sτ. The corners' remainder
+                // v·(u(τ) − u − u̇τ) is at most the circumradius × ½ accel τ².
+                let (h, b0, h2, b_max) = p.support_lines(u, u_dot);
+                let rise = (b_max - b0).max(0.0);
+                let drop = (h - h2).max(0.0);
+                let circumradius = p.bounding_radius() - p.rounding();
+                SupportGrowth {
+                    value: h + p.rounding(),
+                    slope: b0 + 0.5 * rise,
+                    kinks: [(0.5, -drop, rise), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)],
+                    curvature: circumradius * accel,
+                    lipschitz,
+                }
+            }
+            Shape::Superellipsoid(_) => SupportGrowth {
                 value: self.support(u).dot(u),
                 slope: lipschitz,
                 kinks: [(0.0, 0.0, 0.0); 3],
@@ -534,17 +551,29 @@ impl Shape {
         }
     }
 
-    /// Half-extents along the lab axes of the body turned by `rotation`
-    /// (body → lab): the support values hₖ = eₖ · R s(Rᵀ eₖ), i.e. the
-    /// exact axis-aligned bounding box. What a hard wall normal to eₖ sees.
-    pub fn lab_half_extents(&self, rotation: &nalgebra::Matrix3<f64>) -> Vector3<f64> {
+    /// How far the body turned by `rotation` (body → lab) reaches from its
+    /// centre along each lab axis, up and down: the support values
+    /// (hₖ(+eₖ), hₖ(−eₖ)) with h(d) = d · R s(Rᵀ d), the exact
+    /// axis-aligned bounding box, which a body without a centre of
+    /// symmetry (a tetrahedron) need not fill evenly. What a hard wall
+    /// normal to eₖ on either side sees.
+    pub fn lab_extents(&self, rotation: &nalgebra::Matrix3<f64>) -> (Vector3<f64>, Vector3<f64>) {
         if let Shape::Sphere(s) = self {
-            return Vector3::repeat(s.radius);
+            return (Vector3::repeat(s.radius), Vector3::repeat(s.radius));
         }
-        Vector3::from_fn(|k, _| {
-            let d = rotation.row(k).transpose();
-            d.dot(&self.support(&d))
-        })
+        let reach = |d: Vector3<f64>| d.dot(&self.support(&d));
+        let up = Vector3::from_fn(|k, _| reach(rotation.row(k).transpose()));
+        let down = Vector3::from_fn(|k, _| reach(-rotation.row(k).transpose()));
+        (up, down)
+    }
+
+    /// Half-extents along the lab axes of the smallest box centred on the
+    /// body that holds it turned by `rotation` (body → lab): the larger of
+    /// the reaches up and down ([`Shape::lab_extents`]), which are equal for
+    /// bodies symmetric through their centre.
+    pub fn lab_half_extents(&self, rotation: &nalgebra::Matrix3<f64>) -> Vector3<f64> {
+        let (up, down) = self.lab_extents(rotation);
+        up.sup(&down)
     }
 
     /// Whether the body has rotational symmetry that makes orientation

@@ -459,14 +459,16 @@ impl PeriodicBox {
         Self::build(l, V3::new(xy, xz, yz), self.walls)
     }
 
-    /// How far a body reaching `extent` from its centre `r` along each axis
-    /// stays inside the walls: the smallest gap L/2 − |rₖ| − extentₖ over
-    /// the walled axes (∞ without walls); not positive when it touches or
-    /// crosses one.
-    pub fn wall_gap(&self, r: &V3, extent: &V3) -> f64 {
+    /// How far a body reaching `up` from its centre `r` along each axis
+    /// and `down` against it stays inside the walls: the smallest gap,
+    /// L/2 − rₖ − upₖ or L/2 + rₖ − downₖ, over the walled axes (∞ without
+    /// walls); not positive when it touches or crosses one.
+    pub fn wall_gap(&self, r: &V3, (up, down): (&V3, &V3)) -> f64 {
         (0..3)
             .filter(|&k| self.walls[k])
-            .map(|k| 0.5 * self.lengths[k] - r[k].abs() - extent[k])
+            .map(|k| {
+                (0.5 * self.lengths[k] - r[k] - up[k]).min(0.5 * self.lengths[k] + r[k] - down[k])
+            })
             .fold(f64::INFINITY, f64::min)
     }
 }
@@ -544,15 +546,19 @@ mod tests {
             b.wrap_near(&Vector3::new(5.5, 0.0, 2.9)),
             Vector3::new(-4.5, 0.0, 2.9)
         );
-        // 3 - 2.5 - 0.25 from the wall at z = 3.
+        // 3 - 2.5 - 0.25 from the wall at z = -3; reaching 0.25 down, 0.1
+        // up: the wall below sees the 0.25.
+        let (up, down) = (Vector3::repeat(0.1), Vector3::repeat(0.25));
         assert_eq!(
-            b.wall_gap(&Vector3::new(4.9, 0.0, -2.5), &Vector3::repeat(0.25)),
+            b.wall_gap(&Vector3::new(4.9, 0.0, -2.5), (&up, &down)),
             0.25
         );
+        // Reaching 0.1 down: 0.4 from the wall below, 5.4 from the one above.
+        assert!((b.wall_gap(&Vector3::new(4.9, 0.0, -2.5), (&down, &up)) - 0.4).abs() < 1e-15);
         assert_eq!(
             PeriodicBox::new(Vector3::repeat(2.0))
                 .unwrap()
-                .wall_gap(&Vector3::zeros(), &Vector3::zeros()),
+                .wall_gap(&Vector3::zeros(), (&Vector3::zeros(), &Vector3::zeros())),
             f64::INFINITY
         );
         assert_eq!(

@@ -20,8 +20,9 @@ impl System {
     /// turned by `rotation` touches or crosses a hard wall.
     pub(super) fn touches_wall(&self, i: usize, position: &V3, rotation: &Matrix3<f64>) -> bool {
         let s = self.particles[i].species as usize;
-        let extents = self.species[s].shape.lab_half_extents(rotation) * self.size_of(i);
-        self.box_.wall_gap(position, &extents) <= 0.0
+        let (up, down) = self.species[s].shape.lab_extents(rotation);
+        let size = self.size_of(i);
+        self.box_.wall_gap(position, (&(up * size), &(down * size))) <= 0.0
     }
 
     /// The first particle touching or crossing a hard wall, if any.

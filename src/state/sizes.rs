@@ -77,7 +77,11 @@ impl System {
         if self.ideal {
             return false;
         }
-        if self.box_.wall_gap(&centre, &Vector3::repeat(radius)) <= 0.0 {
+        if self.box_.wall_gap(
+            &centre,
+            (&Vector3::repeat(radius), &Vector3::repeat(radius)),
+        ) <= 0.0
+        {
             return true;
         }
         let touches = |m: usize, d: &Vector3<f64>| {

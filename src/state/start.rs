@@ -266,7 +266,10 @@ pub fn random_insertion_sized<R: Rng>(
                 let position = box_.from_fractional(&fractional);
                 let orientation = random_rotation(rng);
                 let rotation = orientation.to_rotation_matrix().into_inner();
-                let clash = box_.wall_gap(&position, &shape.lab_half_extents(&rotation)) <= 0.0
+                let clash = {
+                    let (up, down) = shape.lab_extents(&rotation);
+                    box_.wall_gap(&position, (&up, &down))
+                } <= 0.0
                     || placed.iter().zip(&shapes).any(|(p, other)| {
                         let d = box_.minimum_image(&(p.position - position));
                         let reach = radius + other.bounding_radius();

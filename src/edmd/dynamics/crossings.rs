@@ -253,25 +253,25 @@ impl Dynamics {
     }
 
     /// The gap between body `i` at absolute time `t` (relative to the
-    /// origin) and the nearest wall: min over walled axes of
-    /// L/2 − |rₖ| − hₖ(R), with the axis and side.
+    /// origin) and the nearest wall: min over walled axes and sides of
+    /// L/2 − rₖ − hₖ(+eₖ) and L/2 + rₖ − hₖ(−eₖ) (h the support values of
+    /// the turned body), with the axis and side.
     pub(super) fn wall_gap_at(&self, (i, top): (usize, &FreeTop), t: f64) -> (f64, usize, bool) {
         let b = &self.bodies[i];
         let kind = &self.kinds[b.species as usize];
         let (r, q) = self.pose_by(i, top, t);
-        let h = kind
-            .shape
-            .lab_half_extents(&q.to_rotation_matrix().into_inner())
-            * self.relative_size(i);
-        let h = match self.growth {
-            None => h,
-            Some(g) => h * g.at(t),
-        };
+        let (up, down) = kind.shape.lab_extents(&q.to_rotation_matrix().into_inner());
+        let scale = self.relative_size(i) * self.growth.map_or(1.0, |g| g.at(t));
         let half = self.box_.lengths() * 0.5;
         let walls = self.box_.walls();
         (0..3)
             .filter(|&k| walls[k])
-            .map(|k| (half[k] - r[k].abs() - h[k], k, r[k] > 0.0))
+            .flat_map(|k| {
+                [
+                    (half[k] - r[k] - up[k] * scale, k, true),
+                    (half[k] + r[k] - down[k] * scale, k, false),
+                ]
+            })
             .fold(
                 (f64::INFINITY, 0, true),
                 |m, x| if x.0 < m.0 { x } else { m },
@@ -295,22 +295,23 @@ impl Dynamics {
         let half = self.box_.lengths() * 0.5;
         let walls = self.box_.walls();
         if !kind.rotates || b.angular_velocity == V3::zeros() {
-            let h = kind
+            let (up, down) = kind
                 .shape
-                .lab_half_extents(&b.orientation.to_rotation_matrix().into_inner())
-                * self.relative_size(i);
+                .lab_extents(&b.orientation.to_rotation_matrix().into_inner());
+            let (up, down) = (up * self.relative_size(i), down * self.relative_size(i));
             let mut best = WallContact::None;
             let mut best_t = t_end;
             for k in (0..3).filter(|&k| walls[k]) {
                 let v = b.velocity[k];
                 // The gap to the wall ahead closes at |v|; growing, the
-                // extent h grows at ṡ h and both walls may come.
+                // extents h grow at ṡ h and both walls may come.
                 let sides: [(bool, f64, f64); 2] = match self.growth {
-                    None => [(v > 0.0, h[k], v.abs()), (false, 0.0, 0.0)],
-                    Some(g) => {
-                        let (h_t, rate) = (h[k] * g.at(b.time), h[k] * g.rate);
-                        [(true, h_t, v + rate), (false, h_t, -v + rate)]
-                    }
+                    None if v > 0.0 => [(true, up[k], v), (false, 0.0, 0.0)],
+                    None => [(false, down[k], -v), (true, 0.0, 0.0)],
+                    Some(g) => [
+                        (true, up[k] * g.at(b.time), v + up[k] * g.rate),
+                        (false, down[k] * g.at(b.time), -v + down[k] * g.rate),
+                    ],
                 };
                 for (up, extent, closing) in sides {
                     if closing <= 0.0 {

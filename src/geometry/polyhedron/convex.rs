@@ -151,6 +151,30 @@ impl ConvexPolyhedron {
         Matrix3::identity() * c.trace() - c
     }
 
+    /// How the core's support value h(u + u̇τ) = max over corners v of
+    /// v·u + (v·u̇) τ, a convex broken line in τ, is bounded by two of its
+    /// lines: (h, b₀, h₂, b_max) with h = h(u) reached at the corner v₀,
+    /// b₀ = v₀·u̇, h₂ the largest v·u of the other corners and b_max the
+    /// largest v·u̇ of any, so that h(u + u̇τ) ≤ max(h + b₀τ, h₂ + b_maxτ)
+    /// for τ ≥ 0.
+    pub fn support_lines(&self, u: &V3, u_dot: &V3) -> (f64, f64, f64, f64) {
+        let corners = &self.hull.vertices;
+        let (mut h, mut b0) = (f64::NEG_INFINITY, 0.0);
+        let (mut h2, mut b_max) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for v in corners {
+            let (a, b) = (v.dot(u), v.dot(u_dot));
+            if a > h {
+                h2 = h;
+                (h, b0) = (a, b);
+            } else if a > h2 {
+                h2 = a;
+            }
+            b_max = b_max.max(b);
+        }
+        let s = self.scale;
+        (h * s, b0 * s, h2 * s, b_max * s)
+    }
+
     /// The farthest point from the body origin: the bounding radius.
     #[inline]
     pub fn bounding_radius(&self) -> f64 {

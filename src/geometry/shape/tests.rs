@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 
 /// One body of each kind, the ellipsoids prolate-ish and flat, the
 /// polyhedron irregular.
-const SHAPES: [&str; 7] = [
+const SHAPES: [&str; 9] = [
     "Sphere(radius: 0.7)",
     "Ellipsoid(a: 1.3, b: 0.7, c: 0.4)",
     "Ellipsoid(a: 0.2, b: 2.0, c: 2.0)",
@@ -14,6 +14,8 @@ const SHAPES: [&str; 7] = [
     "Cuboid(a: 1.0, b: 0.6, c: 0.3)",
     "Spherocylinder(radius: 0.4, length: 1.5)",
     "ConvexPolyhedron(vertices: [(1.0, 0.1, 0.0), (-0.6, 0.5, 0.2), (-0.4, -0.7, 0.1), (0.1, 0.2, 0.8), (0.0, -0.1, -0.6)])",
+    "Tetrahedron(edge: 1.2)",
+    "Spheropolyhedron(vertices: [(0.5, 0.4, 0.3), (-0.5, 0.4, 0.3), (0.5, -0.4, 0.3), (-0.5, -0.4, 0.3), (0.0, 0.0, -0.6)], radius: 0.15)",
 ];
 
 /// The support value of a body turning at a constant body-frame ω
@@ -254,4 +256,40 @@ fn check_support(q: &Superellipsoid) {
             assert!((v * t).dot(&d) <= x.dot(&d) + 1e-12);
         }
     }
+}
+
+/// A body without a centre of symmetry reaches unevenly up and down: a
+/// tetrahedron's extents along each lab axis are its corners' largest
+/// and smallest coordinates there, turned or not, and the half-extents
+/// the larger of the two.
+#[test]
+fn a_tetrahedron_reaches_unevenly_up_and_down() {
+    use nalgebra::UnitQuaternion;
+    let shape: Shape = "Tetrahedron(edge: 1.0)".parse().unwrap();
+    let Shape::ConvexPolyhedron(p) = shape else {
+        unreachable!()
+    };
+    let mut r = crate::test_support::uniform(19);
+    let mut uneven = 0;
+    for case in 0..100 {
+        let q = if case == 0 {
+            UnitQuaternion::identity()
+        } else {
+            UnitQuaternion::from_scaled_axis(Vector3::new(r(), r(), r()) * 6.0)
+        };
+        let rotation = q.to_rotation_matrix().into_inner();
+        let (up, down) = shape.lab_extents(&rotation);
+        let turned: Vec<Vector3<f64>> = p.corners().map(|v| rotation * v).collect();
+        for k in 0..3 {
+            let top = turned
+                .iter()
+                .map(|v| v[k])
+                .fold(f64::NEG_INFINITY, f64::max);
+            let bottom = turned.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
+            assert!((up[k] - top).abs() < 1e-12 && (down[k] + bottom).abs() < 1e-12);
+            assert_eq!(shape.lab_half_extents(&rotation)[k], up[k].max(down[k]));
+            uneven += usize::from((up[k] - down[k]).abs() > 0.05);
+        }
+    }
+    assert!(uneven > 100, "{uneven}");
 }
