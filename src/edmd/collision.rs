@@ -18,6 +18,7 @@
 //! D = 1/m_A + 1/m_B + (a × n̂)·I_A⁻¹(a × n̂) + (b × n̂)·I_B⁻¹(b × n̂);
 //! energy is conserved iff u' = −u, that is J = 2u / D.
 
+use crate::geometry::pair::MAX_PATCH;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
@@ -114,12 +115,12 @@ pub fn collide_patch(
     normal: &V3,
     growth: f64,
 ) -> f64 {
-    let m = arms.len().min(8);
-    let mut ta = [V3::zeros(); 8];
-    let mut tb = [V3::zeros(); 8];
-    let mut ia_ta = [V3::zeros(); 8];
-    let mut ib_tb = [V3::zeros(); 8];
-    let mut u = [0.0; 8];
+    let m = arms.len().min(MAX_PATCH);
+    let mut ta = [V3::zeros(); MAX_PATCH];
+    let mut tb = [V3::zeros(); MAX_PATCH];
+    let mut ia_ta = [V3::zeros(); MAX_PATCH];
+    let mut ib_tb = [V3::zeros(); MAX_PATCH];
+    let mut u = [0.0; MAX_PATCH];
     for k in 0..m {
         let (arm_a, arm_b) = arms[k];
         ta[k] = arm_a.cross(normal);
@@ -141,7 +142,7 @@ pub fn collide_patch(
     let scale = u[..m].iter().fold(0.0f64, |s, x| s.max(x.abs()));
     let slack = 1e-12 * scale;
     // Every set of one, two or three points, smallest first.
-    let mut best: Option<([f64; 8], f64)> = None;
+    let mut best: Option<([f64; MAX_PATCH], f64)> = None;
     let mut try_set = |set: &[usize]| -> bool {
         let n = set.len();
         let mut mat = nalgebra::Matrix3::<f64>::identity();
@@ -174,7 +175,7 @@ pub fn collide_patch(
         if x.iter().take(n).any(|&p| p < 0.0) {
             return false;
         }
-        let mut p = [0.0; 8];
+        let mut p = [0.0; MAX_PATCH];
         for (r, &k) in set.iter().enumerate() {
             p[k] = x[r];
         }
@@ -302,12 +303,12 @@ mod tests {
             let (ra, mut a) = random_body(&mut u);
             let (rb, mut b) = random_body(&mut u);
             let normal = (V3::new(u() - 0.5, u() - 0.5, u() - 0.5) + (rb - ra)).normalize();
-            // 2 to 8 points on a plane normal to n, between the centres.
+            // 2 to 16 points on a plane normal to n, between the centres.
             let e1 = normal.cross(&V3::new(0.3, -0.7, 0.2)).normalize();
             let e2 = normal.cross(&e1);
             let mid = (ra + rb) * 0.5;
-            let m = 2 + case % 7;
-            let mut arms = [(V3::zeros(), V3::zeros()); 8];
+            let m = 2 + case % 15;
+            let mut arms = [(V3::zeros(), V3::zeros()); MAX_PATCH];
             for arm in arms.iter_mut().take(m) {
                 let x = mid + e1 * (u() - 0.5) * 2.0 + e2 * (u() - 0.5) * 2.0;
                 *arm = (x - ra, x - rb);

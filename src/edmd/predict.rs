@@ -101,9 +101,12 @@ impl SolverWork {
 /// features where GJK stalled (two cuboids).
 pub(super) fn is_fallback(a: &Shape, b: &Shape, method: Method) -> bool {
     match method {
-        Method::Gjk | Method::Epa => {
-            !matches!(a, Shape::Cuboid(_)) && !matches!(b, Shape::Cuboid(_))
-        }
+        Method::Gjk | Method::Epa => [a, b].iter().all(|s| {
+            matches!(
+                s,
+                Shape::Sphere(_) | Shape::Ellipsoid(_) | Shape::Superellipsoid(_)
+            )
+        }),
         Method::Features => true,
         _ => false,
     }

@@ -1,7 +1,7 @@
 //! Building the dynamics: from a state, from its parts or from a dump,
 //! and the first predictions of every event.
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
@@ -782,6 +782,13 @@ pub(super) fn kinds_for(
     }
     let mut kinds = Vec::with_capacity(species.len());
     for (s, &m) in species.iter().zip(&masses) {
+        let tensor = s.shape.inertia_tensor(m);
+        let off_diagonal = (tensor - Matrix3::from_diagonal(&tensor.diagonal()))
+            .abs()
+            .max();
+        if options.true_inertia && off_diagonal > 1e-12 * tensor.trace() {
+            return Err(EdmdError::NotPrincipalAxes(s.name.clone()));
+        }
         let moments = top_moments(&s.shape, m, options.true_inertia);
         kinds.push(Kind {
             shape: s.shape,

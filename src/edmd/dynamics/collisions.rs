@@ -231,7 +231,7 @@ impl Dynamics {
         );
         if patch.points().len() >= 2 {
             let normal = bi.orientation * contact.normal;
-            let mut arms = [(V3::zeros(), V3::zeros()); 8];
+            let mut arms = [(V3::zeros(), V3::zeros()); crate::geometry::pair::MAX_PATCH];
             for (arm, p) in arms.iter_mut().zip(patch.points()) {
                 let arm_a = bi.orientation * (p * scale);
                 *arm = (arm_a, arm_a - d);

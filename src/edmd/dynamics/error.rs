@@ -78,6 +78,12 @@ pub enum EdmdError {
         "velocities must be finite, one pair per body ({0} bodies), and zero spin for bodies that do not rotate"
     )]
     BadVelocities(usize),
+    /// True inertia asked for a polyhedron whose inertia tensor is not
+    /// diagonal in its body frame.
+    #[error(
+        "species \"{0}\" is a polyhedron whose body axes are not its principal axes of inertia: true_inertia turns bodies about their body axes, so give its vertices in its principal frame (or leave true_inertia off)"
+    )]
+    NotPrincipalAxes(String),
     /// A neighbour shell that is not a finite length > 0 (with a zero
     /// shell every body would rebuild its list at every instant).
     #[error("the neighbour shell must be a finite length > 0, got {0}")]

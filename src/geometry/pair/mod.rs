@@ -9,9 +9,9 @@
 
 mod convex;
 mod cuboid_cuboid;
-mod cuboid_patch;
 mod cuboid_smooth;
 mod cuboid_sphere;
+mod patch;
 mod polyhedron;
 mod quadric_quadric;
 mod smooth_smooth;
@@ -25,9 +25,10 @@ use nalgebra::{Matrix3, Vector3};
 use super::contact::WarmStart;
 pub use super::contact::{Contact, Failure, Method, Relative, Status};
 use super::newton::NewtonOptions;
+use super::polyhedron::MAX_VERTICES;
 use super::shape::Shape;
 
-pub use cuboid_patch::ContactPatch;
+pub use patch::{ContactPatch, MAX_PATCH};
 pub use quadric_quadric::{Spheroid, perram_wertheim, spheroid_overlap};
 pub use smooth_smooth::support_points_start;
 pub use strains::{OverlapStrains, counting_strains};
@@ -101,13 +102,8 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
         return false;
     }
     match (a, b) {
-        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => {
-            if is_rounded(a) || is_rounded(b) {
-                spheropolyhedron::overlap(a, b, rel)
-            } else {
-                polyhedron::overlap(a, b, rel)
-            }
-        }
+        _ if swept_cores(a, b) => spheropolyhedron::overlap(a, b, rel),
+        (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => polyhedron::overlap(a, b, rel),
         (Spherocylinder(_), _) | (_, Spherocylinder(_)) => spherocylinder::overlap(a, b, rel),
         (Sphere(p), Sphere(q)) => sphere_sphere::overlap(p, q, rel),
         (Cuboid(c), Sphere(s)) => cuboid_sphere::overlap(c, s, rel),
@@ -126,6 +122,22 @@ pub fn overlap(a: &Shape, b: &Shape, rel: &Relative) -> bool {
 /// Whether `shape` is a spheropolyhedron (a polyhedron with a rounding).
 fn is_rounded(shape: &Shape) -> bool {
     matches!(shape, Shape::ConvexPolyhedron(p) if p.rounding() > 0.0)
+}
+
+/// Whether the pair is best taken as two polytope cores (a point and a
+/// segment among them) swept by balls: a spheropolyhedron with anything,
+/// a polyhedron with a sphere or a spherocylinder, a spherocylinder with
+/// a cuboid. GJK between such cores ends exactly in finitely many steps,
+/// where on the rounded surfaces it would converge only linearly.
+fn swept_cores(a: &Shape, b: &Shape) -> bool {
+    use Shape::*;
+    let one_way = |p: &Shape, q: &Shape| {
+        matches!(
+            (p, q),
+            (ConvexPolyhedron(_), Sphere(_) | Spherocylinder(_)) | (Cuboid(_), Spherocylinder(_))
+        )
+    };
+    is_rounded(a) || is_rounded(b) || one_way(a, b) || one_way(b, a)
 }
 
 /// A body's shape as placed in the lab frame (its rotation applied), for a
@@ -214,12 +226,9 @@ pub fn distance(
 ) -> Contact {
     use Shape::*;
     match (a, b) {
+        _ if swept_cores(a, b) => spheropolyhedron::distance(a, b, rel, opts),
         (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => {
-            if is_rounded(a) || is_rounded(b) {
-                spheropolyhedron::distance(a, b, rel, opts)
-            } else {
-                polyhedron::distance(a, b, rel, opts)
-            }
+            polyhedron::distance(a, b, rel, opts)
         }
         (Spherocylinder(_), _) | (_, Spherocylinder(_)) => {
             spherocylinder::distance(a, b, rel, opts)
@@ -240,10 +249,12 @@ pub fn distance(
 }
 
 /// Where bodies touching with `normal` (A → B, A's frame) touch along a
-/// flat feature of each (two cuboids, a face or an edge of each within
-/// `tolerance` of the contact plane): the corners of the shared region, on
-/// which a collision acts at once (see [`ContactPatch`]). Empty for every
-/// other pair and contact: smooth bodies touch at a point.
+/// flat feature of each: a face or an edge of each body's core within
+/// `tolerance` of the contact plane, the cores being polytopes (cuboids,
+/// polyhedra and spheropolyhedra, a spherocylinder's axis segment): the
+/// corners of the shared region, on which a collision acts at once (see
+/// [`ContactPatch`]). Empty for every other pair and contact: smooth
+/// bodies touch at a point.
 pub fn contact_patch(
     a: &Shape,
     b: &Shape,
@@ -251,12 +262,50 @@ pub fn contact_patch(
     normal: &V3,
     tolerance: f64,
 ) -> ContactPatch {
-    match (a, b) {
-        (Shape::Cuboid(p), Shape::Cuboid(q)) => {
-            cuboid_patch::cuboid_patch(p, q, rel, normal, tolerance)
-        }
-        _ => ContactPatch::none(),
+    let (Some((corners_a, na)), Some((mut corners_b, nb))) = (core_corners(a), core_corners(b))
+    else {
+        return ContactPatch::none();
+    };
+    if na < 2 && nb < 2 {
+        return ContactPatch::none();
     }
+    for v in &mut corners_b[..nb] {
+        *v = rel.b_to_a(v);
+    }
+    patch::polytope_patch(&corners_a[..na], &corners_b[..nb], normal, tolerance)
+}
+
+/// The corners of a body's polytope core, and how many: a cuboid's eight,
+/// a polyhedron's (a spheropolyhedron's core's), a spherocylinder's axis
+/// ends, a sphere's centre; None for curved bodies.
+fn core_corners(shape: &Shape) -> Option<([V3; MAX_VERTICES], usize)> {
+    let mut corners = [V3::zeros(); MAX_VERTICES];
+    let n = match shape {
+        Shape::Sphere(_) => 1,
+        Shape::Spherocylinder(s) => {
+            corners[0] = V3::new(0.0, 0.0, s.half_length());
+            corners[1] = -corners[0];
+            2
+        }
+        Shape::Cuboid(c) => {
+            let h = c.half_extents();
+            for (k, v) in corners.iter_mut().take(8).enumerate() {
+                let s = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
+                *v = V3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z);
+            }
+            8
+        }
+        Shape::ConvexPolyhedron(p) => {
+            let scale = p.scale();
+            let vertices = p.hull().vertices();
+            for (v, c) in corners.iter_mut().zip(vertices) {
+                *v = c * scale;
+            }
+            vertices.len()
+        }
+        Shape::Ellipsoid(_) | Shape::Superellipsoid(_) => return None,
+    };
+    Some((corners, n))
 }
 
 /// A lower bound on the distance of `a` and `b` (B placed by `rel` in A's
@@ -427,9 +476,9 @@ pub use sphere_sphere::grown_contact_time_from_products as grown_sphere_contact_
 pub fn kernel_names(a: &Shape, b: &Shape) -> (&'static str, &'static str) {
     use Shape::*;
     match (a, b) {
-        _ if is_rounded(a) || is_rounded(b) => (
-            "OBB, then GJK between the cores against the rounding (the distance where GJK cannot decide)",
-            "GJK/EPA between the cores, less the rounding",
+        _ if swept_cores(a, b) => (
+            "OBB, then GJK between the cores against the radii (the distance where GJK cannot decide)",
+            "GJK/EPA between the cores, less the radii",
         ),
         (ConvexPolyhedron(_), _) | (_, ConvexPolyhedron(_)) => (
             "OBB, then GJK on support points (the distance where GJK cannot decide)",

@@ -26,6 +26,14 @@ enum Core {
 }
 
 impl Core {
+    /// Whether the core is a polytope (a point and a segment are).
+    fn is_polytope(&self) -> bool {
+        match self {
+            Core::Point | Core::Segment(_) => true,
+            Core::Body(s) => convex::is_polytope(s),
+        }
+    }
+
     #[inline]
     fn support(&self, dir: &V3) -> V3 {
         match self {
@@ -74,7 +82,8 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
     let tol = opts.gjk_tolerance * convex::length(a, b);
     let sa = |d: &V3| ca.support(d);
     let sb = |d: &V3| rel.b_to_a(&cb.support(&rel.rotation.tr_mul(d)));
-    let (cores, _) = convex::distance_of_supports(&sa, &sb, rel, tol, opts);
+    let polytopes = ca.is_polytope() && cb.is_polytope();
+    let (cores, _) = convex::distance_of_supports(&sa, &sb, polytopes, rel, tol, opts);
     Contact {
         distance: cores.distance - (ra + rb),
         point_a: cores.point_a + cores.normal * ra,
