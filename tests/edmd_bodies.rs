@@ -142,6 +142,11 @@ const TRIAXIAL: &str = "Ellipsoid(a: 1.0, b: 0.6, c: 0.3)";
 const BRICK: &str = "Cuboid(a: 0.6, b: 0.4, c: 0.25)";
 const TRIAXIAL_SUPER: &str = "Superellipsoid(a: 1.0, b: 0.6, c: 0.4, exponents: (4.0, 4.0, 4.0))";
 const ROD: &str = "Spherocylinder(radius: 0.4, length: 1.2)";
+const TETRAHEDRON: &str = "Tetrahedron(edge: 1.0)";
+const CUBE_OF_CORNERS: &str = "Cube(edge: 1.0)";
+const ROUNDED_CUBE: &str = "Spheropolyhedron(vertices: [(0.4, 0.4, 0.4), (0.4, 0.4, -0.4), \
+    (0.4, -0.4, 0.4), (0.4, -0.4, -0.4), (-0.4, 0.4, 0.4), (-0.4, 0.4, -0.4), (-0.4, -0.4, 0.4), \
+    (-0.4, -0.4, -0.4)], radius: 0.1)";
 
 #[test]
 fn prolate_ellipsoids_at_0_50() {
@@ -182,6 +187,52 @@ fn spherocylinders_alone_and_with_spheres() {
         ..DynamicsOptions::default()
     };
     run_from_options(&system, &[ROD], 0.45, 10_000, (0.05, 2_000), 8, &own);
+}
+
+/// Polyhedra (GJK between the polytopes, their closest features where it
+/// stops short), alone and with spheres, cuboids and spherocylinders
+/// (GJK between the cores against the radii), a spheropolyhedron, and
+/// tetrahedra on oriented-box lists: no overlap at any frame, energy and
+/// momentum conserved.
+#[test]
+fn polyhedra_alone_and_with_every_exact_partner() {
+    run(&[TETRAHEDRON], 6, 0.45, 10_000, 0.02, 41);
+    run(&[CUBE_OF_CORNERS], 6, 0.50, 5_000, 0.02, 42);
+    run(&[ROUNDED_CUBE], 5, 0.40, 3_000, 0.02, 43);
+    run(&[TETRAHEDRON, BALL], 6, 0.40, 3_000, 0.02, 44);
+    run(&[CUBE_OF_CORNERS, CUBE, ROD], 6, 0.40, 3_000, 0.02, 45);
+    run_with(&[TETRAHEDRON], 6, 0.45, 3_000, 0.02, 46, Some(0.15));
+}
+
+/// A cube given by its corners is the cuboid of the same size in the
+/// dynamics too: from the same state and velocities the two make the
+/// same collisions, pair by pair, at the same times to 1e-9. They part
+/// at collision 217 here, the first where an edge lies on a face to
+/// rounding and each kernel strikes a different end of it (the patch
+/// rule, which would strike both, does not see a patch there: an open
+/// question for both kernels); 200 are asked for. Before contact normals
+/// were taken from GJK's face of the Minkowski difference, the polyhedron
+/// struck a face-on contact along the line of centres and came back at
+/// once.
+#[test]
+fn a_cube_of_corners_collides_as_the_cuboid() {
+    let sequence = |shape: &str| {
+        let system = compressed_state(&[shape], 6, 0.45, 4);
+        let mut rng = Pcg64::seed_from_u64(5);
+        let mut md = Dynamics::from_state(&system, &DynamicsOptions::default(), &mut rng).unwrap();
+        md.record_collisions(true);
+        md.run_collisions(200)
+            .unwrap_or_else(|e| panic!("{shape}: {e}"));
+        md.take_collisions()
+    };
+    let (cuboid, corners) = (sequence(CUBE), sequence(CUBE_OF_CORNERS));
+    assert_eq!(cuboid.len(), 200);
+    for (k, (a, b)) in cuboid.iter().zip(&corners).enumerate() {
+        assert!(
+            (a.1, a.2) == (b.1, b.2) && (a.0 - b.0).abs() < 1e-9,
+            "collision {k}: {a:?} against {b:?}"
+        );
+    }
 }
 
 /// Every system again with neighbour lists (shells of 0.1 and 0.3 of the
@@ -495,6 +546,18 @@ fn soak_superellipsoids() {
 #[ignore = "soak: about 3 minutes in release mode"]
 fn soak_cubes() {
     run(&[CUBE], 6, 0.50, soak_length(), 0.2, 14);
+}
+
+#[test]
+#[ignore = "soak: about 4 minutes per 10^6 collisions in release mode"]
+fn soak_tetrahedra() {
+    run(&[TETRAHEDRON], 6, 0.45, soak_length(), 0.2, 17);
+}
+
+#[test]
+#[ignore = "soak: about 4 minutes per 10^6 collisions in release mode"]
+fn soak_rounded_cubes() {
+    run(&[ROUNDED_CUBE], 6, 0.45, soak_length(), 0.2, 18);
 }
 
 #[test]

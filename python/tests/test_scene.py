@@ -128,7 +128,7 @@ def test_a_spheropolyhedron_round_trips_and_a_bad_radius_is_refused():
                      stages=[hb.MonteCarlo(ensemble=hb.Nvt(), sweeps=10)])
     assert "Spheropolyhedron(" in scene.to_ron()
     assert hb.Scene.from_ron(scene.to_ron()) == scene
-    assert "rounding" in scene.plan()["pairs"][0]["distance"]
+    assert "between the cores" in scene.plan()["pairs"][0]["distance"]
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(12, 12, 12), species=[hb.Species("t", hb.Spheropolyhedron(corners, -0.1), 8)], stages=[])
     assert "radius must be" in str(e.value)

@@ -98,8 +98,8 @@ pub enum Method {
     /// Largest gap between support planes over a cuboid's features (exact
     /// cuboid–smooth distance near contact).
     SupportGap,
-    /// Closest features of two boxes by enumeration (cuboid–cuboid where
-    /// GJK stalls).
+    /// Closest features of two polytopes by enumeration (where GJK stops
+    /// short).
     Features,
 }
 

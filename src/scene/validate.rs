@@ -337,13 +337,18 @@ impl Scene {
         let shortest = box_.heights().min();
         let phi0 = self.particle_volume() / box_.volume();
         // The contact-time search needs every pair's exact distance: a
-        // spherocylinder has it in closed form with spheres and
-        // spherocylinders only (GJK's, with the other shapes, is not exact
-        // enough).
+        // polyhedron, a spheropolyhedron or a spherocylinder has it (GJK
+        // between polytope cores, or closed forms) with spheres, cuboids
+        // and each other; with a curved body GJK converges only linearly.
         use crate::geometry::Shape;
-        let rod = (self.species.iter()).find(|s| matches!(s.shape, Shape::Spherocylinder(_)));
-        let other = (self.species.iter())
-            .find(|s| !matches!(s.shape, Shape::Spherocylinder(_) | Shape::Sphere(_)));
+        let cored = (self.species.iter()).find(|s| {
+            matches!(
+                s.shape,
+                Shape::Spherocylinder(_) | Shape::ConvexPolyhedron(_)
+            )
+        });
+        let curved = (self.species.iter())
+            .find(|s| matches!(s.shape, Shape::Ellipsoid(_) | Shape::Superellipsoid(_)));
         if self.stages.is_empty() {
             return bad("stages", "at least one stage is needed".into());
         }
@@ -354,8 +359,6 @@ impl Scene {
             Start::Resume(_) => None,
             _ => Some(phi0),
         };
-        let polyhedron =
-            (self.species.iter()).find(|s| matches!(s.shape, Shape::ConvexPolyhedron(_)));
         let sized_body = (self.species.iter())
             .find(|s| s.sizes.is_some() && !s.shape.is_sphere())
             .or_else(|| {
@@ -378,28 +381,16 @@ impl Scene {
                 );
             }
             if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
-                && let Some(polyhedron) = polyhedron
+                && let (Some(cored), Some(curved)) = (cored, curved)
             {
                 return bad(
                     &format!("stages[{i}]"),
                     format!(
-                        "species \"{}\" is a {}: {} stages do not simulate polyhedra or spheropolyhedra yet (Monte Carlo stages do)",
-                        polyhedron.name,
-                        polyhedron.shape.kind().replace('_', " "),
-                        st.kind()
-                    ),
-                );
-            }
-            if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
-                && let (Some(rod), Some(other)) = (rod, other)
-            {
-                return bad(
-                    &format!("stages[{i}]"),
-                    format!(
-                        "species \"{}\" is a spherocylinder and \"{}\" a {}: {} stages simulate spherocylinders with spheres and spherocylinders only so far (their contact times need the pair's exact distance), Monte Carlo stages with every shape",
-                        rod.name,
-                        other.name,
-                        other.shape.kind(),
+                        "species \"{}\" ({}) and \"{}\" ({}) are in one scene: {} stages simulate polyhedra, spheropolyhedra and spherocylinders with spheres, cuboids and each other only so far (their contact times need the pair's exact distance), Monte Carlo stages with every shape",
+                        cored.name,
+                        cored.shape.kind().replace('_', " "),
+                        curved.name,
+                        curved.shape.kind().replace('_', " "),
                         st.kind()
                     ),
                 );

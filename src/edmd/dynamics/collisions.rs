@@ -288,6 +288,18 @@ impl Dynamics {
                 if ahead.distance < -tolerance {
                     let (n, a, c) = lab(&ahead);
                     if c > 0.0 {
+                        // Both points at once: struck at the second
+                        // alone, the first would close in again (two
+                        // tetrahedra, an edge on a face to just past the
+                        // patch's tolerance, struck at each end in turn
+                        // for ever).
+                        let arms = [(arm_a, arm_a - d), (a, a - d)];
+                        let mut ka = kinetics(&bi, ki);
+                        let mut kb = kinetics(&bj, kj);
+                        let jn = collide_patch(&mut ka, &mut kb, &arms, &n, growth_along(&n));
+                        if jn != 0.0 {
+                            return Ok(self.apply_impulse(i, j, ka, kb, (*d, n * jn)));
+                        }
                         (normal, arm_a) = (n, a);
                     }
                     break;

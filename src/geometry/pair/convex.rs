@@ -169,7 +169,11 @@ pub fn distance_of_supports(
                 None if len > 0.0 => d / len,
                 None => rel.translation.normalize(),
             };
-            let short = g.outcome == GjkOutcome::Separated && g.distance - g.lower_bound > tol;
+            // Short of the tolerance, or stalled on polytopes without
+            // telling overlap from touching: the distance is GJK's upper
+            // bound only.
+            let short = (g.outcome == GjkOutcome::Separated && g.distance - g.lower_bound > tol)
+                || (g.outcome == GjkOutcome::IterationCap && polytopes);
             let contact = Contact {
                 distance: g.distance,
                 point_a: g.point_a,

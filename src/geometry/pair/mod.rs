@@ -11,6 +11,7 @@ mod convex;
 mod cuboid_cuboid;
 mod cuboid_smooth;
 mod cuboid_sphere;
+mod features;
 mod patch;
 mod polyhedron;
 mod quadric_quadric;

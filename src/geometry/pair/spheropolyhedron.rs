@@ -83,7 +83,13 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
     let sa = |d: &V3| ca.support(d);
     let sb = |d: &V3| rel.b_to_a(&cb.support(&rel.rotation.tr_mul(d)));
     let polytopes = ca.is_polytope() && cb.is_polytope();
-    let (cores, _) = convex::distance_of_supports(&sa, &sb, polytopes, rel, tol, opts);
+    let (mut cores, short) = convex::distance_of_supports(&sa, &sb, polytopes, rel, tol, opts);
+    if short
+        && let (Core::Body(p), Core::Body(q)) = (ca, cb)
+        && let Some(exact) = super::polyhedron::distance_by_features(&p, &q, rel)
+    {
+        cores = exact;
+    }
     Contact {
         distance: cores.distance - (ra + rb),
         point_a: cores.point_a + cores.normal * ra,
