@@ -86,15 +86,17 @@ def test_every_shape_and_stage_kind_is_spelled_as_in_ron():
     assert hb.Scene.from_ron(text) == scene
 
 
-def test_a_spherocylinder_round_trips_and_is_refused_for_dynamics_with_a_cuboid():
+def test_a_spherocylinder_round_trips_and_is_refused_for_dynamics_with_an_ellipsoid():
     rods = [hb.Species("rod", hb.Spherocylinder(radius=0.5, length=2.0), 8)]
     scene = hb.Scene(box=(12, 12, 12), species=rods, stages=[hb.Dynamics(duration=1.0)])
     assert "Spherocylinder(" in scene.to_ron()
     assert hb.Scene.from_ron(scene.to_ron()) == scene
     assert scene.plan()["pairs"][0]["distance"].startswith("closed form")
+    bricks = [hb.Species("brick", hb.Cuboid(0.5, 0.4, 0.3), 8)]
+    hb.Scene(box=(12, 12, 12), species=rods + bricks, stages=[hb.Dynamics(duration=1.0)])
     with pytest.raises(hb.SceneError) as e:
-        bricks = [hb.Species("brick", hb.Cuboid(0.5, 0.4, 0.3), 8)]
-        hb.Scene(box=(12, 12, 12), species=rods + bricks, stages=[hb.Dynamics(duration=1.0)])
+        spheroids = [hb.Species("spheroid", hb.Ellipsoid(1.0, 0.5, 0.5), 8)]
+        hb.Scene(box=(12, 12, 12), species=rods + spheroids, stages=[hb.Dynamics(duration=1.0)])
     assert e.value.field == "stages[0]"
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(12, 12, 12), species=[hb.Species("rod", hb.Spherocylinder(0.5, 0.0), 8)], stages=[])
@@ -112,8 +114,11 @@ def test_a_convex_polyhedron_round_trips_and_bad_vertices_are_refused():
         flat = hb.ConvexPolyhedron([(1, 0, 0), (0, 1, 0), (-1, 0, 0), (0, -1, 0)])
         hb.Scene(box=(12, 12, 12), species=[hb.Species("f", flat, 8)], stages=[])
     assert "one plane" in str(e.value)
+    hb.Scene(box=(12, 12, 12), species=[hb.Species("t", tetra, 8)], stages=[hb.Dynamics(duration=1.0)])
     with pytest.raises(hb.SceneError) as e:
-        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", tetra, 8)], stages=[hb.Dynamics(duration=1.0)])
+        spheroids = [hb.Species("spheroid", hb.Ellipsoid(1.0, 0.5, 0.5), 8)]
+        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", tetra, 8)] + spheroids,
+                 stages=[hb.Dynamics(duration=1.0)])
     assert e.value.field == "stages[0]"
     named = hb.Scene(box=(12, 12, 12), species=[hb.Species("o", hb.Octahedron(edge=1.0), 8)],
                      stages=[hb.MonteCarlo(ensemble=hb.Nvt(), sweeps=10)])
@@ -132,8 +137,11 @@ def test_a_spheropolyhedron_round_trips_and_a_bad_radius_is_refused():
     with pytest.raises(hb.SceneError) as e:
         hb.Scene(box=(12, 12, 12), species=[hb.Species("t", hb.Spheropolyhedron(corners, -0.1), 8)], stages=[])
     assert "radius must be" in str(e.value)
+    hb.Scene(box=(12, 12, 12), species=[hb.Species("t", rounded, 8)], stages=[hb.Dynamics(duration=1.0)])
     with pytest.raises(hb.SceneError) as e:
-        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", rounded, 8)], stages=[hb.Dynamics(duration=1.0)])
+        spheroids = [hb.Species("spheroid", hb.Ellipsoid(1.0, 0.5, 0.5), 8)]
+        hb.Scene(box=(12, 12, 12), species=[hb.Species("t", rounded, 8)] + spheroids,
+                 stages=[hb.Dynamics(duration=1.0)])
     assert e.value.field == "stages[0]" and "spheropolyhedron" in str(e.value)
 
 
