@@ -99,18 +99,61 @@ impl Placed {
     }
 }
 
-/// The distance of separated polyhedra `a` and `b` (B placed by `rel` in
-/// A's frame) by their closest features, with the closest points and the
-/// normal (A → B): a face's where a vertex faces a face, else the
-/// direction between the points. None where either is not a polyhedron
-/// without rounding, or they touch or overlap (a vertex inside the other).
-pub fn closest_features(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, V3, V3, V3)> {
+/// The signed distance of polyhedra `a` and `b` (B placed by `rel` in A's
+/// frame, neither rounded) by their features, with a point of each and
+/// the normal (A → B): the largest separation over the axes that can
+/// separate them says whether they overlap, and by how much; apart, the
+/// closest features say how far. None for other shapes.
+pub fn signed_distance(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, V3, V3, V3)> {
     let identity = Relative {
         translation: V3::zeros(),
         rotation: nalgebra::Matrix3::identity(),
     };
     let pa = Placed::new(a, &identity)?;
     let pb = Placed::new(b, rel)?;
+    let t = &rel.translation;
+    let (separation, axis, point_a, point_b) = largest_separation(&pa, &pb);
+    if separation > 0.0
+        && let Some(apart) = closest_features(&pa, &pb, t)
+    {
+        return Some(apart);
+    }
+    // Overlapping, or touching to rounding (a corner on a face: the
+    // separation is then the distance to rounding).
+    Some((separation, point_a, point_b, axis))
+}
+
+/// `n`, or `-n` where it points away from `t`, B's centre in A's frame: a
+/// separating direction has A's centre on its near side and B's on the
+/// far one.
+fn towards(n: V3, t: &V3) -> V3 {
+    if n.dot(t) >= 0.0 { n } else { -n }
+}
+
+/// The closest points of A's edge i–j and B's edge k–l, the edges' unit
+/// directions, and whether both points are inside their edges.
+fn edge_pair(
+    pa: &Placed,
+    (i, j): (usize, usize),
+    pb: &Placed,
+    (k, l): (usize, usize),
+) -> (V3, V3, V3, V3, bool) {
+    let (p, q, r, s) = (pa.corners[i], pa.corners[j], pb.corners[k], pb.corners[l]);
+    let (centre_a, half_a) = (0.5 * (p + q), 0.5 * (q - p).norm());
+    let (centre_b, half_b) = (0.5 * (r + s), 0.5 * (s - r).norm());
+    let (u, v) = ((q - p) / (2.0 * half_a), (s - r) / (2.0 * half_b));
+    let (sa, sb) = closest_segment_parameters(&(centre_b - centre_a), &u, half_a, &v, half_b);
+    let inside = sa.abs() < half_a && sb.abs() < half_b;
+    (centre_a + u * sa, centre_b + v * sb, u, v, inside)
+}
+
+/// The distance of separated polyhedra `pa` and `pb` (both in A's frame,
+/// B's centre at `t`) by their closest features, with the closest points
+/// and the normal (A → B): a face's where a vertex faces a face, the
+/// edges' cross product where two edges hold the points, else the
+/// direction between the points. None where they touch or overlap (a
+/// vertex inside the other).
+fn closest_features(pa: &Placed, pb: &Placed, t: &V3) -> Option<(f64, V3, V3, V3)> {
     // (distance, point of A, point of B, exact normal if known).
     let mut best = (f64::INFINITY, V3::zeros(), V3::zeros(), None);
     for x in pb.corners() {
@@ -127,33 +170,16 @@ pub fn closest_features(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, V3
             best = (d, *x, on_b, face.map(|n| -n));
         }
     }
-    for &(i, j) in pa.edges {
-        let (p, q) = (pa.corners[i], pa.corners[j]);
-        let (centre_a, half_a) = (0.5 * (p + q), 0.5 * (q - p).norm());
-        let u = (q - p) / (2.0 * half_a);
-        for &(k, l) in pb.edges {
-            let (r, s) = (pb.corners[k], pb.corners[l]);
-            let (centre_b, half_b) = (0.5 * (r + s), 0.5 * (s - r).norm());
-            let v = (s - r) / (2.0 * half_b);
-            let (sa, sb) =
-                closest_segment_parameters(&(centre_b - centre_a), &u, half_a, &v, half_b);
-            let (on_a, on_b) = (centre_a + u * sa, centre_b + v * sb);
+    for &edge_a in pa.edges {
+        for &edge_b in pb.edges {
+            let (on_a, on_b, u, v, inside) = edge_pair(pa, edge_a, pb, edge_b);
             let d = (on_b - on_a).norm();
             if d < best.0 {
-                // Inside both edges: across both, the edges' cross product.
-                let inside = sa.abs() < half_a && sb.abs() < half_b;
+                // Inside both edges: across both, the edges' cross product,
+                // turned by the centres (the points' own difference is
+                // rounding where the edges touch).
                 let across = u.cross(&v).try_normalize(1e-6).filter(|_| inside);
-                // Turned from A's centre towards B's, which lie on either
-                // side of the plane across the edges: the points' own
-                // difference is rounding where the edges touch.
-                let normal = across.map(|n| {
-                    if n.dot(&rel.translation) >= 0.0 {
-                        n
-                    } else {
-                        -n
-                    }
-                });
-                best = (d, on_a, on_b, normal);
+                best = (d, on_a, on_b, across.map(|n| towards(n, t)));
             }
         }
     }
@@ -162,22 +188,13 @@ pub fn closest_features(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, V3
         return None;
     }
     // Between the points where no face or pair of edges gives it, turned
-    // towards B's centre if rounding (points a hair apart) turned it away:
-    // a separating direction has A's centre on its near side, B's on
-    // the far one.
-    let normal = normal.unwrap_or_else(|| {
-        let n = (on_b - on_a) / d;
-        if n.dot(&rel.translation) >= 0.0 {
-            n
-        } else {
-            -n
-        }
-    });
+    // by the centres where rounding (points a hair apart) turned it away.
+    let normal = normal.unwrap_or_else(|| towards((on_b - on_a) / d, t));
     Some((d, on_a, on_b, normal))
 }
 
-/// The largest separation of the projections of polyhedra `a` and `b` (B
-/// placed by `rel`) on the axes that can separate them: each one's face
+/// The largest separation of the projections of polyhedra `pa` and `pb`
+/// (both in A's frame) on the axes that can separate them: each one's face
 /// normals and the cross products of an edge of each (those of edges
 /// within 1e-6 of parallel left out: the faces beside stand in for them
 /// to within the square of the angle times the size), with the axis (A →
@@ -186,15 +203,8 @@ pub fn closest_features(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, V3
 /// the two edges). Positive: apart, and a lower bound on the distance
 /// (equal to it where a face, or an edge of each, holds the closest
 /// points). Not positive: they overlap, by minus it (the depth: every
-/// face of the Minkowski difference has one of these normals). None for
-/// other shapes.
-pub fn largest_separation(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, V3, V3, V3)> {
-    let identity = Relative {
-        translation: V3::zeros(),
-        rotation: nalgebra::Matrix3::identity(),
-    };
-    let pa = Placed::new(a, &identity)?;
-    let pb = Placed::new(b, rel)?;
+/// face of the Minkowski difference has one of these normals).
+fn largest_separation(pa: &Placed, pb: &Placed) -> (f64, V3, V3, V3) {
     // The lowest and highest corner along n: (value, index) each.
     let range = |corners: &[V3], n: &V3| {
         let mut lo = (f64::INFINITY, 0);
@@ -258,14 +268,9 @@ pub fn largest_separation(a: &Shape, b: &Shape, rel: &Relative) -> Option<(f64, 
         Witness::CornerOfA(k) => (pa.corners[k], pa.corners[k] + axis * separation),
         Witness::CornerOfB(k) => (pb.corners[k] - axis * separation, pb.corners[k]),
         Witness::Edges(i, j, k, l) => {
-            let (p, q, r, s) = (pa.corners[i], pa.corners[j], pb.corners[k], pb.corners[l]);
-            let (centre_a, half_a) = (0.5 * (p + q), 0.5 * (q - p).norm());
-            let (centre_b, half_b) = (0.5 * (r + s), 0.5 * (s - r).norm());
-            let (u, v) = ((q - p) / (2.0 * half_a), (s - r) / (2.0 * half_b));
-            let (sa, sb) =
-                closest_segment_parameters(&(centre_b - centre_a), &u, half_a, &v, half_b);
-            (centre_a + u * sa, centre_b + v * sb)
+            let (on_a, on_b, ..) = edge_pair(pa, (i, j), pb, (k, l));
+            (on_a, on_b)
         }
     };
-    Some((separation, axis, point_a, point_b))
+    (separation, axis, point_a, point_b)
 }

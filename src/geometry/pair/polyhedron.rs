@@ -73,8 +73,8 @@ pub fn distance(a: &Shape, b: &Shape, rel: &Relative, opts: &DistanceOptions) ->
 /// features say how far. None for other shapes.
 pub(super) fn distance_by_features(a: &Shape, b: &Shape, rel: &Relative) -> Option<Contact> {
     let (p, q) = (as_polyhedron(a)?, as_polyhedron(b)?);
-    let (separation, axis, point_a, point_b) = super::features::largest_separation(&p, &q, rel)?;
-    let exact = |distance, point_a, point_b, normal| Contact {
+    let (distance, point_a, point_b, normal) = super::features::signed_distance(&p, &q, rel)?;
+    Some(Contact {
         distance,
         point_a,
         point_b,
@@ -82,16 +82,7 @@ pub(super) fn distance_by_features(a: &Shape, b: &Shape, rel: &Relative) -> Opti
         status: Status::Converged { iterations: 0 },
         method: Method::Features,
         warm_start: None,
-    };
-    if separation > 0.0
-        && let Some((distance, point_a, point_b, normal)) =
-            super::features::closest_features(&p, &q, rel)
-    {
-        return Some(exact(distance, point_a, point_b, normal));
-    }
-    // Overlapping, or touching to rounding (a corner on a face: the
-    // separation is then the distance to rounding).
-    Some(exact(separation, point_a, point_b, axis))
+    })
 }
 
 /// A polytope as a polyhedron without rounding (a cuboid as its corners).
