@@ -263,8 +263,8 @@ class Species:
     """A kind of particle: `count` bodies of `shape`, named `name`;
     `mass` (dynamics), `rotation` (False freezes orientations) and
     `sizes`: a distribution of the bodies' scale factors (`Gaussian(0.1)`,
-    ...; drawn from the scene's seed; Monte Carlo stages for every shape,
-    dynamics for spheres only so far)."""
+    ...; drawn from the scene's seed; every stage takes them for every
+    shape)."""
 
     name: str
     shape: Shape

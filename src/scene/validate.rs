@@ -359,27 +359,8 @@ impl Scene {
             Start::Resume(_) => None,
             _ => Some(phi0),
         };
-        let sized_body = (self.species.iter())
-            .find(|s| s.sizes.is_some() && !s.shape.is_sphere())
-            .or_else(|| {
-                let sized = self.species.iter().any(|s| s.sizes.is_some());
-                (self.species.iter()).find(|s| sized && !s.shape.is_sphere())
-            });
         for (i, st) in self.stages.iter().enumerate() {
             let f = |name: &str| format!("stages[{i}].{name}");
-            if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
-                && let Some(body) = sized_body
-            {
-                return bad(
-                    &format!("stages[{i}]"),
-                    format!(
-                        "species \"{}\" ({}) is in a scene with polydisperse sizes: {} stages take sizes for spheres only so far (Monte Carlo stages for every shape)",
-                        body.name,
-                        body.shape.kind().replace('_', " "),
-                        st.kind()
-                    ),
-                );
-            }
             if matches!(st, Stage::Dynamics { .. } | Stage::Jam { .. })
                 && let (Some(cored), Some(curved)) = (cored, curved)
             {

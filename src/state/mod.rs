@@ -107,12 +107,6 @@ pub enum StateError {
     /// A size that is not finite and positive.
     #[error("particle {0} has size {1}: a size is a finite positive scale factor")]
     BadSize(usize, f64),
-    /// Sizes where some species is not a sphere, for a driver that takes
-    /// sizes for spheres only (the dynamics).
-    #[error(
-        "species {0} is not a sphere: the dynamics simulates polydisperse sizes for spheres only so far (Monte Carlo for every shape)"
-    )]
-    SizedNonSphere(String),
 }
 
 /// Particles of several species in a periodic box, with a cell list.

@@ -35,12 +35,14 @@ impl Dynamics {
             return Err(EdmdError::TooFewParticles(n));
         }
         let species = system.species().to_vec();
-        let kinds = kinds_for(&species, options)?;
+        let mut kinds = kinds_for(&species, options)?;
+        let own = body_kinds(&mut kinds, (&species, options), system);
         let mut bodies: Vec<Body> = system
             .particles()
             .iter()
-            .map(|p| {
-                let kind = &kinds[p.species as usize];
+            .zip(&own)
+            .map(|(p, &own)| {
+                let kind = &kinds[own as usize];
                 let gauss = |rng: &mut R| {
                     V3::new(
                         rng.sample(StandardNormal),
@@ -62,6 +64,7 @@ impl Dynamics {
                     orientation: p.orientation,
                     angular_velocity,
                     species: p.species,
+                    kind: own,
                     horizon: f64::INFINITY,
                 }
             })
@@ -69,11 +72,11 @@ impl Dynamics {
         // Zero total momentum, then the exact kinetic energy.
         let total_mass: f64 = bodies
             .iter()
-            .map(|b| 1.0 / kinds[b.species as usize].inverse_mass)
+            .map(|b| 1.0 / kinds[b.kind as usize].inverse_mass)
             .sum();
         let momentum: V3 = bodies
             .iter()
-            .map(|b| b.velocity / kinds[b.species as usize].inverse_mass)
+            .map(|b| b.velocity / kinds[b.kind as usize].inverse_mass)
             .sum();
         let drift = momentum / total_mass;
         let rotors = kinds_rotating(&bodies, &kinds);
@@ -113,8 +116,8 @@ impl Dynamics {
         }
         let largest = 1.0 + margin;
         let species = scaled_species(system.species(), largest);
-        let kinds = kinds_for(&species, options)?;
-        let bodies = bodies_moving(system, velocities, &kinds)?;
+        let mut kinds = kinds_for(&species, options)?;
+        let bodies = bodies_moving(system, velocities, (&species, options), &mut kinds)?;
         let growth = Growth {
             scale: 1.0 / largest,
             rate: rate / largest,
@@ -139,8 +142,8 @@ impl Dynamics {
             return Err(EdmdError::TooFewParticles(n));
         }
         let species = system.species().to_vec();
-        let kinds = kinds_for(&species, options)?;
-        let bodies = bodies_moving(system, velocities, &kinds)?;
+        let mut kinds = kinds_for(&species, options)?;
+        let bodies = bodies_moving(system, velocities, (&species, options), &mut kinds)?;
         let mut dynamics = Self::assemble(system, species, kinds, bodies, options, 0.0, None)?;
         dynamics.origin = time;
         dynamics.collisions = collisions;
@@ -193,7 +196,7 @@ impl Dynamics {
         if n < 2 {
             return Err(EdmdError::TooFewParticles(n));
         }
-        let kinds = kinds_for(species, options)?;
+        let mut kinds = kinds_for(species, options)?;
         let bad = |why: String| EdmdError::BadDump(why);
         if !(dump.now.is_finite() && dump.time_origin.is_finite()) {
             return Err(bad(format!(
@@ -248,6 +251,7 @@ impl Dynamics {
                 orientation: UnitQuaternion::new_unchecked(q),
                 angular_velocity,
                 species: b.species,
+                kind: u32::from(b.species),
                 horizon: f64::INFINITY,
             });
         }
@@ -262,6 +266,20 @@ impl Dynamics {
                     g.rate
                 )));
             }
+        }
+        if let Some(sizes) = &dump.sizes
+            && sizes.len() != n
+        {
+            return Err(bad(format!("{} sizes for {n} bodies", sizes.len())));
+        }
+        let own = own_kinds(
+            &mut kinds,
+            (species, options),
+            dump.sizes.as_deref(),
+            &bodies,
+        );
+        for (b, own) in bodies.iter_mut().zip(own) {
+            b.kind = own;
         }
         let particles = particles_at(&box_, &kinds, &bodies, dump.now);
         // Growing bodies have their size now in the state; the dynamics
@@ -332,28 +350,36 @@ impl Dynamics {
     ) -> Result<Self, EdmdError> {
         let n = bodies.len();
         let sizes = system.sizes().map(<[f64]>::to_vec);
-        if sizes.is_some()
-            && let Some(s) = species.iter().find(|s| !s.shape.is_sphere())
-        {
-            return Err(crate::state::StateError::SizedNonSphere(s.name.clone()).into());
-        }
+        let ns = species.len();
+        let spheres_only = species.iter().all(|s| s.shape.is_sphere());
+        // What the neighbour structures must hold: each species' largest
+        // body.
+        let largest: Vec<Shape> = match &sizes {
+            Some(sizes) => species_at_largest(&species, bodies.iter().map(|b| b.species), sizes)
+                .into_iter()
+                .map(|s| s.shape)
+                .collect(),
+            None => kinds[..ns].iter().map(|k| k.shape).collect(),
+        };
         let body_radii = match &sizes {
-            Some(sizes) => {
-                let at_largest =
-                    species_at_largest(&species, bodies.iter().map(|b| b.species), sizes);
-                for (kind, s) in kinds.iter_mut().zip(at_largest) {
-                    kind.shape = s.shape;
+            Some(sizes) if spheres_only => {
+                for (kind, shape) in kinds.iter_mut().zip(&largest) {
+                    kind.shape = *shape;
                 }
                 (bodies.iter().zip(sizes))
                     .map(|(b, f)| species[b.species as usize].shape.bounding_radius() * f)
                     .collect()
             }
+            // Each body's kind is at its size.
+            Some(_) => bodies
+                .iter()
+                .map(|b| kinds[b.kind as usize].shape.bounding_radius())
+                .collect(),
             None => Vec::new(),
         };
         let rotors = kinds_rotating(&bodies, &kinds);
         let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
         let rotating = rotors > 0;
-        let ns = species.len();
         let contact_sums: Vec<Option<f64>> = (0..ns * ns)
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
             .collect();
@@ -365,18 +391,17 @@ impl Dynamics {
         }
         let shell = options.neighbour_shell.unwrap_or(0.0);
         // Spheres keep spheres; any other system gets oriented boxes.
-        let box_regions =
-            options.neighbour_shell.is_some() && kinds.iter().any(|k| !k.shape.is_sphere());
-        let box_half: Vec<V3> = kinds
+        let box_regions = options.neighbour_shell.is_some() && !spheres_only;
+        let box_half: Vec<V3> = largest
             .iter()
-            .map(|k| k.shape.obb_half_extents().add_scalar(shell))
+            .map(|shape| shape.obb_half_extents().add_scalar(shell))
             .collect();
         let reach: Vec<f64> = if box_regions {
             box_half.iter().map(|h| h.norm()).collect()
         } else {
-            kinds
+            largest
                 .iter()
-                .map(|k| k.shape.bounding_radius() + shell)
+                .map(|shape| shape.bounding_radius() + shell)
                 .collect()
         };
         let range = 2.0 * reach.iter().copied().fold(0.0, f64::max);
@@ -714,9 +739,11 @@ pub(super) fn scaled_species(species: &[Species], scale: f64) -> Vec<Species> {
 fn bodies_moving(
     system: &System,
     velocities: &[(V3, V3)],
-    kinds: &[Kind],
+    species: (&[Species], &DynamicsOptions),
+    kinds: &mut Vec<Kind>,
 ) -> Result<Vec<Body>, EdmdError> {
     let n = system.len();
+    let own = body_kinds(kinds, species, system);
     if velocities.len() != n
         || velocities
             .iter()
@@ -732,23 +759,85 @@ fn bodies_moving(
         .particles()
         .iter()
         .zip(velocities)
-        .map(|(p, (v, w))| Body {
+        .zip(own)
+        .map(|((p, (v, w)), own)| Body {
             position: p.position,
             velocity: *v,
             time: 0.0,
             orientation: p.orientation,
             angular_velocity: *w,
             species: p.species,
+            kind: own,
             horizon: f64::INFINITY,
         })
         .collect())
+}
+
+/// [`own_kinds`] for the bodies of `system`.
+fn body_kinds(
+    kinds: &mut Vec<Kind>,
+    species: (&[Species], &DynamicsOptions),
+    system: &System,
+) -> Vec<u32> {
+    let of: Vec<u16> = system.particles().iter().map(|p| p.species).collect();
+    own_kinds_of(kinds, species, system.sizes(), &of)
+}
+
+/// [`own_kinds_of`] for dumped bodies.
+fn own_kinds(
+    kinds: &mut Vec<Kind>,
+    species: (&[Species], &DynamicsOptions),
+    sizes: Option<&[f64]>,
+    bodies: &[Body],
+) -> Vec<u32> {
+    let of: Vec<u16> = bodies.iter().map(|b| b.species).collect();
+    own_kinds_of(kinds, species, sizes, &of)
+}
+
+/// Each body's index in `kinds`: its species', except where sizes meet a
+/// shape that is not a sphere (then the closed forms of spheres are not
+/// used): each body not at its species' size gets a kind of its own
+/// appended: its species' shape scaled by its size, the mass kept, and
+/// the moments of that shape and mass. Polydisperse spheres alone keep
+/// their species' kinds and their radii (`body_radii`).
+fn own_kinds_of(
+    kinds: &mut Vec<Kind>,
+    (species, options): (&[Species], &DynamicsOptions),
+    sizes: Option<&[f64]>,
+    of: &[u16],
+) -> Vec<u32> {
+    let shared = || of.iter().map(|&s| u32::from(s)).collect();
+    let Some(sizes) = sizes else {
+        return shared();
+    };
+    if species.iter().all(|s| s.shape.is_sphere()) {
+        return shared();
+    }
+    of.iter()
+        .zip(sizes)
+        .map(|(&s, &f)| {
+            if f == 1.0 {
+                return u32::from(s);
+            }
+            let kind = &kinds[s as usize];
+            let shape = kind.shape.scaled(f);
+            let mass = options.masses.get(s as usize).copied().unwrap_or(1.0);
+            let own = Kind {
+                shape,
+                moments: top_moments(&shape, mass, options.true_inertia),
+                ..kind.clone()
+            };
+            kinds.push(own);
+            u32::try_from(kinds.len() - 1).expect("fewer than 2^32 bodies")
+        })
+        .collect()
 }
 
 /// How many bodies rotate.
 pub(super) fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
     bodies
         .iter()
-        .filter(|b| kinds[b.species as usize].rotates)
+        .filter(|b| kinds[b.kind as usize].rotates)
         .count()
 }
 

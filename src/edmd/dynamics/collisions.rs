@@ -167,10 +167,7 @@ impl Dynamics {
         d: &V3,
     ) -> Result<(V3, V3), EdmdError> {
         let (bi, bj) = (self.bodies[i], self.bodies[j]);
-        let (ki, kj) = (
-            &self.kinds[bi.species as usize],
-            &self.kinds[bj.species as usize],
-        );
+        let (ki, kj) = (&self.kinds[bi.kind as usize], &self.kinds[bj.kind as usize]);
         // Growing bodies: the unscaled shapes at the separation over the
         // scale, as the prediction solved them; lengths scaled back.
         let scale = self.scale_now();

@@ -193,7 +193,7 @@ impl Dynamics {
         axes: &[Matrix3<f64>],
     ) -> f64 {
         let b = &self.bodies[i];
-        let kind = &self.kinds[b.species as usize];
+        let kind = &self.kinds[b.kind as usize];
         let (r, q) = self.pose_by(i, top, t);
         let axes = &axes[i];
         let h = kind
@@ -219,7 +219,7 @@ impl Dynamics {
         axes: &[Matrix3<f64>],
     ) -> f64 {
         let b = &self.bodies[i];
-        let kind = &self.kinds[b.species as usize];
+        let kind = &self.kinds[b.kind as usize];
         let along = axes[i].tr_mul(&b.velocity).abs().max();
         let top = &self.tops[i];
         let rate = along + top.max_angular_speed() * kind.shape.moment_arm();
@@ -244,7 +244,7 @@ impl Dynamics {
     pub(super) fn relative_size(&self, i: usize) -> f64 {
         match self.body_radii.get(i) {
             Some(r) => {
-                r / self.kinds[self.bodies[i].species as usize]
+                r / self.kinds[self.bodies[i].kind as usize]
                     .shape
                     .bounding_radius()
             }
@@ -258,7 +258,7 @@ impl Dynamics {
     /// the turned body), with the axis and side.
     pub(super) fn wall_gap_at(&self, (i, top): (usize, &FreeTop), t: f64) -> (f64, usize, bool) {
         let b = &self.bodies[i];
-        let kind = &self.kinds[b.species as usize];
+        let kind = &self.kinds[b.kind as usize];
         let (r, q) = self.pose_by(i, top, t);
         let (up, down) = kind.shape.lab_extents(&q.to_rotation_matrix().into_inner());
         let scale = self.relative_size(i) * self.growth.map_or(1.0, |g| g.at(t));
@@ -291,7 +291,7 @@ impl Dynamics {
             Some(g) => t_end.min(g.ends()),
         };
         let b = &self.bodies[i];
-        let kind = &self.kinds[b.species as usize];
+        let kind = &self.kinds[b.kind as usize];
         let half = self.box_.lengths() * 0.5;
         let walls = self.box_.walls();
         if !kind.rotates || b.angular_velocity == V3::zeros() {
@@ -387,7 +387,7 @@ impl Dynamics {
     pub(super) fn hit_wall(&mut self, i: usize, axis: usize, up: bool) -> Result<(), EdmdError> {
         self.advance(i);
         let b = self.bodies[i];
-        let kind = &self.kinds[b.species as usize];
+        let kind = &self.kinds[b.kind as usize];
         let normal = V3::ith(axis, if up { 1.0 } else { -1.0 });
         let scale = self.scale_now();
         let arm = b.orientation

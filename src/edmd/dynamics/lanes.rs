@@ -38,7 +38,7 @@ impl Dynamics {
         // the same bits).
         let at_now = self.bodies[i].time == self.now;
         let sigma = |j| self.sigma(i, j);
-        let one_sum = self.kinds.len() == 1 && self.body_radii.is_empty();
+        let one_sum = self.species.len() == 1 && self.body_radii.is_empty();
         match (at_now, one_sum, self.box_.is_tilted()) {
             (_, _, true) => {
                 self.earliest_in_lanes::<false, true>(i, lanes, &keep, &mut horizon, sigma)

@@ -217,6 +217,9 @@ struct Body {
     /// Lab frame.
     angular_velocity: V3,
     species: u16,
+    /// Its index in `kinds`: its species', or with sizes of a shape that
+    /// is not a sphere one of its own.
+    kind: u32,
 }
 
 // Two cache lines, the first all a sphere search reads of a partner.
@@ -329,15 +332,16 @@ pub struct Dynamics {
     kinds: Vec<Kind>,
     /// Closed-form contact distance per species pair (spheres), else None.
     contact_sums: Vec<Option<f64>>,
-    /// Polydisperse spheres: each body's size, the scale factor of its
+    /// Polydisperse bodies: each body's size, the scale factor of its
     /// species' shape (as [`crate::state::System::sizes`]); `None` where every body has
     /// its species' size.
     sizes: Option<Vec<f64>>,
-    /// With `sizes`: each body's radius at its species' full size, whose
-    /// sums are the pairs' contact distances in place of `contact_sums`.
-    /// The kinds' shapes are then their species' largest bodies', so that
-    /// cells, neighbour spheres and bounds hold for every body. Empty
-    /// without sizes.
+    /// With `sizes`: each body's bounding radius at its species' full
+    /// size, whose sums are the contact distances of the pairs of spheres
+    /// in place of `contact_sums`. With spheres alone the kinds' shapes
+    /// are then their species' largest bodies', so that cells, neighbour
+    /// spheres and bounds hold for every body; among other shapes each
+    /// body has a kind at its own size. Empty without sizes.
     body_radii: Vec<f64>,
     /// Every pair in closed form (spheres only): a contact time is exact
     /// whenever it is found, so searches need no horizon, and a body that
@@ -498,7 +502,7 @@ impl Dynamics {
 /// A body's free rotation since its stored time.
 #[inline]
 fn body_spin(kinds: &[Kind], b: &Body) -> FreeTop {
-    kinds[b.species as usize].spin(&b.orientation, &b.angular_velocity)
+    kinds[b.kind as usize].spin(&b.orientation, &b.angular_velocity)
 }
 
 #[cfg(test)]

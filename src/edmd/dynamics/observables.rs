@@ -183,7 +183,7 @@ impl Dynamics {
         if velocities.len() != self.bodies.len()
             || velocities.iter().enumerate().any(|(i, (v, w))| {
                 !(v.iter().all(|x| x.is_finite()) && w.iter().all(|x| x.is_finite()))
-                    || (!self.kinds[self.bodies[i].species as usize].rotates && *w != V3::zeros())
+                    || (!self.kinds[self.bodies[i].kind as usize].rotates && *w != V3::zeros())
             })
         {
             return Err(EdmdError::BadVelocities(self.bodies.len()));
@@ -212,7 +212,7 @@ impl Dynamics {
     pub fn momentum(&self) -> V3 {
         self.bodies
             .iter()
-            .map(|b| b.velocity / self.kinds[b.species as usize].inverse_mass)
+            .map(|b| b.velocity / self.kinds[b.kind as usize].inverse_mass)
             .sum()
     }
 
@@ -233,7 +233,7 @@ impl Dynamics {
             let dt = self.now - b.time;
             let centre = position_after(&b.position, &b.velocity, dt) + image;
             let axis = self.molecular_axes[b.species as usize].map(|u| {
-                self.kinds[b.species as usize]
+                self.kinds[b.kind as usize]
                     .spin(&b.orientation, &b.angular_velocity)
                     .orientation_after(dt)
                     * u
@@ -462,7 +462,7 @@ pub(super) fn kinetic_tensor(bodies: &[Body], kinds: &[Kind]) -> SymmetricTensor
         t.add_outer(
             &b.velocity,
             &b.velocity,
-            1.0 / kinds[b.species as usize].inverse_mass,
+            1.0 / kinds[b.kind as usize].inverse_mass,
         );
     }
     t
@@ -498,7 +498,7 @@ pub(super) fn degrees_of_freedom(box_: &PeriodicBox, n: usize, rotors: usize) ->
 
 /// Kinetic energy of one body (spherical top).
 pub(super) fn body_energy(b: &Body, kinds: &[Kind]) -> f64 {
-    let k = &kinds[b.species as usize];
+    let k = &kinds[b.kind as usize];
     let rot = k.rotational_energy(&b.orientation, &b.angular_velocity);
     0.5 * b.velocity.norm_squared() / k.inverse_mass + rot
 }

@@ -203,10 +203,11 @@ impl Dynamics {
     /// spheres: their species' table, or with sizes their own radii.
     #[inline(always)]
     pub(super) fn contact_sum(&self, i: usize, j: usize) -> Option<f64> {
+        let sum = self.contact_sums[self.pair_index(i, j)];
         if self.body_radii.is_empty() {
-            self.contact_sums[self.pair_index(i, j)]
+            sum
         } else {
-            Some(self.body_radii[i] + self.body_radii[j])
+            sum.map(|_| self.body_radii[i] + self.body_radii[j])
         }
     }
 
@@ -250,14 +251,14 @@ impl Dynamics {
     /// `contact_sums`.
     #[inline]
     pub(super) fn pair_index(&self, i: usize, j: usize) -> usize {
-        self.species_of(i) * self.kinds.len() + self.species_of(j)
+        self.species_of(i) * self.species.len() + self.species_of(j)
     }
 
     /// Body `k`'s species; with one species, without reading the body's
     /// second cache line, which spheres need for nothing else.
     #[inline]
     pub(super) fn species_of(&self, k: usize) -> usize {
-        if self.kinds.len() == 1 {
+        if self.species.len() == 1 {
             0
         } else {
             self.bodies[k].species as usize
@@ -423,10 +424,7 @@ impl Dynamics {
                 Found::Apart
             });
         }
-        let (ka, kb) = (
-            &self.kinds[ba.species as usize],
-            &self.kinds[bb.species as usize],
-        );
+        let (ka, kb) = (&self.kinds[ba.kind as usize], &self.kinds[bb.kind as usize]);
         if !Predictor::bounding_spheres_meet(&ka.shape, &kb.shape, d, dv, horizon - t0) {
             return Ok(Found::Apart);
         }
