@@ -236,10 +236,25 @@ fn largest_separation(pa: &Placed, pb: &Placed) -> (f64, V3, V3, V3) {
         let ((a_lo, a_hi), (b_lo, b_hi)) = (range(pa.corners(), n), range(pb.corners(), n));
         let (up, down) = (b_lo.0 - a_hi.0, a_lo.0 - b_hi.0);
         let edge_witness = edges.map(|(i, j, k, l)| Witness::Edges(i, j, k, l));
-        if up > best.0 {
+        // An edge pair's axis is a face of the Minkowski difference only
+        // where both edges are the extreme features along it: a parallel
+        // edge elsewhere (a cube has four along each axis) gives the same
+        // axis and separation but its own, wrong, closest points, so the
+        // axis is taken from the supporting pair alone.
+        let rounding = 1e-9 * (a_hi.0 - a_lo.0 + b_hi.0 - b_lo.0);
+        let at = |corners: &[V3], (i, j): (usize, usize), level: f64| {
+            (corners[i].dot(n) - level).abs() <= rounding
+                && (corners[j].dot(n) - level).abs() <= rounding
+        };
+        let supports = |a_level: f64, b_level: f64| {
+            edges.is_none_or(|(i, j, k, l)| {
+                at(&pa.corners, (i, j), a_level) && at(&pb.corners, (k, l), b_level)
+            })
+        };
+        if up > best.0 && supports(a_hi.0, b_lo.0) {
             best = (up, *n, edge_witness.unwrap_or(Witness::CornerOfB(b_lo.1)));
         }
-        if down > best.0 {
+        if down > best.0 && supports(a_lo.0, b_hi.0) {
             let corner = if of_b {
                 Witness::CornerOfA(a_lo.1)
             } else {

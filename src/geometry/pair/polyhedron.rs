@@ -320,4 +320,51 @@ mod tests {
         }
         eprintln!("{short} of 400 by features");
     }
+
+    /// Two cubes of corners crossing edge to edge, touching to 1e-12 or
+    /// overlapping by it: the features put the contact on the crossing of
+    /// the two touching edges, where the cuboid kernel puts it, and not on
+    /// an edge parallel to one of them (a cube has four along each axis,
+    /// each giving the same separating axis).
+    #[test]
+    fn crossing_edges_touch_where_they_cross() {
+        let cube: Shape = "Cube(edge: 1.0)".parse().unwrap();
+        let cuboid: Shape = "Cuboid(a: 0.5, b: 0.5, c: 0.5)".parse().unwrap();
+        let r = std::f64::consts::FRAC_1_SQRT_2;
+        // A's edge along y at x = 0.5, z = -0.5, its outward bisector n;
+        // B's edge along x at y = z = -0.5 (body frame), turned to run
+        // along (1, 0, 1)/√2 with its own bisector along -n.
+        let n = Vector3::new(r, 0.0, -r);
+        let body = nalgebra::Matrix3::from_columns(&[
+            Vector3::x(),
+            Vector3::new(0.0, r, r),
+            Vector3::new(0.0, -r, r),
+        ]);
+        let lab = nalgebra::Matrix3::from_columns(&[Vector3::new(r, 0.0, r), n, Vector3::y()]);
+        let turn = UnitQuaternion::from_matrix(&(lab * body.transpose()));
+        for (y0, s0) in [(0.2, 0.1), (-0.3, -0.35), (0.45, 0.0)] {
+            let on_a = Vector3::new(0.5, y0, -0.5);
+            for gap in [-1e-12, 0.0, 1e-12] {
+                let centre = on_a + n * gap - turn * Vector3::new(s0, -0.5, -0.5);
+                let rel = Relative::new(&centre, &UnitQuaternion::identity(), &turn);
+                let exact = super::super::distance(
+                    &cuboid,
+                    &cuboid,
+                    &rel,
+                    &DistanceOptions::default(),
+                    None,
+                );
+                let f = distance_by_features(&cube, &cube, &rel).unwrap();
+                let case = format!("edge at y = {y0}, gap {gap:e}");
+                assert!((f.distance - gap).abs() < 1e-13, "{case}: {}", f.distance);
+                assert!((f.normal - n).norm() < 1e-9, "{case}: {:?}", f.normal);
+                assert!((f.point_a - on_a).norm() < 1e-9, "{case}: {:?}", f.point_a);
+                assert!(
+                    (exact.point_a - on_a).norm() < 1e-9,
+                    "{case}: cuboid {:?}",
+                    exact.point_a
+                );
+            }
+        }
+    }
 }
