@@ -145,6 +145,33 @@ fn setups(quick: bool) -> Vec<Setup> {
             aspect: None,
             exponent: None,
         },
+        // The shapes of the polytope kernels: the same cubes given by
+        // their corners (against the row above), regular tetrahedra, and
+        // spherocylinders as long as they are wide.
+        plain(
+            "cubes of corners",
+            "Cube(edge: 1.0)",
+            n(1000, 216),
+            0.5,
+            Start::Lattice,
+            5000 / scale,
+        ),
+        plain(
+            "tetrahedra",
+            "Tetrahedron(edge: 1.0)",
+            n(1000, 216),
+            0.45,
+            Start::Compressed,
+            5000 / scale,
+        ),
+        plain(
+            "spherocylinders, L/D 1",
+            "Spherocylinder(radius: 0.5, length: 1.0)",
+            n(1000, 216),
+            0.45,
+            Start::Compressed,
+            5000 / scale,
+        ),
     ]
 }
 

@@ -100,6 +100,30 @@ impl Face {
     }
 }
 
+/// The classes of parallel edges of a hull with corners `vertices`: per
+/// edge its class, and per class its first edge. Edges are parallel where
+/// the sine of their angle is below 1e-12 (a solid's exact parallels
+/// differ by rounding only).
+fn parallel_classes(vertices: &[V3], edges: &[(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
+    let direction = |&(a, b): &(usize, usize)| (vertices[b] - vertices[a]).normalize();
+    let mut classes = Vec::with_capacity(edges.len());
+    let mut firsts: Vec<usize> = Vec::new();
+    for e in edges {
+        let u = direction(e);
+        match firsts
+            .iter()
+            .position(|&f| u.cross(&direction(&edges[f])).norm() < 1e-12)
+        {
+            Some(class) => classes.push(class),
+            None => {
+                classes.push(firsts.len());
+                firsts.push(classes.len() - 1);
+            }
+        }
+    }
+    (classes, firsts)
+}
+
 /// A convex polyhedron, the uniform solid hull of its vertices, with the
 /// body origin at its centroid (the points given are shifted by their
 /// solid's centroid; see [`Polyhedron::shift`]).
@@ -113,6 +137,11 @@ pub struct Polyhedron {
     vertices: Vec<V3>,
     faces: Vec<Face>,
     edges: Vec<(usize, usize)>,
+    /// Per edge, the index of its direction among the hull's distinct
+    /// edge directions (parallel edges share one: a cube's twelve have
+    /// three), and per direction its first edge.
+    edge_directions: Vec<usize>,
+    direction_edges: Vec<usize>,
     shift: V3,
     volume: f64,
     area: f64,
@@ -220,12 +249,15 @@ impl Polyhedron {
                 ..f
             })
             .collect();
+        let (edge_directions, direction_edges) = parallel_classes(&vertices, &edges);
         let mut polyhedron = Self {
             given: points.to_vec(),
             named: None,
             vertices,
             faces,
             edges,
+            edge_directions,
+            direction_edges,
             shift: -centroid,
             volume,
             area: 0.0,
@@ -272,6 +304,17 @@ impl Polyhedron {
     /// The hull's edges, as pairs of vertex indices (smaller first).
     pub fn edges(&self) -> &[(usize, usize)] {
         &self.edges
+    }
+
+    /// Per edge, the index of its direction among the hull's distinct
+    /// edge directions (edges parallel to 1e-12 share one).
+    pub fn edge_directions(&self) -> &[usize] {
+        &self.edge_directions
+    }
+
+    /// Per distinct edge direction, the first edge along it.
+    pub fn direction_edges(&self) -> &[usize] {
+        &self.direction_edges
     }
 
     /// What was added to the points given to put the centroid at the

@@ -16,8 +16,10 @@ use crate::geometry::{Relative, Shape};
 
 type V3 = nalgebra::Vector3<f64>;
 
-/// Faces of a hull of at most [`MAX_VERTICES`] corners (Euler: F ≤ 2V − 4).
+/// Faces and edges of a hull of at most [`MAX_VERTICES`] corners (Euler:
+/// F ≤ 2V − 4, E ≤ 3V − 6).
 const MAX_FACES: usize = 2 * MAX_VERTICES;
+const MAX_EDGES: usize = 3 * MAX_VERTICES;
 
 /// A polytope's features placed in A's frame: corners, face planes
 /// (outward unit normal, offset) and edges (corner indices).
@@ -27,6 +29,9 @@ struct Placed {
     planes: [(V3, f64); MAX_FACES],
     n_planes: usize,
     edges: &'static [(usize, usize)],
+    /// Per edge its class of parallel edges, and per class its first.
+    edge_directions: &'static [usize],
+    direction_edges: &'static [usize],
 }
 
 impl Placed {
@@ -46,6 +51,8 @@ impl Placed {
             planes: [(V3::zeros(), 0.0); MAX_FACES],
             n_planes: hull.faces().len().min(MAX_FACES),
             edges: hull.edges(),
+            edge_directions: hull.edge_directions(),
+            direction_edges: hull.direction_edges(),
         };
         for (slot, v) in placed.corners.iter_mut().zip(p.corners()) {
             *slot = rel.b_to_a(&v);
@@ -170,8 +177,23 @@ fn closest_features(pa: &Placed, pb: &Placed, t: &V3) -> Option<(f64, V3, V3, V3
             best = (d, *x, on_b, face.map(|n| -n));
         }
     }
-    for &edge_a in pa.edges {
-        for &edge_b in pb.edges {
+    // Each edge's midpoint and half-length: a pair of edges is no closer
+    // than its midpoints less both half-lengths, so pairs that cannot
+    // beat the best found so far are passed over.
+    let spans = |p: &Placed| {
+        let mut spans = [(V3::zeros(), 0.0); MAX_EDGES];
+        for (span, &(i, j)) in spans.iter_mut().zip(p.edges) {
+            let (x, y) = (p.corners[i], p.corners[j]);
+            *span = (0.5 * (x + y), 0.5 * (y - x).norm());
+        }
+        spans
+    };
+    let (spans_a, spans_b) = (spans(pa), spans(pb));
+    for (&edge_a, &(mid_a, half_a)) in pa.edges.iter().zip(&spans_a) {
+        for (&edge_b, &(mid_b, half_b)) in pb.edges.iter().zip(&spans_b) {
+            if (mid_b - mid_a).norm() - half_a - half_b >= best.0 {
+                continue;
+            }
             let (on_a, on_b, u, v, inside) = edge_pair(pa, edge_a, pb, edge_b);
             let d = (on_b - on_a).norm();
             if d < best.0 {
@@ -230,37 +252,50 @@ fn largest_separation(pa: &Placed, pb: &Placed) -> (f64, V3, V3, V3) {
         Edges(usize, usize, usize, usize),
     }
     let mut best = (f64::NEG_INFINITY, V3::x(), Witness::CornerOfB(0));
+    // The edge of `p` in parallel class `class` whose both ends lie at
+    // `level` along `n`, to rounding.
+    let supporting = |p: &Placed, class: usize, n: &V3, level: f64, rounding: f64| {
+        (p.edges.iter().zip(p.edge_directions))
+            .find(|&(&(i, j), &c)| {
+                c == class
+                    && (p.corners[i].dot(n) - level).abs() <= rounding
+                    && (p.corners[j].dot(n) - level).abs() <= rounding
+            })
+            .map(|(&e, _)| e)
+    };
     // `of_b`: the axis is a face normal of B (outward), so that B's face
-    // faces A where the separation is taken against it.
-    let mut try_axis = |n: &V3, of_b: bool, edges: Option<(usize, usize, usize, usize)>| {
+    // faces A where the separation is taken against it. `classes`: the
+    // axis is across a class of parallel edges of each; it is a face of
+    // the Minkowski difference only where an edge of each class is the
+    // extreme feature along it, and those edges hold the closest points
+    // (any other edge of the class gives the same axis and separation but
+    // points on the far side of the body).
+    let mut try_axis = |n: &V3, of_b: bool, classes: Option<(usize, usize)>| {
         let ((a_lo, a_hi), (b_lo, b_hi)) = (range(pa.corners(), n), range(pb.corners(), n));
         let (up, down) = (b_lo.0 - a_hi.0, a_lo.0 - b_hi.0);
-        let edge_witness = edges.map(|(i, j, k, l)| Witness::Edges(i, j, k, l));
-        // An edge pair's axis is a face of the Minkowski difference only
-        // where both edges are the extreme features along it: a parallel
-        // edge elsewhere (a cube has four along each axis) gives the same
-        // axis and separation but its own, wrong, closest points, so the
-        // axis is taken from the supporting pair alone.
         let rounding = 1e-9 * (a_hi.0 - a_lo.0 + b_hi.0 - b_lo.0);
-        let at = |corners: &[V3], (i, j): (usize, usize), level: f64| {
-            (corners[i].dot(n) - level).abs() <= rounding
-                && (corners[j].dot(n) - level).abs() <= rounding
+        let witness = |a_level: f64, b_level: f64, corner: Witness| match classes {
+            None => Some(corner),
+            Some((ca, cb)) => {
+                let (i, j) = supporting(pa, ca, n, a_level, rounding)?;
+                let (k, l) = supporting(pb, cb, n, b_level, rounding)?;
+                Some(Witness::Edges(i, j, k, l))
+            }
         };
-        let supports = |a_level: f64, b_level: f64| {
-            edges.is_none_or(|(i, j, k, l)| {
-                at(&pa.corners, (i, j), a_level) && at(&pb.corners, (k, l), b_level)
-            })
-        };
-        if up > best.0 && supports(a_hi.0, b_lo.0) {
-            best = (up, *n, edge_witness.unwrap_or(Witness::CornerOfB(b_lo.1)));
+        if up > best.0
+            && let Some(w) = witness(a_hi.0, b_lo.0, Witness::CornerOfB(b_lo.1))
+        {
+            best = (up, *n, w);
         }
-        if down > best.0 && supports(a_lo.0, b_hi.0) {
-            let corner = if of_b {
-                Witness::CornerOfA(a_lo.1)
-            } else {
-                Witness::CornerOfB(b_hi.1)
-            };
-            best = (down, -n, edge_witness.unwrap_or(corner));
+        let corner = if of_b {
+            Witness::CornerOfA(a_lo.1)
+        } else {
+            Witness::CornerOfB(b_hi.1)
+        };
+        if down > best.0
+            && let Some(w) = witness(a_lo.0, b_hi.0, corner)
+        {
+            best = (down, -n, w);
         }
     };
     for (n, _) in pa.planes() {
@@ -269,12 +304,15 @@ fn largest_separation(pa: &Placed, pb: &Placed) -> (f64, V3, V3, V3) {
     for (n, _) in pb.planes() {
         try_axis(n, true, None);
     }
-    for &(i, j) in pa.edges {
-        let u = (pa.corners[j] - pa.corners[i]).normalize();
-        for &(k, l) in pb.edges {
-            let v = (pb.corners[l] - pb.corners[k]).normalize();
-            if let Some(n) = u.cross(&v).try_normalize(1e-6) {
-                try_axis(&n, false, Some((i, j, k, l)));
+    let direction = |p: &Placed, e: usize| {
+        let (i, j) = p.edges[e];
+        (p.corners[j] - p.corners[i]).normalize()
+    };
+    for (ca, &ea) in pa.direction_edges.iter().enumerate() {
+        let u = direction(pa, ea);
+        for (cb, &eb) in pb.direction_edges.iter().enumerate() {
+            if let Some(n) = u.cross(&direction(pb, eb)).try_normalize(1e-6) {
+                try_axis(&n, false, Some((ca, cb)));
             }
         }
     }
