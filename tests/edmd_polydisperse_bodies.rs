@@ -278,7 +278,8 @@ fn virial_pressure(system: &System, seed: u64) -> (f64, f64) {
 /// Boublík's equation of state for mixtures gives (0.957 for the sizes
 /// drawn), within 1 % and three errors, and by more than five errors.
 /// The ratio is compared, not each pressure: the equation itself reads
-/// about 4 % above the dynamics for one size of these rods at this φ.
+/// about 2 % above the dynamics and Monte Carlo for one size of these
+/// rods at this φ.
 #[test]
 fn polydisperse_rods_lower_the_pressure_as_boublik_says() {
     let rod = "Spherocylinder(radius: 0.5, length: 1.0)";

@@ -487,7 +487,7 @@ impl JamRun {
                 }
             };
             // Thermostat: the kinetic energy back to dof kT / 2.
-            let kt = 2.0 * md.kinetic_energy() / md.degrees_of_freedom();
+            let kt = md.temperature();
             let factor = (self.dynamics.temperature / kt).sqrt();
             self.velocities = md
                 .velocities()

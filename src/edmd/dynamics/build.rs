@@ -1,7 +1,7 @@
 //! Building the dynamics: from a state, from its parts or from a dump,
 //! and the first predictions of every event.
 
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
@@ -52,8 +52,13 @@ impl Dynamics {
                 };
                 let velocity = gauss(rng) * (t * kind.inverse_mass).sqrt();
                 // Equipartition about each principal axis, then to the lab.
+                // The spin no collision changes starts at zero: it would
+                // keep its draw for ever.
                 let angular_velocity = if kind.rotates {
-                    p.orientation * gauss(rng).component_mul(&kind.moments.map(|i| (t / i).sqrt()))
+                    p.orientation
+                        * kind.exchanged_spin(
+                            gauss(rng).component_mul(&kind.moments.map(|i| (t / i).sqrt())),
+                        )
                 } else {
                     V3::zeros()
                 };
@@ -79,8 +84,8 @@ impl Dynamics {
             .map(|b| b.velocity / kinds[b.kind as usize].inverse_mass)
             .sum();
         let drift = momentum / total_mass;
-        let rotors = kinds_rotating(&bodies, &kinds);
-        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
+        let rotations = exchanged_rotations(&bodies, &kinds);
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotations);
         for b in &mut bodies {
             b.velocity -= drift;
         }
@@ -377,9 +382,9 @@ impl Dynamics {
                 .collect(),
             None => Vec::new(),
         };
-        let rotors = kinds_rotating(&bodies, &kinds);
-        let dof = degrees_of_freedom(system.periodic_box(), n, rotors);
-        let rotating = rotors > 0;
+        let rotations = exchanged_rotations(&bodies, &kinds);
+        let dof = degrees_of_freedom(system.periodic_box(), n, rotations);
+        let rotating = kinds.iter().any(|k| k.rotates);
         let contact_sums: Vec<Option<f64>> = (0..ns * ns)
             .map(|k| contact_sum(&species[k / ns].shape, &species[k % ns].shape))
             .collect();
@@ -718,21 +723,6 @@ fn keep_box_overlaps<'a>(
     &near[..kept]
 }
 
-/// `species` with their shapes scaled by `scale` (as they are at 1).
-pub(super) fn scaled_species(species: &[Species], scale: f64) -> Vec<Species> {
-    species
-        .iter()
-        .map(|s| Species {
-            shape: if scale == 1.0 {
-                s.shape
-            } else {
-                s.shape.scaled(scale)
-            },
-            ..s.clone()
-        })
-        .collect()
-}
-
 /// The bodies of `system` at rest in their stored poses at time 0, moving
 /// with `velocities` (checked: finite, one pair per body, no spin for
 /// bodies that do not turn).
@@ -771,120 +761,4 @@ fn bodies_moving(
             horizon: f64::INFINITY,
         })
         .collect())
-}
-
-/// [`own_kinds`] for the bodies of `system`.
-fn body_kinds(
-    kinds: &mut Vec<Kind>,
-    species: (&[Species], &DynamicsOptions),
-    system: &System,
-) -> Vec<u32> {
-    let of: Vec<u16> = system.particles().iter().map(|p| p.species).collect();
-    own_kinds_of(kinds, species, system.sizes(), &of)
-}
-
-/// [`own_kinds_of`] for dumped bodies.
-fn own_kinds(
-    kinds: &mut Vec<Kind>,
-    species: (&[Species], &DynamicsOptions),
-    sizes: Option<&[f64]>,
-    bodies: &[Body],
-) -> Vec<u32> {
-    let of: Vec<u16> = bodies.iter().map(|b| b.species).collect();
-    own_kinds_of(kinds, species, sizes, &of)
-}
-
-/// Each body's index in `kinds`: its species', except where sizes meet a
-/// shape that is not a sphere (then the closed forms of spheres are not
-/// used): each body not at its species' size gets a kind of its own
-/// appended: its species' shape scaled by its size, the mass kept, and
-/// the moments of that shape and mass. Polydisperse spheres alone keep
-/// their species' kinds and their radii (`body_radii`).
-fn own_kinds_of(
-    kinds: &mut Vec<Kind>,
-    (species, options): (&[Species], &DynamicsOptions),
-    sizes: Option<&[f64]>,
-    of: &[u16],
-) -> Vec<u32> {
-    let shared = || of.iter().map(|&s| u32::from(s)).collect();
-    let Some(sizes) = sizes else {
-        return shared();
-    };
-    if species.iter().all(|s| s.shape.is_sphere()) {
-        return shared();
-    }
-    of.iter()
-        .zip(sizes)
-        .map(|(&s, &f)| {
-            if f == 1.0 {
-                return u32::from(s);
-            }
-            let kind = &kinds[s as usize];
-            let shape = kind.shape.scaled(f);
-            let mass = options.masses.get(s as usize).copied().unwrap_or(1.0);
-            let own = Kind {
-                shape,
-                moments: top_moments(&shape, mass, options.true_inertia),
-                ..kind.clone()
-            };
-            kinds.push(own);
-            u32::try_from(kinds.len() - 1).expect("fewer than 2^32 bodies")
-        })
-        .collect()
-}
-
-/// How many bodies rotate.
-pub(super) fn kinds_rotating(bodies: &[Body], kinds: &[Kind]) -> usize {
-    bodies
-        .iter()
-        .filter(|b| kinds[b.kind as usize].rotates)
-        .count()
-}
-
-/// The principal moments of inertia (along the body axes) a body of
-/// `shape` and `mass` turns with: with `true_inertia` its own, else a
-/// spherical top with the mean moment (De Michele, eqs. 4–6).
-pub fn top_moments(shape: &Shape, mass: f64, true_inertia: bool) -> V3 {
-    let principal = shape.inertia_tensor(mass).diagonal();
-    if true_inertia {
-        principal
-    } else {
-        V3::repeat(principal.sum() / 3.0)
-    }
-}
-
-/// The per-species dynamics data, checked against the options.
-pub(super) fn kinds_for(
-    species: &[Species],
-    options: &DynamicsOptions,
-) -> Result<Vec<Kind>, EdmdError> {
-    let masses = if options.masses.is_empty() {
-        vec![1.0; species.len()]
-    } else {
-        options.masses.clone()
-    };
-    if masses.len() != species.len() || masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
-        return Err(EdmdError::BadMasses {
-            species: species.len(),
-            masses: options.masses.clone(),
-        });
-    }
-    let mut kinds = Vec::with_capacity(species.len());
-    for (s, &m) in species.iter().zip(&masses) {
-        let tensor = s.shape.inertia_tensor(m);
-        let off_diagonal = (tensor - Matrix3::from_diagonal(&tensor.diagonal()))
-            .abs()
-            .max();
-        if options.true_inertia && off_diagonal > 1e-12 * tensor.trace() {
-            return Err(EdmdError::NotPrincipalAxes(s.name.clone()));
-        }
-        let moments = top_moments(&s.shape, m, options.true_inertia);
-        kinds.push(Kind {
-            shape: s.shape,
-            inverse_mass: 1.0 / m,
-            rotates: s.rotation,
-            moments,
-        });
-    }
-    Ok(kinds)
 }

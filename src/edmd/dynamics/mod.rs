@@ -3,8 +3,10 @@
 //! collision, cell crossing or wall contact, and only the bodies involved
 //! are advanced, changed and re-predicted (De Michele Sec. 2.7).
 //!
-//! - `mod.rs`: the [`Dynamics`] state, its bodies and kinds, the options;
+//! - `mod.rs`: the [`Dynamics`] state, its bodies, the options;
 //! - `build.rs`: construction from a state, from parts or from a dump;
+//! - `kinds.rs`: what is kept per kind of body (shape, mass, moments, the
+//!   spins no collision changes);
 //! - `error.rs`: what can go wrong, [`EdmdError`];
 //! - `events.rs`: the event loop;
 //! - `collisions.rs`: contact and impulse of a colliding pair;
@@ -18,13 +20,15 @@ mod collisions;
 mod crossings;
 mod error;
 mod events;
+mod kinds;
 mod lanes;
 mod observables;
 mod scheduling;
 
-pub use build::top_moments;
 use build::*;
 pub use error::EdmdError;
+pub use kinds::top_moments;
+use kinds::*;
 #[cfg(test)]
 use lanes::*;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -224,48 +228,6 @@ struct Body {
 
 // Two cache lines, the first all a sphere search reads of a partner.
 const _: () = assert!(std::mem::size_of::<Body>() == 128);
-
-/// Per species: what the dynamics needs to know.
-#[derive(Debug, Clone, PartialEq)]
-struct Kind {
-    shape: Shape,
-    inverse_mass: f64,
-    /// Whether the species turns.
-    rotates: bool,
-    /// Principal moments of inertia along the body axes: all equal (the
-    /// mean of the body's) for a spherical top, else the body's own.
-    moments: V3,
-}
-
-impl Kind {
-    /// The free rotation of a body of this kind with orientation `q` and
-    /// lab angular velocity `omega` (zero for kinds that do not turn).
-    #[inline]
-    fn spin(&self, q: &UnitQuaternion<f64>, omega: &V3) -> FreeTop {
-        if !self.rotates {
-            return FreeTop::new(self.moments, *q, V3::zeros());
-        }
-        FreeTop::new(self.moments, *q, *omega)
-    }
-
-    /// I⁻¹ in the lab frame at orientation `q`.
-    fn inverse_inertia(&self, q: &UnitQuaternion<f64>) -> Matrix3<f64> {
-        if !self.rotates {
-            return Matrix3::zeros();
-        }
-        let r = q.to_rotation_matrix().into_inner();
-        r * Matrix3::from_diagonal(&self.moments.map(|m| 1.0 / m)) * r.transpose()
-    }
-
-    /// ½ ω·I ω.
-    fn rotational_energy(&self, q: &UnitQuaternion<f64>, omega: &V3) -> f64 {
-        if !self.rotates {
-            return 0.0;
-        }
-        let body = q.inverse_transform_vector(omega);
-        0.5 * body.component_mul(&body).dot(&self.moments)
-    }
-}
 
 /// One body as the dynamics stores it: the pose at its own time (not the
 /// common time), and its velocities.

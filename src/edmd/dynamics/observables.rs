@@ -216,10 +216,22 @@ impl Dynamics {
             .sum()
     }
 
-    /// Degrees of freedom (translations, rotations, minus the three of the
-    /// fixed total momentum).
+    /// Degrees of freedom (translations, the rotations collisions exchange,
+    /// minus the three of the fixed total momentum): a body of revolution
+    /// turns with two, a sphere with none (see [`Dynamics::temperature`]).
     pub fn degrees_of_freedom(&self) -> f64 {
         self.degrees_of_freedom
+    }
+
+    /// kT: twice the kinetic energy of the degrees of freedom over their
+    /// number. The spin of a body of revolution about its axis (of a
+    /// sphere, all its spin) is left out: no collision changes it, so it
+    /// keeps whatever it started with and is no part of the equilibrium.
+    pub fn temperature(&self) -> f64 {
+        let frozen: f64 = (self.bodies.iter())
+            .map(|b| self.kinds[b.kind as usize].frozen_energy(&b.orientation, &b.angular_velocity))
+            .sum();
+        2.0 * (self.kinetic_energy() - frozen) / self.degrees_of_freedom
     }
 
     /// The particles at the current time, positions wrapped into the box.
@@ -381,7 +393,7 @@ impl Dynamics {
         self.accumulate_kinetic();
         let iv = self.interval;
         let dt = self.now - iv.start;
-        let kt = 2.0 * self.kinetic_energy() / self.degrees_of_freedom;
+        let kt = self.temperature();
         let pressure_tensor = iv
             .stress
             .filter(|_| dt > 0.0 && !self.box_.has_walls())
@@ -488,12 +500,12 @@ pub(super) fn particles_at(
         .collect()
 }
 
-/// Degrees of freedom of `n` bodies, `rotors` of them turning: total
-/// momentum is conserved (and zero) along each periodic axis only; walls
-/// exchange momentum with the bodies.
-pub(super) fn degrees_of_freedom(box_: &PeriodicBox, n: usize, rotors: usize) -> f64 {
+/// Degrees of freedom of `n` bodies whose collisions exchange `rotations`
+/// rotational ones: total momentum is conserved (and zero) along each
+/// periodic axis only; walls exchange momentum with the bodies.
+pub(super) fn degrees_of_freedom(box_: &PeriodicBox, n: usize, rotations: usize) -> f64 {
     let periodic = box_.walls().iter().filter(|&&w| !w).count();
-    (3 * n - periodic + 3 * rotors) as f64
+    (3 * n - periodic + rotations) as f64
 }
 
 /// Kinetic energy of one body (spherical top).
