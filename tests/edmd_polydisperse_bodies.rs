@@ -7,9 +7,12 @@
 //! Boublík's equation for mixtures gives; and polydisperse cubes grow
 //! into an overlap-free packing.
 
+mod common;
+
+use common::polydisperse::{boublik_pressure, overlapping_pair};
 use hardbody::edmd::jam::{JamEnd, JamOptions, jam};
 use hardbody::edmd::{Dynamics, DynamicsOptions};
-use hardbody::geometry::{DistanceOptions, Relative, Shape, distance, overlap};
+use hardbody::geometry::Shape;
 use hardbody::mc::compress::{CompressOptions, compress};
 use hardbody::mc::moves::MoveSizes;
 use hardbody::space::PeriodicBox;
@@ -81,36 +84,6 @@ fn fluid(shapes: &[&str], counts: &[usize], phi: f64, seed: u64, sized: bool) ->
     .unwrap();
     compress(&mut system, MOVES, &CompressOptions::to(phi), &mut rng).unwrap();
     system
-}
-
-/// The first pair of `system` that overlaps at the bodies' own sizes, by
-/// the pair kernel on every pair of shapes scaled here, deeper than 10⁻⁹
-/// of the smaller body's smallest half-extent (the pair of a collision
-/// just made touches to round-off either way).
-fn overlapping_pair(system: &System) -> Option<(usize, usize)> {
-    let sizes = system.sizes().unwrap();
-    let p = system.particles();
-    let shape = |i: usize| {
-        system.species()[p[i].species as usize]
-            .shape
-            .scaled(sizes[i])
-    };
-    for i in 0..p.len() {
-        for j in i + 1..p.len() {
-            let d = system
-                .periodic_box()
-                .minimum_image(&(p[j].position - p[i].position));
-            let rel = Relative::new(&d, &p[i].orientation, &p[j].orientation);
-            let (a, b) = (shape(i), shape(j));
-            if overlap(&a, &b, &rel) {
-                let depth = -distance(&a, &b, &rel, &DistanceOptions::default(), None).distance;
-                if depth > 1e-9 * a.min_half_extent().min(b.min_half_extent()) {
-                    return Some((i, j));
-                }
-            }
-        }
-    }
-    None
 }
 
 /// Ellipsoids (with their own inertia), cuboids and tetrahedra all at
@@ -223,30 +196,17 @@ fn polydisperse_bodies_conserve_and_stay_apart() {
             }
             let now = md.to_system().unwrap();
             assert_eq!(now.sizes(), Some(&sizes[..]));
-            assert_eq!(overlapping_pair(&now), None, "{shapes:?} at {}", md.time());
+            assert_eq!(
+                overlapping_pair(&now, 1e-9),
+                None,
+                "{shapes:?} at {}",
+                md.time()
+            );
         }
         let drift = (md.kinetic_energy() - energy).abs() / energy;
         assert!(drift < 1e-10, "{shapes:?}: energy drift {drift:e}");
         assert!(md.momentum().norm() < 1e-9, "{shapes:?}: {}", md.momentum());
     }
-}
-
-/// βP of a mixture of hard convex bodies of volumes V, surfaces S and
-/// mean radii of curvature R at number density ρ, by Boublík's equation
-/// (T. Boublík, J. Chem. Phys. 63, 4084 (1975)), with y = ρ⟨V⟩:
-/// βP = ρ/(1 − y) + ρ²⟨R⟩⟨S⟩/(1 − y)² + ρ³⟨R²⟩⟨S⟩²(3 − y)/(9(1 − y)³).
-fn boublik_pressure(rho: f64, bodies: &[(f64, f64, f64)]) -> f64 {
-    let n = bodies.len() as f64;
-    let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| bodies.iter().map(f).sum::<f64>() / n;
-    let (v, s, r, r2) = (
-        mean(&|b| b.0),
-        mean(&|b| b.1),
-        mean(&|b| b.2),
-        mean(&|b| b.2 * b.2),
-    );
-    let y = rho * v;
-    let e = 1.0 - y;
-    rho / e + rho * rho * r * s / (e * e) + rho.powi(3) * r2 * s * s * (3.0 - y) / (9.0 * e.powi(3))
 }
 
 /// βP from the collision virial of `system` with true inertia: 24 blocks
@@ -380,7 +340,7 @@ fn polydisperse_cubes_grow_into_an_overlap_free_packing() {
     assert_eq!(out.end, JamEnd::Jammed, "{:?}", out.last_failure);
     assert!(out.last.unwrap().pressure >= 1e5);
     assert_eq!(out.system.sizes(), Some(&sizes[..]));
-    assert_eq!(overlapping_pair(&out.system), None);
+    assert_eq!(overlapping_pair(&out.system, 1e-9), None);
     let net = out.system.contact_network(1e-12);
     eprintln!(
         "polydisperse cubes: phi {:.4}, z {:.3}, {} rattlers",

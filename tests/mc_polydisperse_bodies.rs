@@ -7,9 +7,11 @@
 
 mod common;
 
+use common::polydisperse::{boublik_pressure, overlapping_pair};
+
 use std::f64::consts::PI;
 
-use hardbody::geometry::{Relative, Shape, overlap};
+use hardbody::geometry::Shape;
 use hardbody::mc::moves::{Ensemble, MoveSizes, sweep, sweep_with_swaps};
 use hardbody::mc::sdf::Sdf;
 use hardbody::scene::Scene;
@@ -71,25 +73,6 @@ fn bodies_all_at_one_size_are_the_shape_scaled() {
     assert_eq!(sized.shape_of(0), big);
 }
 
-/// Whether any two bodies of `system` overlap at their own sizes, by the
-/// pair kernel on every pair of shapes scaled here (not the system's).
-fn any_pair_overlaps(system: &System, base: &Shape) -> Option<(usize, usize)> {
-    let sizes = system.sizes().unwrap();
-    let p = system.particles();
-    for i in 0..p.len() {
-        for j in i + 1..p.len() {
-            let d = system
-                .periodic_box()
-                .minimum_image(&(p[j].position - p[i].position));
-            let rel = Relative::new(&d, &p[i].orientation, &p[j].orientation);
-            if overlap(&base.scaled(sizes[i]), &base.scaled(sizes[j]), &rel) {
-                return Some((i, j));
-            }
-        }
-    }
-    None
-}
-
 /// Ellipsoids and cuboids of sizes uniform in [0.7, 1.3], compressed to
 /// φ = 0.42 and moved with size swaps (NVT, then NPT): every state is
 /// overlap-free at each body's own size by brute force, swaps are taken
@@ -143,7 +126,7 @@ fn polydisperse_bodies_stay_apart_at_their_own_sizes() {
                 (tried, taken) = (tried + swap.tried, taken + swap.accepted);
             }
             assert_eq!(
-                any_pair_overlaps(&system, &shape),
+                overlapping_pair(&system, 0.0),
                 None,
                 "{text}, round {round}"
             );
@@ -158,26 +141,6 @@ fn polydisperse_bodies_stay_apart_at_their_own_sizes() {
         drawn.sort_by(f64::total_cmp);
         assert_eq!(now, drawn);
     }
-}
-
-/// βP of a mixture of hard convex bodies of volumes V, surfaces S and
-/// mean radii of curvature R = M/4π at number density ρ, by Boublík's
-/// equation (T. Boublík, J. Chem. Phys. 63, 4084 (1975)), with
-/// y = ρ⟨V⟩: βP = ρ/(1 − y) + ρ²⟨R⟩⟨S⟩/(1 − y)² plus
-/// ρ³⟨R²⟩⟨S⟩²(3 − y)/(9(1 − y)³). For spheres it is BMCSL, for one kind
-/// Z = [1 + (3α − 2)y + (3α² − 3α + 1)y² − α²y³]/(1 − y)³ with α = RS/3V.
-fn boublik_pressure(rho: f64, bodies: &[(f64, f64, f64)]) -> f64 {
-    let n = bodies.len() as f64;
-    let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| bodies.iter().map(f).sum::<f64>() / n;
-    let (v, s, r, r2) = (
-        mean(&|b| b.0),
-        mean(&|b| b.1),
-        mean(&|b| b.2),
-        mean(&|b| b.2 * b.2),
-    );
-    let y = rho * v;
-    let e = 1.0 - y;
-    rho / e + rho * rho * r * s / (e * e) + rho.powi(3) * r2 * s * s * (3.0 - y) / (9.0 * e.powi(3))
 }
 
 #[test]
